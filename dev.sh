@@ -1,0 +1,111 @@
+#!/usr/bin/env bash
+# gearfem developer/user entry point. From a fresh clone:
+#
+#   ./dev.sh run [CASE.toml] [gearfem run options]   set up .venv, run the main job (default: thesis case)
+#   ./dev.sh test [pytest options]                   set up .venv, run the tests serially, then under mpirun -n 2
+#   ./dev.sh setup                                   only set up .venv
+#   ./dev.sh gearfem ARGS...                         any gearfem command inside the environment
+#
+# Set-up: finds a Python >= 3.12 (GEARFEM_PYTHON, python3.13/3.12/python3 on PATH, then pyenv's
+# versions), creates the virtual environment GEARFEM_VENV (default .venv) and installs gearfem with
+# its dependencies from pyproject.toml. Where that Python already imports DOLFINx >= 0.10 (conda,
+# container), the venv sees it (--system-site-packages) and the PyPI wheel is not installed;
+# otherwise DOLFINx 0.11 comes from the wheel dolfinx-solver-real (extra "fenics").
+# Re-running is cheap: the install is redone only when pyproject.toml changes.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$ROOT"
+VENV="${GEARFEM_VENV:-$ROOT/.venv}"
+MPI_NP="${GEARFEM_TEST_NP:-2}"
+
+say() { printf '[dev.sh] %s\n' "$*" >&2; }
+die() { printf '[dev.sh] error: %s\n' "$*" >&2; exit 1; }
+
+py_ok() {  # $1: interpreter; true when it runs and is >= 3.12
+  "$1" -c 'import sys; sys.exit(0 if sys.version_info >= (3, 12) else 1)' >/dev/null 2>&1
+}
+
+find_python() {
+  local c
+  if [[ -n "${GEARFEM_PYTHON:-}" ]]; then
+    py_ok "$GEARFEM_PYTHON" || die "GEARFEM_PYTHON=$GEARFEM_PYTHON is not a Python >= 3.12"
+    echo "$GEARFEM_PYTHON"; return
+  fi
+  for c in python3.12 python3.13 python3 python; do
+    if command -v "$c" >/dev/null 2>&1 && py_ok "$(command -v "$c")"; then command -v "$c"; return; fi
+  done
+  local roots=()
+  command -v pyenv >/dev/null 2>&1 && roots+=("$(pyenv root 2>/dev/null)")
+  roots+=("${PYENV_ROOT:-}" "$HOME/.pyenv")
+  for r in "${roots[@]}"; do
+    [[ -n "$r" && -d "$r/versions" ]] || continue
+    # Prefer 3.12 (what the stack is tested on), then newer minors; newest patch first.
+    for minor in 12 13 14 15; do
+      for c in $(ls -d "$r"/versions/3."$minor".* 2>/dev/null | sort -t. -k3,3nr); do
+        if [[ -x "$c/bin/python3" ]] && py_ok "$c/bin/python3"; then echo "$c/bin/python3"; return; fi
+      done
+    done
+  done
+  die "no Python >= 3.12 found. Install one (e.g. 'pyenv install 3.12', 'apt install python3.12 python3.12-venv', or conda), or point GEARFEM_PYTHON at it."
+}
+
+setup() {
+  local stamp="$VENV/.gearfem-install-stamp" want
+  want="$(cat pyproject.toml | sha256sum | cut -c1-16)"
+  if [[ -x "$VENV/bin/python" && -f "$stamp" && "$(cat "$stamp")" == "$want" ]]; then return; fi
+  local py; py="$(find_python)"
+  local extras="test" sys_site=""
+  if "$py" -c 'import dolfinx, sys; v = tuple(int(x) for x in dolfinx.__version__.split(".")[:2]); sys.exit(0 if v >= (0, 10) else 1)' >/dev/null 2>&1; then
+    say "DOLFINx found in $py: using it (no PyPI wheel)"; sys_site="--system-site-packages"
+  else
+    extras="fenics,test"
+  fi
+  if [[ ! -x "$VENV/bin/python" ]]; then
+    say "creating $VENV with $py ($("$py" --version 2>&1))"
+    "$py" -m venv $sys_site "$VENV" || die "could not create a venv with $py (on Debian/Ubuntu: apt install python3-venv)"
+  fi
+  say "installing gearfem[$extras] into $VENV (first time: about a minute)"
+  "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --upgrade pip >/dev/null
+  "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e ".[$extras]" \
+    || die "pip install of gearfem[$extras] failed (see above)"
+  "$VENV/bin/python" -c 'import gearfem' || die "gearfem does not import after installation"
+  echo "$want" > "$stamp"
+}
+
+mpirun_cmd() {
+  if [[ -x "$VENV/bin/mpirun" ]]; then echo "$VENV/bin/mpirun"; else command -v mpirun || die "mpirun not found"; fi
+}
+
+run_pytest() {  # run pytest; exit code 5 (nothing collected) is a failure, never a silent pass
+  local rc=0
+  "$@" || rc=$?
+  if [[ $rc -eq 5 ]]; then die "pytest collected no tests: $*"; fi
+  return $rc
+}
+
+cmd="${1:-}"; shift || true
+export PYVISTA_OFF_SCREEN=true MPLBACKEND=Agg
+case "$cmd" in
+  setup) setup ;;
+  run)
+    setup
+    args=("$@")
+    if [[ ${#args[@]} -eq 0 || "${args[0]}" == -* ]]; then out_given=0; for a in "${args[@]}"; do [[ "$a" == "--out" ]] && out_given=1; done
+      [[ $out_given -eq 1 ]] || args+=(--out results/thesis)
+    fi
+    exec "$VENV/bin/gearfem" run "${args[@]}"
+    ;;
+  test)
+    setup
+    t0=$SECONDS
+    say "serial: pytest $*"
+    run_pytest "$VENV/bin/python" -m pytest "$@"
+    say "serial tests passed in $((SECONDS - t0)) s; now the mpi-marked tests under mpirun -n $MPI_NP"
+    t1=$SECONDS
+    run_pytest timeout "${GEARFEM_MPI_TEST_TIMEOUT:-2400}" "$(mpirun_cmd)" -n "$MPI_NP" \
+      "$VENV/bin/python" -m pytest -m mpi -p no:cacheprovider "$@"
+    say "mpirun -n $MPI_NP tests passed in $((SECONDS - t1)) s; all tests passed in $((SECONDS - t0)) s"
+    ;;
+  gearfem) setup; exec "$VENV/bin/gearfem" "$@" ;;
+  *) sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; exit 2 ;;
+esac

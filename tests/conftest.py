@@ -1,0 +1,65 @@
+"""Shared test set-up, safe under ``mpirun -n 2``.
+
+* Every rank runs the same tests; only rank 0 reports to the terminal. Other ranks write their
+  report to ``$TMPDIR/gearfem-pytest-rank<r>.log`` (mpirun still fails when any rank fails).
+* Tests that compare serial and parallel results compute on ``MPI.COMM_SELF`` and on
+  ``MPI.COMM_WORLD`` inside one run (fixture ``comms``), so 1 vs 2 ranks is checked by the single
+  ``mpirun -n 2 pytest -m mpi`` invocation.
+* Off-screen plotting and a matplotlib backend without a display.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import pytest  # noqa: E402
+from mpi4py import MPI  # noqa: E402
+
+import gearfem  # noqa: E402,F401  (orders dolfinx_solver first)
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED = ROOT.parent / "shared"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    rank = MPI.COMM_WORLD.rank
+    if rank > 0:
+        log = Path(tempfile.gettempdir()) / f"gearfem-pytest-rank{rank}.log"
+        stream = open(log, "w")  # noqa: SIM115 - lives as long as the session
+        sys.stdout = stream
+        reporter = config.pluginmanager.get_plugin("terminalreporter")
+        if reporter is not None:
+            reporter._tw = type(reporter._tw)(stream)  # type: ignore[attr-defined]
+
+
+@pytest.fixture
+def comm() -> MPI.Comm:
+    return MPI.COMM_WORLD
+
+
+@pytest.fixture
+def comms() -> tuple[MPI.Comm, MPI.Comm]:
+    """(serial, world): compute with both and compare to check 1 vs N ranks in one run."""
+    return MPI.COMM_SELF, MPI.COMM_WORLD
+
+
+@pytest.fixture
+def shared_data() -> Path:
+    path = SHARED / "data"
+    if not path.is_dir():
+        pytest.skip(f"{path} not present")
+    return path
+
+
+@pytest.fixture
+def tmp_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A temporary directory shared by all ranks (rank 0 creates it and broadcasts the name)."""
+    comm = MPI.COMM_WORLD
+    path = str(tmp_path_factory.mktemp("out")) if comm.rank == 0 else None
+    return Path(comm.bcast(path, root=0))
