@@ -1,0 +1,5 @@
+import sys
+
+from gearfem.cli import main
+
+sys.exit(main())
