@@ -4,12 +4,15 @@ identity between two formulas -- never the module's own output.
 
 Published calculation used: the POM/POM pair "S30" of Fernandes et al. (2018), Tribology
 International 120, 255-268, as computed and printed by their program GEARpie (C. Fernandes, MIT
-licence; github.com/cfernandesFEUP/GEARpie, REPORT/S30.txt): m = 2 mm, z = 30/30, alpha = 20 deg,
+licence; github.com/cfernandesFEUP/GEARpie, REPORT/S30.txt at commit 7580f0c5): m = 2 mm, z = 30/30, alpha = 20 deg,
 x = 0, b = 15 mm, a = 60 mm, r_a = 32 mm, 1000 rpm, 10 N m (P_in = 1047.2 W), mu = 0.28 (VDI 2736
 POM/POM), theta_0 = 20 C, open drive. The report prints: H_V = 0.1494 (Ohlendorf) and
 H_VL = 0.1400 (Wimmer, numerical), P_vzp = 41.04 W (computed with H_VL), root 69.4 C, flank
 226.8 C; Y_Fa = 2.532, Y_Sa = 1.625, Y_eps = 0.704, sigma_F = 32.17 MPa (GEARpie takes
 rho_fP = 0.375 m for spur gears in its root-stress code, CLASSES/DIN3990.py).
+No worked example of ISO 6336-3 itself (ISO/TR 6336-30) was available in a citable form; the root
+factors are checked against a numerically generated trochoid fillet, the z -> infinity rack limit
+and two independent published implementations (GEARpie and hanslhansl/din3990).
 """
 
 from __future__ import annotations
