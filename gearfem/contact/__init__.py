@@ -2,7 +2,7 @@
 
 ``surface`` (facets of a body), ``kinematics`` (curved-facet evaluation, projection, segmentation),
 ``interface`` (gaps, tractions, linearisation of one surface pair), ``problem`` (elasticity + contact,
-Newton / augmented Lagrangian), ``rigid`` (rigid motions of bodies), ``examples`` (verification
+Newton / augmented Lagrangian), ``rigid`` (rigid motions of bodies), ``verification`` (verification
 geometries and the Hertz formulas).
 """
 

@@ -105,6 +105,7 @@ class ContactInterface:
             lam = np.zeros((s.local.num_facets, len(self.fixed_points)))
             self.passes.append(_Pass(s, m, w, eps, lam))
         self._tri_points, self._tri_weights = _triangle_rule(options.quadrature_degree)
+        self._segments: list | None = None
 
     # -------------------------------------------------------------------------------------------
     def reset_multipliers(self) -> None:
@@ -157,17 +158,36 @@ class ContactInterface:
         keep = (d.min(axis=1) < margin[si]) & (d.max(axis=1) > -2.0 * rm[mj] - margin[si])
         return si[keep], mj[keep]
 
-    def evaluate(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> list[ContactPoints]:
-        """Contact state at all slave points of all passes for displacement ``u_array`` (collective)."""
-        out = []
+    def update_segmentation(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> None:
+        """Find candidate pairs and integration points for the current configuration (collective).
+
+        The segmentation is kept until the next call: within one Newton solve only gaps, normals and
+        projections follow the iterates, so the residual is a piecewise-smooth function of u (a
+        re-segmentation re-lays the quadrature points and would make it jump at the level of the
+        quadrature error). Callers re-segment at the start of every solve (load step, position).
+        """
+        self._segments = []
         for ps in self.passes:
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
-            sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
+            _, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
             si, mj = self._candidate_pairs(ps, xs, xm, mdata)
             nv = ps.slave.ref.num_vertices
             pair, xi, wref = segment(ps.slave.ref, xs[si, :nv], xm[mj, :nv], self._tri_points, self._tri_weights)
-            fs, fm = si[pair], mj[pair]
+            self._segments.append((si[pair], mj[pair], xi, wref))
+
+    def evaluate(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> list[ContactPoints]:
+        """Contact state at all slave points of all passes for displacement ``u_array`` (collective).
+
+        Uses the segmentation of the last :meth:`update_segmentation` (made now if there is none).
+        """
+        if self._segments is None:
+            self.update_segmentation(u_array, motions)
+        out = []
+        for ps, (fs, fm, xi, wref) in zip(self.passes, self._segments):
+            ms, mm = motions[ps.slave.body], motions[ps.master.body]
+            sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
+            mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
             out.append(self._points(ps, sdata, xs, mdata, xm, fs, fm, xi, wref, ms, mm))
         return out
 
@@ -283,17 +303,13 @@ class ContactInterface:
                 xmp, t1, t2, _ = evaluate(ps.master.ref, xm[fm], zeta)
                 normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
                 g = np.einsum("pd,pd->p", x - xmp, normal)
-                g = np.where(inside, g, np.inf)
-                g2 = g.reshape(len(si), q)
-                # a fixed point takes the gap from the master facet it projects into (closest |g|)
-                order = np.argsort(np.abs(g2), axis=None, kind="stable")
-                flat_f = np.repeat(si, q)[order]
-                flat_q = np.tile(np.arange(q), len(si))[order]
-                flat_g = g2.ravel()[order]
-                target = np.full((nf, nq), np.inf)
-                # first occurrence (smallest |g|) wins: write in reverse so the first overwrites last
-                target[flat_f[::-1], flat_q[::-1]] = flat_g[::-1]
-                gaps = target
+                # a fixed point takes the gap from the master facet it projects into (smallest |g|)
+                key = fs * nq + np.tile(np.arange(q), len(si))
+                key, g = key[inside], g[inside]
+                order = np.lexsort((np.abs(g), key))
+                first = np.unique(key[order], return_index=True)[1]
+                chosen = order[first]
+                gaps.ravel()[key[chosen]] = g[chosen]
             has = np.isfinite(gaps)
             new = np.where(has, np.maximum(0.0, ps.lam - ps.eps[:, None] * np.where(has, gaps, 0.0)), 0.0)
             pen = np.where(has & (new > 0.0), -gaps, 0.0)

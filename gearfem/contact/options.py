@@ -21,7 +21,9 @@ class ContactOptions:
 
     Attributes (units in names):
         method: "penalty" or "augmented_lagrangian".
-        penalty_factor: dimensionless ε·h/E (default 10).
+        penalty_factor: dimensionless ε·h/E (default 1: with the augmented Lagrangian a soft penalty
+            keeps the pressure smooth; stiff penalties over-constrain Gauss-point contact on P2 and
+            make the pressure oscillate near the contact edge).
         penalty_Pa_m: explicit ε in Pa/m (overrides the factor).
         penetration_tolerance_rel: AL stop: max penetration / facet size.
         penetration_tolerance_m: AL stop as a length (overrides the relative one).
@@ -35,10 +37,15 @@ class ContactOptions:
         newton_rtol, newton_atol_N: residual tolerances (relative to the internal force norm; absolute, N).
         newton_max_it: Newton iterations per solve.
         line_search: backtracking on the residual norm.
+        reuse_factorization: solve each Newton system with GMRES preconditioned by the LU factors of
+            an earlier Jacobian, refactoring only when GMRES needs more than ``max_krylov_its``
+            (the tangent changes only through the contact active set, so one factorization usually
+            serves a whole solve; the linear systems are still solved to ``krylov_rtol``). Factors
+            that needed more than ``refactor_krylov_its`` iterations are replaced at the next solve.
     """
 
     method: str = "augmented_lagrangian"
-    penalty_factor: float = 10.0
+    penalty_factor: float = 1.0
     penalty_Pa_m: float | None = None
     penetration_tolerance_rel: float = 0.01
     penetration_tolerance_m: float | None = None
@@ -53,6 +60,10 @@ class ContactOptions:
     newton_atol_N: float = 1e-12
     newton_max_it: int = 40
     line_search: bool = True
+    reuse_factorization: bool = True
+    max_krylov_its: int = 25
+    refactor_krylov_its: int = 4
+    krylov_rtol: float = 1e-12
 
     def __post_init__(self) -> None:
         require_choice("contact.method", self.method, ("penalty", "augmented_lagrangian"))
@@ -71,3 +82,6 @@ class ContactOptions:
         require_range("contact.newton_rtol", self.newton_rtol, 0.0, 1.0, lo_open=True, hi_open=True)
         require_nonnegative("contact.newton_atol_N", self.newton_atol_N)
         require_int("contact.newton_max_it", self.newton_max_it, 1, 1000)
+        require_int("contact.max_krylov_its", self.max_krylov_its, 1, 10000)
+        require_int("contact.refactor_krylov_its", self.refactor_krylov_its, 1, 10000)
+        require_range("contact.krylov_rtol", self.krylov_rtol, 0.0, 1e-3, lo_open=True)

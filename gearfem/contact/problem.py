@@ -93,12 +93,16 @@ class ContactProblem:
             fem_petsc.assemble_vector(self.f_ext, fem.form(traction_form))
             self.f_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self._bc_rows = self._owned_bc_rows()
-        # Linear solver: LU with MUMPS (contact with friction makes the tangent non-symmetric).
+        # Linear solver: GMRES preconditioned by MUMPS LU factors. When the factors are those of the
+        # current Jacobian GMRES converges in one iteration; with factorization reuse they may be
+        # those of an earlier Jacobian of the same problem (see ContactOptions.reuse_factorization).
         self.ksp = PETSc.KSP().create(self.comm)
         self.ksp.setOptionsPrefix(petsc_options_prefix)
         opts = PETSc.Options()
         defaults = {
-            "ksp_type": "preonly",  # direct solve
+            "ksp_type": "gmres",  # Krylov wrapper around the (possibly lagged) direct solve
+            "ksp_gmres_restart": 100,
+            "ksp_pc_side": "right",  # residual-based stopping on the true residual
             "pc_type": "lu",
             "pc_factor_mat_solver_type": "mumps",
             "mat_mumps_icntl_14": 200,  # workspace increase (%) for contact fill-in
@@ -108,6 +112,11 @@ class ContactProblem:
             if not opts.hasName(petsc_options_prefix + k):
                 opts[petsc_options_prefix + k] = val
         self.ksp.setFromOptions()
+        self.ksp.setTolerances(rtol=options.krylov_rtol, atol=0.0, max_it=options.max_krylov_its)
+        self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        self._P: PETSc.Mat | None = None  # matrix whose factors precondition
+        self._refactor = False
+        self.factorizations = 0
         self.linear_solves = 0
         self.last_points: list[list[ContactPoints]] = []
 
@@ -172,6 +181,35 @@ class ContactProblem:
         Kc.destroy()
         return A
 
+    def _linear_solve(self, A: PETSc.Mat, b: PETSc.Vec, x: PETSc.Vec, label: str, it: int) -> None:
+        """Solve A x = b with GMRES + LU factors (reused from an earlier A while they work)."""
+        reuse = self.options.reuse_factorization and self._P is not None and not self._refactor
+        for attempt in range(2):
+            if not reuse:
+                if self._P is not None:
+                    self._P.destroy()
+                self._P = A.copy()
+                self.factorizations += 1
+            self.ksp.setOperators(A, self._P)
+            x.set(0.0)
+            self.ksp.solve(b, x)
+            self.linear_solves += 1
+            reason = self.ksp.getConvergedReason()
+            if reason > 0:
+                its = self.ksp.getIterationNumber()
+                log.debug("%s Newton %d: linear solve %d GMRES its (%s factors)", label, it, its,
+                          "reused" if reuse else "new")
+                # factors that needed many iterations are replaced at the next solve
+                self._refactor = its > self.options.refactor_krylov_its
+                A.destroy()
+                return
+            if not reuse:
+                break
+            reuse = False  # the old factors no longer precondition well enough: refactor
+        A.destroy()
+        raise ConvergenceError("contact linear solve (GMRES + MUMPS LU)", f"{_KSP_REASONS.get(reason, '?')} ({reason})",
+                               step=label, iteration=it)
+
     def _force_scale(self, u_vec: PETSc.Vec) -> float:
         """Norm of the internal forces K u (reactions included): the scale of the residual."""
         f = self.K_full.createVecLeft()
@@ -185,6 +223,8 @@ class ContactProblem:
         o = self.options
         self._apply_bc_values()
         u_vec = self.u.x.petsc_vec
+        for itf in self.interfaces:
+            itf.update_segmentation(self.u.x.array, self.motions)
         R, pts, coos = self.residual(u_vec, matrix=True)
         rnorm = R.norm()
         du = u_vec.duplicate()
@@ -196,29 +236,21 @@ class ContactProblem:
                 self.last_points = pts
                 return it - 1, rnorm
             A = self._jacobian(coos)
-            self.ksp.setOperators(A)
             R.scale(-1.0)
-            self.ksp.solve(R, du)
-            self.linear_solves += 1
-            reason = self.ksp.getConvergedReason()
-            A.destroy()
-            if reason < 0:
-                raise ConvergenceError("contact linear solve (KSP/MUMPS)", f"{_KSP_REASONS.get(reason, '?')} ({reason})",
-                                       step=label, iteration=it)
-            # backtracking line search on |R|
+            self._linear_solve(A, R, du, label, it)
+            # backtracking line search on |R| (the last trial is kept if none decreases |R|)
             u0 = u_vec.copy()
-            alpha, accepted = 1.0, False
-            for _ in range(12 if o.line_search else 1):
+            alpha, tries = 1.0, (12 if o.line_search else 1)
+            for k in range(tries):
                 u_vec.waxpy(alpha, du, u0)
                 self.u.x.scatter_forward()
                 R_new, pts_new, coos_new = self.residual(u_vec, matrix=True)
                 r_new = R_new.norm()
-                if r_new <= (1.0 - 1e-4 * alpha) * rnorm or not o.line_search or r_new <= tol:
-                    accepted = True
+                if r_new <= (1.0 - 1e-4 * alpha) * rnorm or r_new <= tol or k == tries - 1:
                     break
                 R_new.destroy()
                 alpha *= 0.5
-            if not accepted:  # take the smallest step anyway; convergence is judged next iteration
+            if r_new > (1.0 - 1e-4 * alpha) * rnorm and r_new > tol:
                 log.debug("%s Newton %d: line search did not decrease |R| (alpha=%g)", label, it, alpha)
             u0.destroy()
             R.destroy()
