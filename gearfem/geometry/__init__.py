@@ -10,6 +10,18 @@
 
 from __future__ import annotations
 
+from gearfem.geometry.gmsh_pair import MeshOptions
 from gearfem.geometry.involute import GearPair, GearPairGeometry, PathOfContact, ToothProfile, inv, inv_inverse
+from gearfem.geometry.mesh import GearMesh, build_gear_mesh
 
-__all__ = ["GearPair", "GearPairGeometry", "PathOfContact", "ToothProfile", "inv", "inv_inverse"]
+__all__ = [
+    "GearMesh",
+    "GearPair",
+    "GearPairGeometry",
+    "MeshOptions",
+    "PathOfContact",
+    "ToothProfile",
+    "build_gear_mesh",
+    "inv",
+    "inv_inverse",
+]

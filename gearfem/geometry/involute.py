@@ -33,7 +33,6 @@ circle. No profile shift (addendum and dedendum are measured from the reference 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -142,8 +141,8 @@ class GearPairGeometry:
         )
         set_("face_width_mm", require_positive(p + "face_width_mm", self.face_width_mm))
         set_("tooth_thickness_mm", require_positive(p + "tooth_thickness_mm", self.tooth_thickness_mm))
-        set_("addendum_coefficient", require_range(p + "addendum_coefficient", self.addendum_coefficient, 0.0, 2.0, lo_open=True))
-        set_("dedendum_coefficient", require_range(p + "dedendum_coefficient", self.dedendum_coefficient, 0.0, 2.5, lo_open=True))
+        for key, hi in (("addendum_coefficient", 2.0), ("dedendum_coefficient", 2.5)):
+            set_(key, require_range(p + key, getattr(self, key), 0.0, hi, lo_open=True))
         set_("root_fillet_coefficient", require_positive(p + "root_fillet_coefficient", self.root_fillet_coefficient))
         set_("bore_radius_mm", require_positive(p + "bore_radius_mm", self.bore_radius_mm))
         if self.center_distance_mm is not None:
@@ -210,7 +209,7 @@ class ToothProfile:
         alpha_w = math.acos(min(1.0, self.base_radius_m / self.operating_pitch_radius_m))
         self._psi_base = self.operating_thickness_m / (2.0 * self.operating_pitch_radius_m) + inv(alpha_w)
         # thickness at the reference circle and the generating rack (gap-cutting tooth)
-        self.reference_thickness_m = self.thickness(self.reference_radius_m) if self.reference_radius_m >= self.base_radius_m else float("nan")
+        self.reference_thickness_m = self.thickness(self.reference_radius_m)  # r > r_b always
         a = self.pressure_angle_rad
         self.rack_half_width_m = 0.5 * (self.reference_pitch_m - self.reference_thickness_m)  # at the reference line
         d_c = self.dedendum_m - self.rack_tip_radius_m
@@ -264,7 +263,9 @@ class ToothProfile:
         rb = self.base_radius_m
         return ((r1 * r1 - rb * rb) - (r0 * r0 - rb * rb)) / (2.0 * rb)
 
-    def involute_points(self, n: int, r0: float | None = None, r1: float | None = None, side: str = "drive") -> np.ndarray:
+    def involute_points(
+        self, n: int, r0: float | None = None, r1: float | None = None, side: str = "drive"
+    ) -> np.ndarray:
         """``n`` points (``(n, 2)``, metres) equally spaced in arc length on a flank of the tooth
         centred on +x, from radius ``r0`` (default: form radius) to ``r1`` (default: tip)."""
         rb = self.base_radius_m
@@ -291,25 +292,27 @@ class ToothProfile:
         if side == "coast":
             th = -th
         rb = self.base_radius_m
-        # Newton on the roll angle xi minimising |P(xi) - x| (P on the involute)
-        xi = np.sqrt(np.maximum(r * r / (rb * rb) - 1.0, 0.0))
-        for _ in range(30):
-            phi = self._psi_base - (xi - np.arctan(xi))  # polar angle of P
-            rr = rb * np.sqrt(1 + xi * xi)
-            P = np.column_stack([rr * np.cos(phi), rr * np.sin(phi)])
-            # dP/dxi = r_b xi * t, t the unit tangent (for this flank: polar angle decreasing)
-            beta = phi + np.arctan(xi)  # angle of the base tangent point
-            t = np.column_stack([np.sin(beta), -np.cos(beta)])
-            q = np.column_stack([r * np.cos(th), r * np.sin(th)])
-            g = np.einsum("ij,ij->i", P - q, t)  # derivative of 0.5|P-q|^2 / (r_b xi)
-            dxi = -g / (rb * np.maximum(xi, 1e-12))
-            xi = np.maximum(xi + dxi, 0.0)
-            if np.max(np.abs(dxi)) < 1e-15:
-                break
-        phi = self._psi_base - (xi - np.arctan(xi))
-        rr = rb * np.sqrt(1 + xi * xi)
-        P = np.column_stack([rr * np.cos(phi), rr * np.sin(phi)])
         q = np.column_stack([r * np.cos(th), r * np.sin(th)])
+
+        def point(xi):
+            # drive flank: polar angle psi_b - inv; base tangent point at beta = psi_b - xi;
+            # P = r_b [(cos b, sin b) + xi (-sin b, cos b)], dP/dxi = r_b xi (cos b, sin b)
+            beta = self._psi_base - xi
+            c, s = np.cos(beta), np.sin(beta)
+            return rb * np.column_stack([c - xi * s, s + xi * c]), c, s
+
+        # Newton on the roll angle xi for the foot point: g(xi) = (P - q) . t = 0, t = (cos b, sin b)
+        xi = np.sqrt(np.maximum(r * r / (rb * rb) - 1.0, 0.0))
+        for _ in range(50):
+            P, c, s = point(xi)
+            D = P - q
+            g = D[:, 0] * c + D[:, 1] * s
+            dg = rb * xi + (D[:, 0] * s - D[:, 1] * c)  # |dP/dxi| + D . dt/dxi
+            dxi = -g / np.where(np.abs(dg) > 1e-300, dg, 1e-300)
+            xi = np.maximum(xi + dxi, 0.0)
+            if np.max(np.abs(dxi)) < 1e-14:
+                break
+        P, _, _ = point(xi)
         return np.hypot(*(P - q).T)
 
     # --- root ----------------------------------------------------------------------------------
@@ -357,7 +360,9 @@ class ToothProfile:
         ang = np.linspace(-psi, psi, n)
         return np.column_stack([self.tip_radius_m * np.cos(ang), self.tip_radius_m * np.sin(ang)])
 
-    def outline(self, n_flank: int = 200, n_fillet: int = 200, n_land: int = 20, n_tip: int = 20) -> dict[str, np.ndarray]:
+    def outline(
+        self, n_flank: int = 200, n_fillet: int = 200, n_land: int = 20, n_tip: int = 20
+    ) -> dict[str, np.ndarray]:
         """Exact 2D outline of one tooth centred on +x, from the gap middle at ``-pi/z`` to the gap
         middle at ``+pi/z``, counter-clockwise, as a dict of ``(n, 2)`` arrays in metres:
         ``root_coast``, ``coast_flank``, ``tip``, ``drive_flank``, ``root_drive``. Consecutive
@@ -494,12 +499,14 @@ class GearPair:
     @property
     def recess_length_m(self) -> float:
         """g_a: from the pitch point to the end of contact (pinion tip circle) [m]."""
-        return self._tip_roll(self.pinion) - self.pinion.operating_pitch_radius_m * math.sin(self.operating_pressure_angle_rad)
+        s = math.sin(self.operating_pressure_angle_rad)
+        return self._tip_roll(self.pinion) - self.pinion.operating_pitch_radius_m * s
 
     @property
     def approach_length_m(self) -> float:
         """g_f: from the start of contact (wheel tip circle) to the pitch point [m]."""
-        return self._tip_roll(self.wheel) - self.wheel.operating_pitch_radius_m * math.sin(self.operating_pressure_angle_rad)
+        s = math.sin(self.operating_pressure_angle_rad)
+        return self._tip_roll(self.wheel) - self.wheel.operating_pitch_radius_m * s
 
     @property
     def eps_1(self) -> float:
@@ -571,7 +578,9 @@ class GearPair:
         ``(z1/z2) (r_w2 sin a_w - S)``."""
         S = np.asarray(S, dtype=float)
         s = math.sin(self.operating_pressure_angle_rad)
-        return (self.pinion.operating_pitch_radius_m * s + S, (self.z1 / self.z2) * (self.wheel.operating_pitch_radius_m * s - S))
+        rho1 = self.pinion.operating_pitch_radius_m * s + S
+        rho2 = self.wheel.operating_pitch_radius_m * s - S
+        return rho1, (self.z1 / self.z2) * rho2
 
     def radius_at(self, S, body: str):
         """Radius [m] of the contact point at S on the given body."""
@@ -593,7 +602,8 @@ class GearPair:
         """Radial clearance between each tip circle and the mating root circle [m]:
         (pinion tip to wheel root, wheel tip to pinion root)."""
         a = self.center_distance_m
-        return (a - self.pinion.tip_radius_m - self.wheel.root_radius_m, a - self.wheel.tip_radius_m - self.pinion.root_radius_m)
+        return (a - self.pinion.tip_radius_m - self.wheel.root_radius_m,
+                a - self.wheel.tip_radius_m - self.pinion.root_radius_m)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -602,69 +612,58 @@ class GearPair:
 
 
 def _check_pair(g: GearPairGeometry) -> None:
-    p = "geometry."
-    z1, z2 = g.teeth_pinion, g.teeth_wheel
-    a0 = 0.5 * g.module_mm * (z1 + z2)
-    rb_sum = a0 * math.cos(math.radians(g.pressure_angle_deg))
-    a = g.center_distance
-    if a <= rb_sum:
-        raise ParameterError(p + "center_distance_mm", g.center_distance_mm, f"> {rb_sum:.4g} mm (sum of the base radii)")
+    """Raise ParameterError (naming the parameter to change) when the pair cannot be built or
+    would not mesh properly. Order: centre distance, thickness/backlash, each gear's tooth form,
+    then the pair (clearance, contact ratio, fillet interference)."""
+
+    def fail(key: str, allowed: str, reason: str) -> None:
+        raise ParameterError("geometry." + key, getattr(g, key), allowed, reason)
+
+    rb_sum = 0.5 * g.module_mm * (g.teeth_pinion + g.teeth_wheel) * math.cos(math.radians(g.pressure_angle_deg))
+    if g.center_distance <= rb_sum:
+        fail("center_distance_mm", f"> {rb_sum:.4g} mm", "the sum of the base radii")
     pair = GearPair(g)
-    for body, prof in (("pinion", pair.pinion), ("wheel", pair.wheel)):
-        z = prof.teeth
-        if not (prof.reference_radius_m > prof.base_radius_m):  # pragma: no cover - cos(alpha) < 1 always
-            raise ParameterError(p + "pressure_angle_deg", g.pressure_angle_deg, "(10, 35) deg")
-        if prof.operating_thickness_m >= prof.operating_pitch_radius_m * 2 * math.pi / z:
-            raise ParameterError(p + "tooth_thickness_mm", g.tooth_thickness_mm,
-                                 f"< {1e3 * 2 * math.pi * prof.operating_pitch_radius_m / z:.4g} mm", f"thicker than the {body}'s pitch")
+    gears = (("pinion", pair.pinion), ("wheel", pair.wheel))
+    for body, prof in gears:
+        pitch_mm = 1e3 * 2 * math.pi * prof.operating_pitch_radius_m / prof.teeth
+        if prof.operating_thickness_m * 1e3 >= pitch_mm:
+            fail("tooth_thickness_mm", f"< {pitch_mm:.4g} mm", f"thicker than the {body}'s pitch")
+    if pair.backlash_circular_m < 0:
+        fail("tooth_thickness_mm", f"<= {0.5e3 * pair.operating_circular_pitch_m:.4g} mm",
+             "negative backlash: the teeth do not fit in each other's gaps")
+    for body, prof in gears:
+        mm = lambda x: f"{1e3 * x:.3f} mm"  # noqa: E731
         if prof.root_radius_m <= 0:
-            raise ParameterError(p + "dedendum_coefficient", g.dedendum_coefficient, f"< {prof.reference_radius_m / prof.module_m:.4g}", f"{body} root radius <= 0")
+            fail("dedendum_coefficient", f"< {prof.reference_radius_m / prof.module_m:.4g}", f"{body} root radius <= 0")
         if not (prof.reference_thickness_m > 0 and prof.rack_half_width_m > 0):
-            raise ParameterError(p + "tooth_thickness_mm", g.tooth_thickness_mm, "a thickness giving a tooth of positive width at the reference circle", body)
+            fail("tooth_thickness_mm", "a thickness giving a tooth of positive width at the reference circle", body)
         if prof.tip_thickness_m <= 0.0:
-            raise ParameterError(
-                p + "addendum_coefficient", g.addendum_coefficient,
-                "a smaller addendum (or a thicker tooth)",
-                f"the {body} tooth is pointed below its tip circle (tip thickness {1e3 * prof.tip_thickness_m:.3f} mm)",
-            )
+            fail("addendum_coefficient", "a smaller addendum (or a thicker tooth)",
+                 f"the {body} tooth is pointed below its tip circle (tip thickness {mm(prof.tip_thickness_m)})")
         rho_max = prof.max_rack_tip_radius_m
         if rho_max <= 0:
-            raise ParameterError(p + "dedendum_coefficient", g.dedendum_coefficient, "a smaller dedendum",
-                                 f"the generating rack tooth of the {body} is pointed above its tip line")
+            fail("dedendum_coefficient", "a smaller dedendum",
+                 f"the generating rack tooth of the {body} is pointed above its tip line")
         if prof.rack_tip_radius_m > rho_max * (1 + 1e-12):
-            raise ParameterError(
-                p + "root_fillet_coefficient", g.root_fillet_coefficient, f"(0, {rho_max / prof.module_m:.4g}]",
-                f"the rack tip radius does not fit on the {body}'s generating rack tooth (full-round tip)",
-            )
+            fail("root_fillet_coefficient", f"(0, {rho_max / prof.module_m:.4g}]",
+                 f"the rack tip radius does not fit on the {body}'s generating rack tooth (full-round tip)")
         if prof.is_undercut():
-            raise ParameterError(
-                p + ("teeth_pinion" if body == "pinion" else "teeth_wheel"), z,
-                "more teeth (or a smaller dedendum / larger pressure angle)",
-                f"the generating rack undercuts the {body} flank (undercut margin {1e3 * prof.undercut_margin_m:.3f} mm)",
-            )
+            fail("teeth_pinion" if body == "pinion" else "teeth_wheel",
+                 "more teeth (or a smaller dedendum / larger pressure angle)",
+                 f"the generating rack undercuts the {body} flank (undercut margin {mm(prof.undercut_margin_m)})")
         if not prof.root_radius_m > prof.bore_radius_m:
-            raise ParameterError(p + "bore_radius_mm", g.bore_radius_mm, f"< {1e3 * prof.root_radius_m:.4g} mm",
-                                 f"the bore must lie inside the {body}'s root circle")
-    if pair.backlash_circular_m < 0:
-        raise ParameterError(p + "tooth_thickness_mm", g.tooth_thickness_mm,
-                             f"<= {0.5e3 * pair.operating_circular_pitch_m:.4g} mm", "negative backlash: the teeth do not fit in each other's gaps")
+            fail("bore_radius_mm", f"< {1e3 * prof.root_radius_m:.4g} mm",
+                 f"the bore must lie inside the {body}'s root circle")
     for which, c in zip(("pinion tip to wheel root", "wheel tip to pinion root"), pair.tip_clearance_m):
         if c <= 0:
-            raise ParameterError(p + "dedendum_coefficient", g.dedendum_coefficient, "a larger dedendum (or smaller addendum)",
-                                 f"no tip clearance ({which}: {1e3 * c:.3f} mm)")
+            fail("dedendum_coefficient", "a larger dedendum (or smaller addendum)",
+                 f"no tip clearance ({which}: {1e3 * c:.3f} mm)")
     if pair.contact_ratio < 1.0:
-        raise ParameterError(p + "addendum_coefficient", g.addendum_coefficient, "a value giving a contact ratio >= 1",
-                             f"transverse contact ratio {pair.contact_ratio:.3f}")
-    for body, prof in (("pinion", pair.pinion), ("wheel", pair.wheel)):
+        fail("addendum_coefficient", "a value giving a contact ratio >= 1",
+             f"transverse contact ratio {pair.contact_ratio:.3f}")
+    for body, prof in gears:
         sap = pair.start_of_active_profile_m(body)
         if sap < prof.form_radius_m:
-            raise ParameterError(
-                p + "addendum_coefficient", g.addendum_coefficient, "a smaller addendum (or smaller root fillet)",
-                f"the mating tip reaches below the {body}'s involute into its fillet (start of active profile "
-                f"{1e3 * sap:.3f} mm < form radius {1e3 * prof.form_radius_m:.3f} mm)",
-            )
-
-
-def replace(geometry: GearPairGeometry, **changes) -> GearPairGeometry:
-    """``dataclasses.replace`` (validated)."""
-    return dataclasses.replace(geometry, **changes)
+            fail("addendum_coefficient", "a smaller addendum (or a smaller root fillet)",
+                 f"the mating tip reaches below the {body}'s involute into its fillet (start of active "
+                 f"profile {1e3 * sap:.3f} mm < form radius {1e3 * prof.form_radius_m:.3f} mm)")

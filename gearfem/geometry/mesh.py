@@ -6,7 +6,8 @@ Solvers find surfaces by name (``gm.ds("pinion_tooth4_drive_flank")``,
 ``gm.names(body="wheel", kind="root")``), never by tag numbers.
 
 Cache: ``<cache_dir>/<key>/mesh.msh`` + ``build.json``, with ``key`` a hash of every geometry and
-mesh parameter, the gearfem geometry-code version and the gmsh version. A build goes into a
+mesh parameter, the gearfem geometry-code version, the source of the mesh-generating modules and
+the gmsh version. A build goes into a
 temporary directory that is renamed into place when complete, so an interrupted build never looks
 cached. ``cache_dir``: the argument, else ``$GEARFEM_MESH_CACHE``, else ``meshes/cache`` in the
 current working directory (the project root when run from there).
@@ -58,13 +59,25 @@ def default_cache_dir() -> Path:
     return Path(env) if env else Path("meshes") / "cache"
 
 
+def _source_hash() -> str:
+    """Hash of the source of the modules that generate meshes (any edit invalidates the cache)."""
+    from gearfem.geometry import gmsh_pair, involute
+
+    h = hashlib.sha256()
+    for mod in (involute, gmsh_pair):
+        h.update(Path(mod.__file__).read_bytes())
+    return h.hexdigest()[:16]
+
+
 def cache_key(geometry: GearPairGeometry, options: MeshOptions) -> str:
-    """Hash of everything that determines the mesh (16 hex digits)."""
+    """Hash of everything that determines the mesh (16 hex digits): all parameters, the
+    geometry-code version and source, and the gmsh version."""
     import gmsh
 
     g = to_dict(geometry)
     g["center_distance_mm"] = geometry.center_distance  # None and the explicit default are the same mesh
-    payload = {"geometry": g, "mesh": to_dict(options), "code": GEOMETRY_CODE_VERSION, "gmsh": gmsh.__version__}
+    payload = {"geometry": g, "mesh": to_dict(options), "code": GEOMETRY_CODE_VERSION, "source": _source_hash(),
+               "gmsh": gmsh.__version__}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -249,7 +262,8 @@ def build_gear_mesh(
             else:
                 if final.exists():
                     shutil.rmtree(final)
-                log.info("building mesh %s (%s, %d teeth, order %d) ...", key, options.element, options.teeth_in_model, options.order)
+                log.info("building mesh %s (%s, %d teeth, order %d) ...", key, options.element,
+                         options.teeth_in_model, options.order)
                 _build_into_cache(geometry, options, final)
         except Exception as err:  # noqa: BLE001 - re-raised on every rank below
             error = f"{type(err).__name__}: {err}"
@@ -360,7 +374,8 @@ def mesh_report(gm: GearMesh) -> dict[str, Any]:
             if name in exact_areas:
                 entry["analytic_mm2"] = exact_areas[name]
             n_owned = gm.mesh.topology.index_map(2).size_local
-            entry["facets"] = int(comm.allreduce(int(np.count_nonzero(gm.facet_tags.find(int(tag)) < n_owned)), op=MPI.SUM))
+            owned = int(np.count_nonzero(gm.facet_tags.find(int(tag)) < n_owned))
+            entry["facets"] = int(comm.allreduce(owned, op=MPI.SUM))
         groups[name] = entry
     V = fem.functionspace(gm.mesh, ("Lagrange", 2, (3,)))
     dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
@@ -371,7 +386,8 @@ def mesh_report(gm: GearMesh) -> dict[str, Any]:
         "geometry": to_dict(g),
         "mesh_options": to_dict(o),
         "element": {"cell_type": info.get("cell_type"), "order": o.order, "layers": o.layers,
-                    "kind": o.element, "coordinates": "metres, pair frame (pinion axis = z, wheel axis through (a, 0, 0))"},
+                    "kind": o.element,
+                    "coordinates": "metres, pair frame (pinion axis = z, wheel axis through (a, 0, 0))"},
         "counts": {
             "cells": int(cells_global),
             "cells_per_body": {k: v["cells"] for k, v in info["bodies"].items()},
@@ -461,9 +477,7 @@ def plot_pair(msh_path: Path, png: Path, focus_mm: tuple[float, float] = (30.0, 
     colors = {"pinion": ("#6f9fd8", "#2f5f9f"), "wheel": ("#f0b860", "#b8781a")}
     png = Path(png)
     png.parent.mkdir(parents=True, exist_ok=True)
-    pl = pv.Plotter(off_screen=True, shape=(1, 2), window_size=(2000, 1000), border=False)
-    all_pts = np.vstack([s.points for s in surf.values()])
-    lo, hi = all_pts.min(axis=0), all_pts.max(axis=0)
+    pl = pv.Plotter(off_screen=True, shape=(1, 2), window_size=(1600, 800), border=False)
     for col in (0, 1):
         pl.subplot(0, col)
         pl.set_background("white")
@@ -482,7 +496,7 @@ def plot_pair(msh_path: Path, png: Path, focus_mm: tuple[float, float] = (30.0, 
             pl.camera.focal_point = (fx, fy, face_width_mm)
             pl.camera.up = (0.0, 1.0, 0.0)
             pl.enable_parallel_projection()
-            pl.camera.parallel_scale = 7.0
+            pl.camera.parallel_scale = 7.5
             pl.add_text("close-up at the pitch point (face z = b)", font_size=11, color="black")
         else:
             pl.view_vector((0.15, -0.75, 0.65), viewup=(0.0, 0.0, 1.0))
