@@ -357,6 +357,32 @@ def test_analytic_areas_of_body_faces():
 # --- cache, errors, CLI --------------------------------------------------------------------------
 
 
+def test_cache_dir_from_environment(monkeypatch, tmp_path):
+    from gearfem.geometry.mesh import ENV_CACHE, default_cache_dir
+
+    monkeypatch.setenv(ENV_CACHE, str(tmp_path / "elsewhere"))
+    assert default_cache_dir() == tmp_path / "elsewhere"
+    monkeypatch.delenv(ENV_CACHE)
+    assert default_cache_dir() == Path("meshes") / "cache"
+
+
+@pytest.mark.parametrize("element", ["tet", "hex"])
+def test_first_order_meshes(element, cache):
+    options = dataclasses.replace(COARSE, order=1, element=element, teeth_in_model=3)
+    gm = build_gear_mesh(THESIS, options, MPI.COMM_WORLD, cache_dir=cache)
+    assert gm.mesh.geometry.cmaps[0].degree == 1
+    _check_groups(gm)
+    pair = GearPair(THESIS)
+    for body, v in body_volumes_m3(gm).items():
+        prof = pair.profile(body)
+        exact = prof.body_area_m2(3) * pair.face_width_m
+        # straight edges on curved boundaries: segment areas L h^2 / (12 R), dominated by the bore
+        # (3 mm edges on R = 15 mm over L = 3 tau R); twice that covers the (finer) tooth curves
+        L, h, R = 3 * prof.pitch_angle_rad * prof.bore_radius_m, 3e-3, prof.bore_radius_m
+        bound = 2 * L * h**2 / (12 * R) / prof.body_area_m2(3)
+        assert abs(v - exact) / exact < bound
+
+
 def test_cache_hit_and_interrupted_build(tmp_path, monkeypatch):
     opts = dataclasses.replace(COARSE, bodies=("pinion",), teeth_in_model=3)
     gm = build_gear_mesh(THESIS, opts, MPI.COMM_SELF, cache_dir=tmp_path)

@@ -212,10 +212,12 @@ def _build_into_cache(geometry: GearPairGeometry, options: MeshOptions, final: P
             **stats,
         }
         (tmp / BUILD_NAME).write_text(json.dumps(info, indent=2))
-        if final.exists():  # another process finished the same mesh first
-            shutil.rmtree(tmp, ignore_errors=True)
-        else:
-            os.replace(tmp, final)
+        try:
+            os.replace(tmp, final)  # atomic: the entry appears complete or not at all
+        except OSError:
+            if not (final / BUILD_NAME).is_file():
+                raise
+            shutil.rmtree(tmp, ignore_errors=True)  # another process finished the same mesh first
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
