@@ -262,3 +262,11 @@ def test_joined_bodies_and_non_convergence_are_reported():
         ContactInterface(itf.a, itf.a, itf.options, {"lower": 1.0})
     with pytest.raises(ConvergenceError, match="contact Newton.*at first step"):
         case.problem.solve("first step")
+
+
+@pytest.mark.parametrize("cell", [basix.CellType.tetrahedron, basix.CellType.hexahedron])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_closed_form_facet_shape_functions_equal_basix(cell, degree):
+    ref = FacetReference.create(cell, degree)
+    xi = np.random.default_rng(0).uniform(-0.2, 1.2, (40, 2))
+    np.testing.assert_allclose(ref.tabulate(xi, 2), ref.element.tabulate(2, xi)[..., 0], atol=1e-12)

@@ -53,6 +53,7 @@ class ContactPoints:
     pressure: np.ndarray  # Pa
     active: np.ndarray  # bool
     slip_direction: np.ndarray  # (n, 3) ŝ (regularised unit slip direction)
+    slip_speed: np.ndarray  # |v_T|, kinematic tangential relative speed, m/s
     traction: np.ndarray  # (n, 3) traction on the slave, Pa
     eps: np.ndarray  # penalty, Pa/m
     Ns: np.ndarray  # (n, nn)
@@ -133,14 +134,20 @@ class ContactInterface:
         return data, motion.place(data.X + u)
 
     def _candidate_pairs(self, ps: _Pass, xs: np.ndarray, xm: np.ndarray, mdata) -> tuple[np.ndarray, np.ndarray]:
-        """Slave/master facet pairs that are close and face each other."""
+        """Slave/master facet pairs that are close and face each other.
+
+        A pair is kept when (i) the facets' bounding spheres, grown by the search margin (the
+        slave facet size times ``search_distance_rel``), overlap, (ii) their normals are opposed
+        within ``max_normal_angle_deg`` and (iii) the slave facet reaches into the slab of
+        ± margin around the master facet's plane.
+        """
         nv = ps.slave.ref.num_vertices
         if xs.shape[0] == 0 or xm.shape[0] == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         cs, cm = xs[:, :nv].mean(axis=1), xm[:, :nv].mean(axis=1)
         rs = np.linalg.norm(xs[:, :nv] - cs[:, None], axis=2).max(axis=1)
         rm = np.linalg.norm(xm[:, :nv] - cm[:, None], axis=2).max(axis=1)
-        margin = self.options.search_distance_rel * np.maximum(ps.slave.local.size, 1e-300)
+        margin = self.options.search_distance_rel * ps.slave.local.size
         tree = cKDTree(cm)
         lists = tree.query_ball_point(cs, rs + rm.max() + margin)
         counts = np.fromiter((len(v) for v in lists), dtype=np.int64, count=len(lists))
@@ -148,6 +155,8 @@ class ContactInterface:
         mj = np.fromiter((j for v in lists for j in v), dtype=np.int64, count=int(counts.sum()))
         if len(si) == 0:
             return si, mj
+        keep = np.linalg.norm(cs[si] - cm[mj], axis=1) < rs[si] + rm[mj] + margin[si]
+        si, mj = si[keep], mj[keep]
         ns = _facet_normal(ps.slave.ref, xs, ps.slave.local.orientation)
         nm = _facet_normal(ps.master.ref, xm, mdata.orientation)
         cos_max = math.cos(math.radians(self.options.max_normal_angle_deg))
@@ -155,7 +164,7 @@ class ContactInterface:
         si, mj = si[keep], mj[keep]
         # signed distances of the slave vertices from the master facet plane
         d = np.einsum("pkd,pd->pk", xs[si, :nv] - cm[mj][:, None, :], nm[mj])
-        keep = (d.min(axis=1) < margin[si]) & (d.max(axis=1) > -2.0 * rm[mj] - margin[si])
+        keep = (d.min(axis=1) < margin[si]) & (d.max(axis=1) > -margin[si])
         return si[keep], mj[keep]
 
     def update_segmentation(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> None:
@@ -204,22 +213,29 @@ class ContactInterface:
         xmp, t1, t2, Nm = evaluate(ref_m, xm[fm], zeta)
         normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
         gap = np.einsum("pd,pd->p", x - xmp, normal)
+        # A segment point belongs to the contact only if its closest-point foot lies on the master
+        # facet it was segmented against (up to a small tolerance for curvature): facets overlapping
+        # in the slave plane without being closest-point neighbours would otherwise extrapolate the
+        # master polynomial and invent penetrations.
+        valid = ref_m.inside(zeta, tol=self.options.projection_tolerance)
+        gap = np.where(valid, gap, np.inf)
         eps = ps.eps[fs]
         coef = np.einsum("kq,fq->fk", self.fit, ps.lam)  # linear fit per slave facet
         lam = coef[fs, 0] + coef[fs, 1] * xi[:, 0] + coef[fs, 2] * xi[:, 1] if n else np.zeros(0)
-        trial = lam - eps * gap
+        trial = np.where(valid, lam - eps * np.where(valid, gap, 0.0), -np.inf)
         active = trial > 0.0
         pressure = np.where(active, trial, 0.0)
         mu = self.options.friction_coefficient
+        vrel = ms.velocity(x) - mm.velocity(x)
+        vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
+        vt2 = np.einsum("pd,pd->p", vt, vt)
         if mu > 0.0 and n:
-            vrel = ms.velocity(x) - mm.velocity(x)
-            vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
-            s_hat = vt / np.sqrt(np.einsum("pd,pd->p", vt, vt) + self.options.slip_regularization_m_s**2)[:, None]
+            s_hat = vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None]
         else:
             s_hat = np.zeros((n, 3))
         traction = pressure[:, None] * (normal - mu * s_hat)
         return ContactPoints(ps.slave.name, ps.master.name, fs, fm, xi, zeta, ps.weight * wref * jac, x, normal,
-                             gap, pressure, active, s_hat, traction, eps, Ns, Nm)
+                             gap, pressure, active, s_hat, np.sqrt(vt2), traction, eps, Ns, Nm)
 
     # -------------------------------------------------------------------------------------------
     def assemble(self, points: list[ContactPoints], motions: dict[str, RigidMotion], matrix: bool):
@@ -279,14 +295,67 @@ class ContactInterface:
         return res, (cat(rows, np.int64), cat(cols, np.int64), cat(vals, np.float64))
 
     # -------------------------------------------------------------------------------------------
+    def rotation_terms(self, points: list[ContactPoints], motions: dict[str, RigidMotion], body: str):
+        """Moment of the contact forces on ``body`` about its motion axis and its linearisation.
+
+        With ψ the rotation of ``body`` about its axis, at every contact point β = ∂g/∂ψ
+        (= ±(a × (x − c))·n, + when the body is the slave) and the moment coefficient
+        m = ±a·((x − c) × (n − μŝ)), so that the moment is M = Σ W p m. Returns
+        ``(M, k_psipsi, (dofs, k_upsi), (dofs, k_psiu))`` with k_upsi = ∂R_u/∂ψ = Σ W ε ρ β,
+        k_psiu = ∂(−M)/∂u = Σ W ε m γ and k_psipsi = ∂(−M)/∂ψ = Σ W ε m β (active points;
+        lever-arm and normal variations omitted as in the displacement tangent). Local sums.
+        """
+        mot = motions[body]
+        axis = np.asarray(mot.axis, float) / np.linalg.norm(mot.axis)
+        c = np.asarray(mot.center) + np.asarray(mot.translation_m)
+        mu = self.options.friction_coefficient
+        M = kpp = 0.0
+        d_up, v_up, d_pu, v_pu = [], [], [], []
+        for ps, pts in zip(self.passes, points):
+            if pts.num_points == 0 or body not in (ps.slave.body, ps.master.body):
+                continue
+            sign = 1.0 if ps.slave.body == body else -1.0
+            lever = pts.x - c
+            beta = sign * np.einsum("pd,pd->p", np.cross(axis, lever), pts.normal)
+            dirn = pts.normal - mu * pts.slip_direction
+            mcoef = sign * np.einsum("d,pd->p", axis, np.cross(lever, dirn))
+            M += float(np.sum(pts.dA * pts.pressure * mcoef))
+            act = pts.active
+            w = pts.dA * pts.eps * act
+            kpp += float(np.sum(w * mcoef * beta))
+            sdata, mdata = ps.slave.local, ps.master.gathered()
+            Rs, Rm = motions[ps.slave.body].R, motions[ps.master.body].R
+            dofs_s = 3 * sdata.blocks[pts.facet][:, :, None] + np.arange(3)
+            dofs_m = 3 * mdata.blocks[pts.mfacet][:, :, None] + np.arange(3)
+            free = np.stack([~sdata.fixed[pts.facet], ~mdata.fixed[pts.mfacet]], axis=1)
+            dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(len(pts.dA), -1)
+            rho = np.stack([pts.Ns[:, :, None] * (dirn @ Rs)[:, None, :],
+                            -pts.Nm[:, :, None] * (dirn @ Rm)[:, None, :]], axis=1)
+            gam = np.stack([pts.Ns[:, :, None] * (pts.normal @ Rs)[:, None, :],
+                            -pts.Nm[:, :, None] * (pts.normal @ Rm)[:, None, :]], axis=1)
+            rho = np.where(free, rho, 0.0).reshape(len(pts.dA), -1)
+            gam = np.where(free, gam, 0.0).reshape(len(pts.dA), -1)
+            sel = act
+            d_up.append(dofs[sel].ravel())
+            v_up.append(((w * beta)[:, None] * rho)[sel].ravel())
+            d_pu.append(dofs[sel].ravel())
+            v_pu.append(((w * mcoef)[:, None] * gam)[sel].ravel())
+        cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)  # noqa: E731
+        return M, kpp, (cat(d_up, np.int64), cat(v_up, np.float64)), (cat(d_pu, np.int64), cat(v_pu, np.float64))
+
+    # -------------------------------------------------------------------------------------------
     def update_multipliers(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
         """Uzawa step λ ← ⟨λ − εg⟩ at the fixed points; returns the largest penetration (global, m)."""
         worst = 0.0
-        for ps in self.passes:
+        if self._segments is None:
+            self.update_segmentation(u_array, motions)
+        for ps, seg in zip(self.passes, self._segments):
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
             sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
-            si, mj = self._candidate_pairs(ps, xs, xm, mdata)
+            # the facet pairs that overlap in the current segmentation
+            pairs = np.unique(np.stack([seg[0], seg[1]], axis=1), axis=0) if len(seg[0]) else np.zeros((0, 2), np.int64)
+            si, mj = pairs[:, 0], pairs[:, 1]
             nf, nq = ps.lam.shape
             gaps = np.full((nf, nq), np.inf)
             if len(si):

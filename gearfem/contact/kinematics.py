@@ -20,7 +20,7 @@ def evaluate(ref: FacetReference, nodes: np.ndarray, xi: np.ndarray, derivatives
         ``derivatives=2`` also (x11, x12, x22).
     """
     tab = ref.tabulate(xi, derivatives)  # (nd, n, nn)
-    out = [np.einsum("pk,pkd->pd", tab[i], nodes) for i in range(tab.shape[0])]
+    out = [np.matmul(tab[i][:, None, :], nodes)[:, 0, :] for i in range(tab.shape[0])]
     if derivatives == 1:
         return out[0], out[1], out[2], tab[0]
     return out[0], out[1], out[2], tab[0], (out[3], out[4], out[5])

@@ -34,9 +34,14 @@ class ContactOptions:
         quadrature_degree: degree of the triangle rule on each segment of a slave facet.
         search_distance_rel: pairs farther apart than this many facet sizes are ignored.
         max_normal_angle_deg: candidate pairs whose normals are not opposed within this angle are ignored.
+        projection_tolerance: a slave point counts only if its closest-point foot lies on its master
+            facet within this distance in reference coordinates (curvature makes it slightly outside).
         newton_rtol, newton_atol_N: residual tolerances (relative to the internal force norm; absolute, N).
         newton_max_it: Newton iterations per solve.
         line_search: backtracking on the residual norm.
+        uzawa_newton_rtol: Newton tolerance of the augmented-Lagrangian passes before the last
+            (inexact Uzawa): the multipliers change after them anyway; the final pass uses
+            ``newton_rtol``.
         reuse_factorization: solve each Newton system with GMRES preconditioned by the LU factors of
             an earlier Jacobian, refactoring only when GMRES needs more than ``max_krylov_its``
             (the tangent changes only through the contact active set, so one factorization usually
@@ -56,13 +61,15 @@ class ContactOptions:
     quadrature_degree: int = 4
     search_distance_rel: float = 1.0
     max_normal_angle_deg: float = 60.0
+    projection_tolerance: float = 0.05
     newton_rtol: float = 1e-9
     newton_atol_N: float = 1e-12
     newton_max_it: int = 40
+    uzawa_newton_rtol: float = 1e-5
     line_search: bool = True
     reuse_factorization: bool = True
-    max_krylov_its: int = 25
-    refactor_krylov_its: int = 4
+    max_krylov_its: int = 60
+    refactor_krylov_its: int = 15
     krylov_rtol: float = 1e-12
 
     def __post_init__(self) -> None:
@@ -79,9 +86,11 @@ class ContactOptions:
         require_int("contact.quadrature_degree", self.quadrature_degree, 1, 12)
         require_positive("contact.search_distance_rel", self.search_distance_rel)
         require_range("contact.max_normal_angle_deg", self.max_normal_angle_deg, 0.0, 90.0, lo_open=True)
+        require_range("contact.projection_tolerance", self.projection_tolerance, 0.0, 1.0)
         require_range("contact.newton_rtol", self.newton_rtol, 0.0, 1.0, lo_open=True, hi_open=True)
         require_nonnegative("contact.newton_atol_N", self.newton_atol_N)
         require_int("contact.newton_max_it", self.newton_max_it, 1, 1000)
+        require_range("contact.uzawa_newton_rtol", self.uzawa_newton_rtol, 0.0, 1.0, lo_open=True, hi_open=True)
         require_int("contact.max_krylov_its", self.max_krylov_its, 1, 10000)
         require_int("contact.refactor_krylov_its", self.refactor_krylov_its, 1, 10000)
         require_range("contact.krylov_rtol", self.krylov_rtol, 0.0, 1e-3, lo_open=True)

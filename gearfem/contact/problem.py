@@ -37,6 +37,40 @@ def elastic_stress(u, mu, lmbda):
     return 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(len(u))
 
 
+@dataclasses.dataclass(frozen=True)
+class ControlledRotation:
+    """A body whose rotation about its motion axis is unknown, held by an external torque.
+
+    The equation added to the system is: moment of the contact forces on the body about its axis
+    + ``torque_Nm`` = 0 (``torque_Nm`` acts on the body about +axis, e.g. the resisting torque of a
+    driven gear). ``length_scale_m`` (a typical lever, such as the base radius) converts the moment
+    residual to a force for the convergence test.
+    """
+
+    body: str
+    torque_Nm: float
+    length_scale_m: float
+
+
+@dataclasses.dataclass
+class _State:
+    """Residual and tangent data at one iterate."""
+
+    R: PETSc.Vec
+    pts: list
+    coos: list
+    R_psi: float = 0.0
+    moment_Nm: float = 0.0
+    k_up: PETSc.Vec | None = None
+    k_pu: PETSc.Vec | None = None
+    k_pp: float = 0.0
+
+    def destroy(self) -> None:
+        for v in (self.R, self.k_up, self.k_pu):
+            if v is not None:
+                v.destroy()
+
+
 @dataclasses.dataclass
 class SolveReport:
     """What one contact solve did (all values global)."""
@@ -60,6 +94,7 @@ class ContactProblem:
         interfaces: Contact interfaces.
         motions: Rigid motion of every body by name (changeable between solves, :meth:`set_motion`).
         options: Contact and Newton options.
+        controlled: Optional body whose rotation is an unknown held by a torque (bordered Newton).
         traction_form: Optional linear form of external loads (N), assembled once.
         petsc_options_prefix: Prefix of this problem's PETSc options (KSP/PC/MUMPS).
     """
@@ -75,8 +110,11 @@ class ContactProblem:
         options: ContactOptions,
         traction_form=None,
         petsc_options_prefix: str = "gearfem_contact_",
+        controlled: ControlledRotation | None = None,
     ) -> None:
         self.V, self.options = V, options
+        self.controlled = controlled
+        self.last_state: _State | None = None
         self.comm: MPI.Comm = V.mesh.comm
         self.bcs = list(bcs)
         self.interfaces = list(interfaces)
@@ -145,26 +183,49 @@ class ContactProblem:
         self.u.x.scatter_forward()
 
     # -------------------------------------------------------------------------------------------
-    def residual(self, u_vec: PETSc.Vec, matrix: bool):
-        """R(u) (PETSc Vec), contact points per interface, and the contact tangent COO data."""
+    def residual(self, u_vec: PETSc.Vec, matrix: bool) -> _State:
+        """R(u) (and R_ψ), the contact points per interface, and tangent data (collective)."""
         u_loc = self.u.x.array
-        pts_all, coos = [], []
-        R = self.K_full.createVecLeft()
-        self.K_full.mult(u_vec, R)
-        R.axpy(-1.0, self.f_ext)
+        st = _State(self.K_full.createVecLeft(), [], [])
+        self.K_full.mult(u_vec, st.R)
+        st.R.axpy(-1.0, self.f_ext)
+        ctl = self.controlled
+        if ctl is not None and matrix:
+            st.k_up, st.k_pu = st.R.duplicate(), st.R.duplicate()
+            st.k_up.set(0.0)
+            st.k_pu.set(0.0)
+        M = kpp = 0.0
         for itf in self.interfaces:
             pts = itf.evaluate(u_loc, self.motions)
             (rd, rv), coo = itf.assemble(pts, self.motions, matrix)
-            R.setValues(rd.astype(PETSc.IntType), rv, addv=PETSc.InsertMode.ADD_VALUES)
-            pts_all.append(pts)
-            coos.append(coo)
-        R.assemblyBegin()
-        R.assemblyEnd()
-        if len(self._bc_rows):
-            R.setValues(self._bc_rows, np.zeros(len(self._bc_rows)), addv=PETSc.InsertMode.INSERT_VALUES)
-            R.assemblyBegin()
-            R.assemblyEnd()
-        return R, pts_all, coos
+            st.R.setValues(rd.astype(PETSc.IntType), rv, addv=PETSc.InsertMode.ADD_VALUES)
+            st.pts.append(pts)
+            st.coos.append(coo)
+            if ctl is not None:
+                m, k, (d1, v1), (d2, v2) = itf.rotation_terms(pts, self.motions, ctl.body)
+                M, kpp = M + m, kpp + k
+                if matrix:
+                    st.k_up.setValues(d1.astype(PETSc.IntType), v1, addv=PETSc.InsertMode.ADD_VALUES)
+                    st.k_pu.setValues(d2.astype(PETSc.IntType), v2, addv=PETSc.InsertMode.ADD_VALUES)
+        vecs = [st.R] + ([st.k_up, st.k_pu] if st.k_up is not None else [])
+        for v in vecs:
+            v.assemblyBegin()
+            v.assemblyEnd()
+            if len(self._bc_rows):
+                v.setValues(self._bc_rows, np.zeros(len(self._bc_rows)), addv=PETSc.InsertMode.INSERT_VALUES)
+                v.assemblyBegin()
+                v.assemblyEnd()
+        if ctl is not None:
+            M = self.comm.allreduce(M, op=MPI.SUM)
+            st.moment_Nm = M
+            st.R_psi = -(M + ctl.torque_Nm)
+            st.k_pp = self.comm.allreduce(kpp, op=MPI.SUM)
+        return st
+
+    def _norm(self, st: _State) -> float:
+        if self.controlled is None:
+            return st.R.norm()
+        return float(np.hypot(st.R.norm(), st.R_psi / self.controlled.length_scale_m))
 
     def _jacobian(self, coos) -> PETSc.Mat:
         rows = np.concatenate([c[0] for c in coos if c is not None] or [np.zeros(0, np.int64)])
@@ -201,68 +262,108 @@ class ContactProblem:
                           "reused" if reuse else "new")
                 # factors that needed many iterations are replaced at the next solve
                 self._refactor = its > self.options.refactor_krylov_its
-                A.destroy()
                 return
             if not reuse:
                 break
             reuse = False  # the old factors no longer precondition well enough: refactor
-        A.destroy()
         raise ConvergenceError("contact linear solve (GMRES + MUMPS LU)", f"{_KSP_REASONS.get(reason, '?')} ({reason})",
                                step=label, iteration=it)
 
     def _force_scale(self, u_vec: PETSc.Vec) -> float:
-        """Norm of the internal forces K u (reactions included): the scale of the residual."""
+        """Norm of the internal forces K u (reactions included), or the applied torque over the
+        lever: the scale of the residual."""
         f = self.K_full.createVecLeft()
         self.K_full.mult(u_vec, f)
         s = f.norm()
         f.destroy()
-        return max(s, self.f_ext.norm())
+        s = max(s, self.f_ext.norm())
+        if self.controlled is not None:
+            s = max(s, abs(self.controlled.torque_Nm) / self.controlled.length_scale_m)
+        return s
 
-    def newton(self, label: str = "") -> tuple[int, float]:
-        """Solve for fixed multipliers; returns (iterations, final residual norm)."""
+    @property
+    def controlled_angle(self) -> float:
+        """Current rotation angle (rad) of the torque-controlled body."""
+        return self.motions[self.controlled.body].angle_rad
+
+    def _set_controlled_angle(self, angle: float) -> None:
+        body = self.controlled.body
+        self.motions[body] = dataclasses.replace(self.motions[body], angle_rad=float(angle))
+
+    def newton(self, label: str = "", rtol: float | None = None) -> tuple[int, float]:
+        """Solve for fixed multipliers; returns (iterations, final residual norm).
+
+        ``rtol`` overrides ``options.newton_rtol`` (looser solves inside the Uzawa loop).
+
+        With a torque-controlled body the unknowns are (u, ψ) and each iteration solves the
+        bordered system [[J, k_uψ], [k_ψuᵀ, k_ψψ]] by two solves with the same factors:
+        J a = −R_u, J b = −k_uψ, δψ = −(R_ψ + k_ψu·a) / (k_ψψ + k_ψu·b), δu = a + δψ b.
+        """
         o = self.options
+        rtol = o.newton_rtol if rtol is None else rtol
+        ctl = self.controlled
         self._apply_bc_values()
         u_vec = self.u.x.petsc_vec
         for itf in self.interfaces:
             itf.update_segmentation(self.u.x.array, self.motions)
-        R, pts, coos = self.residual(u_vec, matrix=True)
-        rnorm = R.norm()
+        st = self.residual(u_vec, matrix=True)
+        rnorm = self._norm(st)
         du = u_vec.duplicate()
+        db = u_vec.duplicate() if ctl is not None else None
         for it in range(1, o.newton_max_it + 1):
             scale = self._force_scale(u_vec)
-            tol = max(o.newton_rtol * scale, o.newton_atol_N)
-            log.debug("%s Newton %d: |R| = %.3e (tol %.3e)", label, it - 1, rnorm, tol)
+            tol = max(rtol * scale, o.newton_atol_N)
+            log.debug("%s Newton %d: |R| = %.3e (tol %.3e)%s", label, it - 1, rnorm, tol,
+                      f", R_psi = {st.R_psi:.3e} N m" if ctl is not None else "")
             if rnorm <= tol and it > 1:
-                self.last_points = pts
+                self.last_points, self.last_state = st.pts, st
                 return it - 1, rnorm
-            A = self._jacobian(coos)
-            R.scale(-1.0)
-            self._linear_solve(A, R, du, label, it)
-            # backtracking line search on |R| (the last trial is kept if none decreases |R|)
+            A = self._jacobian(st.coos)
+            st.R.scale(-1.0)
+            try:
+                self._linear_solve(A, st.R, du, label, it)
+                dpsi = 0.0
+                if ctl is not None:
+                    st.k_up.scale(-1.0)
+                    self._linear_solve(A, st.k_up, db, label, it)
+                    D = st.k_pp + st.k_pu.dot(db)
+                    if not (D > 0.0 and np.isfinite(D)):
+                        raise ConvergenceError(
+                            "contact Newton (torque control)",
+                            f"no rotational contact stiffness of {ctl.body!r} (k = {D:.3e} N m/rad): the body "
+                            "is not in contact; close the gap first (prescribe its angle)", step=label, iteration=it)
+                    dpsi = -(st.R_psi + st.k_pu.dot(du)) / D
+                    du.axpy(dpsi, db)
+            finally:
+                A.destroy()
+            # backtracking line search on the residual norm (the last trial is kept if none decreases it)
             u0 = u_vec.copy()
+            psi0 = self.controlled_angle if ctl is not None else 0.0
             alpha, tries = 1.0, (12 if o.line_search else 1)
             for k in range(tries):
                 u_vec.waxpy(alpha, du, u0)
                 self.u.x.scatter_forward()
-                R_new, pts_new, coos_new = self.residual(u_vec, matrix=True)
-                r_new = R_new.norm()
+                if ctl is not None:
+                    self._set_controlled_angle(psi0 + alpha * dpsi)
+                st_new = self.residual(u_vec, matrix=True)
+                r_new = self._norm(st_new)
                 if r_new <= (1.0 - 1e-4 * alpha) * rnorm or r_new <= tol or k == tries - 1:
                     break
-                R_new.destroy()
+                st_new.destroy()
                 alpha *= 0.5
             if r_new > (1.0 - 1e-4 * alpha) * rnorm and r_new > tol:
                 log.debug("%s Newton %d: line search did not decrease |R| (alpha=%g)", label, it, alpha)
-            u0.destroy()
-            R.destroy()
-            R, pts, coos, rnorm = R_new, pts_new, coos_new, r_new
-            if it > 1 and alpha < 1.0:
+            elif alpha < 1.0:
                 log.debug("%s Newton %d: line search step %g", label, it, alpha)
+            u0.destroy()
+            st.destroy()
+            st, rnorm = st_new, r_new
             if not np.isfinite(rnorm):
                 raise ConvergenceError("contact Newton", "residual is not finite", step=label, iteration=it)
         scale = self._force_scale(u_vec)
-        tol = max(o.newton_rtol * scale, o.newton_atol_N)
+        tol = max(rtol * scale, o.newton_atol_N)
         if rnorm <= tol:
-            self.last_points = pts
+            self.last_points, self.last_state = st.pts, st
             return o.newton_max_it, rnorm
         raise ConvergenceError("contact Newton", f"DIVERGED_MAX_IT (residual {rnorm:.3e} > tolerance {tol:.3e})",
                                step=label, iteration=o.newton_max_it, residual=rnorm)
@@ -277,8 +378,9 @@ class ContactProblem:
             pen = self.max_penetration()
         else:
             tol = min(itf.penetration_tolerance() for itf in self.interfaces) if self.interfaces else 0.0
+            loose = max(self.options.uzawa_newton_rtol, self.options.newton_rtol)
             for uz in range(1, self.options.max_uzawa + 1):
-                its, rnorm = self.newton(f"{label} (Uzawa {uz})")
+                its, rnorm = self.newton(f"{label} (Uzawa {uz})", rtol=loose)
                 total_it += its
                 pen = self.max_penetration()
                 log.debug("%s Uzawa %d: max penetration %.3e m (tol %.3e m)", label, uz, pen, tol)
@@ -290,6 +392,10 @@ class ContactProblem:
                 raise ConvergenceError("augmented Lagrangian (Uzawa)",
                                        f"max penetration {pen:.3e} m > tolerance {tol:.3e} m after {uz} updates",
                                        step=label, iteration=uz)
+            if loose > self.options.newton_rtol:  # tighten the last pass to the final tolerance
+                its, rnorm = self.newton(f"{label} (final)")
+                total_it += its
+                pen = self.max_penetration()
         rep = SolveReport(label, total_it, uz, rnorm, pen, time.perf_counter() - t0, self.linear_solves - ls0)
         log.info("%s: %d Newton iterations, %d Uzawa, max penetration %.3e m, %.2f s", label, total_it, uz, pen,
                  rep.wall_time_s)

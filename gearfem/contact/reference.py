@@ -101,9 +101,18 @@ class FacetReference:
         """Shape functions at reference points ``xi`` (n, 2): array (n_deriv, n, n_nodes).
 
         Index 0 is the value, 1 and 2 the derivatives in xi_1 and xi_2, (with ``derivatives=2``)
-        3, 4, 5 the second derivatives 11, 12, 22.
+        3, 4, 5 the second derivatives 11, 12, 22. Closed forms in basix's node order (the contact
+        search evaluates hundreds of thousands of points; a test checks them against basix).
         """
-        return self.element.tabulate(derivatives, np.ascontiguousarray(xi, dtype=np.float64))[..., 0]
+        xi = np.asarray(xi, dtype=np.float64)
+        if derivatives > 2:
+            return self.element.tabulate(derivatives, np.ascontiguousarray(xi))[..., 0]
+        x, y = xi[:, 0], xi[:, 1]
+        if self.facet_type == basix.CellType.triangle:
+            out = _triangle_shape(x, y, self.degree)
+        else:
+            out = _quad_shape(x, y, self.degree)
+        return out[: 3 if derivatives == 1 else 6] if derivatives else out[:1]
 
     def quadrature(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
         """Gauss points and weights on the reference facet (weights sum to its area)."""
@@ -134,3 +143,49 @@ class FacetReference:
             a = np.clip(0.5 * (1.0 + xi[over, 0] - xi[over, 1]), 0.0, 1.0)
             out[over, 0], out[over, 1] = a, 1.0 - a
         return out
+
+
+def _triangle_shape(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
+    """P1/P2 triangle shape functions and derivatives (value, d1, d2, d11, d12, d22) x (n, nn)."""
+    n = len(x)
+    z, o = np.zeros(n), np.ones(n)
+    l0, l1, l2 = 1.0 - x - y, x, y
+    if degree == 1:
+        N = np.stack([l0, l1, l2], axis=1)
+        dx = np.stack([-o, o, z], axis=1)
+        dy = np.stack([-o, z, o], axis=1)
+        zz = np.zeros((n, 3))
+        return np.stack([N, dx, dy, zz, zz, zz])
+    # vertices l(2l-1); edges 3: (1,2), 4: (0,2), 5: (0,1): 4 la lb
+    N = np.stack([l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1), 4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)
+    # d/dx: dl0 = -1, dl1 = 1, dl2 = 0 ; d/dy: dl0 = -1, dl1 = 0, dl2 = 1
+    dx = np.stack([-(4 * l0 - 1), 4 * l1 - 1, z, 4 * l2, -4 * l2, 4 * (l0 - l1)], axis=1)
+    dy = np.stack([-(4 * l0 - 1), z, 4 * l2 - 1, 4 * l1, 4 * (l0 - l2), -4 * l1], axis=1)
+    c = lambda *v: np.tile(np.array(v, dtype=np.float64), (n, 1))  # noqa: E731
+    dxx = c(4, 4, 0, 0, 0, -8)
+    dxy = c(4, 0, 0, 4, -4, -4)
+    dyy = c(4, 0, 4, 0, -8, 0)
+    return np.stack([N, dx, dy, dxx, dxy, dyy])
+
+
+def _lagrange_1d(t: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """1D Lagrange basis on [0, 1] with nodes (0, 1[, 0.5]): values, first, second derivatives (n, k)."""
+    o = np.ones_like(t)
+    if degree == 1:
+        return np.stack([1 - t, t], axis=1), np.stack([-o, o], axis=1), np.zeros((len(t), 2))
+    v = np.stack([(1 - t) * (1 - 2 * t), t * (2 * t - 1), 4 * t * (1 - t)], axis=1)
+    d = np.stack([4 * t - 3, 4 * t - 1, 4 - 8 * t], axis=1)
+    dd = np.stack([4 * o, 4 * o, -8 * o], axis=1)
+    return v, d, dd
+
+
+def _quad_shape(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
+    """Q1/Q2 quadrilateral shape functions in basix order, with derivatives up to second order."""
+    # basix order: vertices (0,0) (1,0) (0,1) (1,1); edges (0,1) (0,2) (1,3) (2,3); interior
+    pairs = [(0, 0), (1, 0), (0, 1), (1, 1)]
+    if degree == 2:
+        pairs += [(2, 0), (0, 2), (1, 2), (2, 1), (2, 2)]
+    vx, dx, ddx = _lagrange_1d(x, degree)
+    vy, dy, ddy = _lagrange_1d(y, degree)
+    cols = lambda a, b: np.stack([a[:, i] * b[:, j] for i, j in pairs], axis=1)  # noqa: E731
+    return np.stack([cols(vx, vy), cols(dx, vy), cols(vx, dy), cols(ddx, vy), cols(dx, dy), cols(vx, ddy)])

@@ -28,7 +28,9 @@ class SurfaceData:
         fixed: (nf, nn, 3) True where the displacement component is prescribed (Dirichlet).
         orientation: (nf,) ±1 making sign·(t1 × t2) the outward normal.
         local_blocks: (nf, nn) local block numbers on the owning rank (owned facets only).
-        size: (nf,) facet size (square root of the area), m.
+        size: (nf,) facet size: its shortest vertex-to-vertex edge, m (for the long, thin facets of
+            swept meshes this is the element size across the surface, which sets the penalty and
+            the search margin).
     """
 
     X: np.ndarray
@@ -93,13 +95,11 @@ class ContactSurface:
         cell_centre = mesh.geometry.x[gdofs].mean(axis=1)
         s = np.einsum("pd,pd->p", np.cross(t1, t2), xc - cell_centre)
         orientation = np.where(s >= 0.0, 1.0, -1.0)
-        qp, qw = self.ref.quadrature(2)
-        area = np.zeros(len(cells))
-        for p, w in zip(qp, qw):
-            _, a1, a2, _ = evaluate(self.ref, X, np.tile(p, (len(cells), 1)))
-            area += w * np.linalg.norm(np.cross(a1, a2), axis=1)
+        cyc = self.ref.vertex_cycle
+        V0 = X[:, cyc]
+        edges = np.linalg.norm(V0 - np.roll(V0, -1, axis=1), axis=2)
         self.facets = facets
-        self.local = SurfaceData(X, gblocks, fixed, orientation, lblocks, np.sqrt(area))
+        self.local = SurfaceData(X, gblocks, fixed, orientation, lblocks, edges.min(axis=1) if len(cells) else np.zeros(0))
         self._gathered: SurfaceData | None = None
         self._counts = None
 

@@ -1,0 +1,209 @@
+"""The gear pair as a contact problem: rigid bores, prescribed pinion angle, torque-held wheel.
+
+Each body keeps its mesh and displacement in its own frame; rigid rotations place it (pinion by
+the prescribed angle φ, wheel by ψ = ψ_kin(φ) + δψ). The wheel's wind-up δψ is solved together
+with the displacements so that the contact moment about its axis balances the resisting torque
+(:class:`~gearfem.contact.problem.ControlledRotation`). Bores are clamped in their body frames
+(thesis 5.1.1: the metal hub is rigid). Quasi-static, no inertia (thesis 5.1.5).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import numpy as np
+from dolfinx import fem
+from mpi4py import MPI
+
+from gearfem.contact import ContactInterface, ContactOptions, ContactProblem, ContactSurface, RigidMotion
+from gearfem.contact.problem import ControlledRotation, fixed_mask
+from gearfem.errors import ParameterError
+from gearfem.geometry.gmsh_pair import TOOTH_KINDS
+from gearfem.geometry.mesh import GearMesh, parse_group_name
+from gearfem.materials import Material
+from gearfem.params import require_int, require_positive, require_range
+
+log = logging.getLogger(__name__)
+
+BODIES = ("pinion", "wheel")
+
+
+@dataclasses.dataclass(frozen=True)
+class CycleOptions:
+    """How the mesh cycle is swept (the ``[cycle]`` table).
+
+    Attributes:
+        positions_per_pitch: Pinion positions per tooth pitch (one pitch is 12° for 30 teeth).
+        pitches: Length of the sweep in pitches. 1 uses the rotational periodicity of the
+            state (every pitch repeats with the tooth numbers shifted by one) to get each tooth's
+            whole engagement; 3 sweeps 36° as the thesis did.
+        start_angle_deg: Pinion angle of the first position relative to the mesh as built (where
+            the reference teeth touch at the pitch point).
+        check_periodicity: Also solve the position one pitch after the start and report how far it
+            is from the first position mapped by one tooth (costs one position).
+        contact_kinds: Tooth surfaces that may touch the other gear.
+        mesh_stiffness_guess_N_mm_um: Only for the first predictor of the wind-up (a gear pair's
+            mesh stiffness per unit face width, scaled from PEEK with the Young's modulus).
+        initial_interference_m: Rigid pre-rotation of the wheel (along the line of action) that gives
+            the first Newton iteration contact stiffness before the torque is balanced.
+        creep_ratio: Slip (relative to the rolling speed) at which friction approaches μ p. Near the
+            pitch point the flanks roll with little sliding and the contact is in micro-slip (Carter;
+            Johnson, Contact Mechanics §8.2: full slip of a rolling line contact needs a creep of
+            about μ a / R). The gross-sliding law is regularised there with
+            v_ε = creep_ratio · v_roll (v_roll: rolling speed of the flanks at the pitch point);
+            None: Carter's estimate μ a / (2 R) from the Hertz half-width at the nominal load.
+            This sets ``ContactOptions.slip_regularization_m_s`` for the gear cycle.
+    """
+
+    positions_per_pitch: int = 24
+    pitches: float = 1.0
+    start_angle_deg: float = 0.0
+    check_periodicity: bool = False
+    contact_kinds: tuple[str, ...] = ("drive_flank", "tip", "root")
+    mesh_stiffness_guess_N_mm_um: float = 0.3
+    initial_interference_m: float = 2e-6
+    creep_ratio: float | None = None
+
+    def __post_init__(self) -> None:
+        require_int("cycle.positions_per_pitch", self.positions_per_pitch, 2, 2000)
+        require_range("cycle.pitches", self.pitches, 0.0, 30.0, lo_open=True)
+        require_range("cycle.start_angle_deg", self.start_angle_deg, -360.0, 360.0)
+        for k in self.contact_kinds:
+            if k not in TOOTH_KINDS:
+                raise ParameterError("cycle.contact_kinds", k, "one of " + ", ".join(TOOTH_KINDS))
+        require_positive("cycle.mesh_stiffness_guess_N_mm_um", self.mesh_stiffness_guess_N_mm_um)
+        require_positive("cycle.initial_interference_m", self.initial_interference_m)
+        if self.creep_ratio is not None:
+            require_range("cycle.creep_ratio", self.creep_ratio, 0.0, 1.0, lo_open=True)
+
+
+class GearContactModel:
+    """Contact problem of a meshed gear pair at any pinion angle, under a resisting torque.
+
+    Args:
+        gm: The gear-pair mesh (both bodies).
+        materials: Material of the pinion and of the wheel.
+        contact: Contact options (friction coefficient, penalty, tolerances).
+        torque_Nm: Resisting torque on the wheel (> 0: the pinion drives forward).
+        options: Cycle options (surfaces, predictor).
+    """
+
+    def __init__(self, gm: GearMesh, materials: dict[str, Material], contact: ContactOptions, torque_Nm: float,
+                 options: CycleOptions = CycleOptions()) -> None:
+        require_positive("operating.torque_Nm", torque_Nm)
+        if set(gm.bodies) != set(BODIES):
+            raise ParameterError("mesh.bodies", gm.bodies, "both ('pinion', 'wheel') for the contact cycle")
+        self.gm, self.materials, self.torque_Nm, self.options = gm, materials, torque_Nm, options
+        self.pair = gm.pair
+        self.creep_ratio = options.creep_ratio if options.creep_ratio is not None else self.carter_creep_ratio(
+            contact.friction_coefficient)
+        self.rolling_speed_m_s = self.pair.pinion.operating_pitch_radius_m * math.sin(
+            self.pair.operating_pressure_angle_rad)  # per unit pinion speed
+        contact = dataclasses.replace(contact, slip_regularization_m_s=max(
+            self.creep_ratio * self.rolling_speed_m_s, 1e-12))
+        self.contact = contact
+        mesh = gm.mesh
+        self.comm: MPI.Comm = mesh.comm
+        self.V = fem.functionspace(mesh, ("Lagrange", mesh.geometry.cmaps[0].degree, (3,)))
+        # Lamé parameters per body (DG0)
+        Q = fem.functionspace(mesh, ("DG", 0))
+        self.lame_mu, self.lame_lambda = fem.Function(Q), fem.Function(Q)
+        for b in BODIES:
+            cells = gm.cells(b)
+            self.lame_mu.x.array[cells] = materials[b].lame_mu_Pa
+            self.lame_lambda.x.array[cells] = materials[b].lame_lambda_Pa
+        self.lame_mu.x.scatter_forward()
+        self.lame_lambda.x.scatter_forward()
+        self.bcs = [fem.dirichletbc(np.zeros(3), fem.locate_dofs_topological(self.V, 2, gm.facets(f"{b}_bore")), self.V)
+                    for b in BODIES]
+        mask = fixed_mask(self.V, self.bcs)
+        self.surfaces = {}
+        for b in BODIES:
+            names = [n for k in options.contact_kinds for n in gm.names(body=b, kind=k)]
+            self.surfaces[b] = ContactSurface(self.V, gm.facets(*names), b, mask, name=f"{b}_teeth")
+        self.interface = ContactInterface(self.surfaces["pinion"], self.surfaces["wheel"], contact,
+                                          {b: materials[b].youngs_modulus_Pa for b in BODIES})
+        z1, z2 = gm.geometry.teeth_pinion, gm.geometry.teeth_wheel
+        self.ratio = z1 / z2
+        self.base_radius_m = {"pinion": self.pair.pinion.base_radius_m, "wheel": self.pair.wheel.base_radius_m}
+        self._motion0 = {
+            # kinematic speeds for the friction direction: pinion 1 rad/s (results per unit speed)
+            "pinion": RigidMotion(center=tuple(gm.center("pinion")), angular_velocity_rad_s=1.0),
+            "wheel": RigidMotion(center=tuple(gm.center("wheel")), angular_velocity_rad_s=-self.ratio),
+        }
+        self.problem = ContactProblem(
+            self.V, self.lame_mu, self.lame_lambda, self.bcs, [self.interface], dict(self._motion0), contact,
+            petsc_options_prefix="gearfem_cycle_",
+            controlled=ControlledRotation("wheel", torque_Nm, self.base_radius_m["wheel"]),
+        )
+        self.tooth_of_facet = {b: self._facet_teeth(b) for b in BODIES}
+        self.phi = 0.0
+        self.windup_rad = None  # δψ of the last converged position
+
+    # -------------------------------------------------------------------------------------------
+    def _facet_teeth(self, body: str) -> dict[str, np.ndarray]:
+        """Tooth index of every facet of a body's contact surface: local and gathered order."""
+        gm, surf = self.gm, self.surfaces[body]
+        tag_to_tooth = {}
+        for name in gm.names(body=body):
+            b, k, kind = parse_group_name(name)
+            if k is not None:
+                tag_to_tooth[gm.tag(name)] = k
+        ft = gm.facet_tags
+        order = np.argsort(ft.indices)
+        pos = np.searchsorted(ft.indices[order], surf.facets)
+        local = np.array([tag_to_tooth.get(int(v), -1) for v in ft.values[order][pos]], dtype=np.int64)
+        gathered = np.concatenate(self.comm.allgather(local)) if self.comm.size > 1 else local
+        return {"local": local, "gathered": gathered}
+
+    def carter_creep_ratio(self, mu: float) -> float:
+        """μ a / (2 R) at the pitch point under the nominal load (Hertz line contact, equal load
+        per unit face width), the creep at which a rolling contact is well into partial slip."""
+        from gearfem.contact.verification import hertz_line_contact
+
+        pair = self.pair
+        s = math.sin(pair.operating_pressure_angle_rad)
+        r1, r2 = pair.pinion.operating_pitch_radius_m * s, pair.wheel.operating_pitch_radius_m * s
+        w = self.torque_Nm / pair.wheel.base_radius_m / pair.face_width_m
+        mp, mw = self.materials["pinion"], self.materials["wheel"]
+        a, _ = hertz_line_contact(w, r1, r2, mp.youngs_modulus_Pa, mp.poissons_ratio, mw.youngs_modulus_Pa,
+                                  mw.poissons_ratio)
+        return max(mu, 1e-3) * a / (2.0 * r1 * r2 / (r1 + r2))
+
+    def kinematic_wheel_angle(self, phi: float) -> float:
+        return float(self.pair.wheel_angle(phi))
+
+    def set_position(self, phi_rad: float, windup_rad: float) -> None:
+        self.phi = float(phi_rad)
+        self.problem.set_motion("pinion", dataclasses.replace(self._motion0["pinion"], angle_rad=self.phi))
+        self.problem.set_motion("wheel", dataclasses.replace(self._motion0["wheel"],
+                                                             angle_rad=self.kinematic_wheel_angle(self.phi) + windup_rad))
+
+    def windup_guess_rad(self) -> float:
+        """First predictor of δψ: a linear mesh stiffness guess (plus the initial interference)."""
+        b_mm = self.gm.geometry.face_width_mm
+        rb2 = self.base_radius_m["wheel"]
+        E = min(m.youngs_modulus_Pa for m in self.materials.values())
+        c = self.options.mesh_stiffness_guess_N_mm_um * E / 3.7e9  # N/(mm µm)
+        deflection_um = (self.torque_Nm / rb2) / (c * b_mm)
+        return (deflection_um * 1e-6 + self.options.initial_interference_m) / rb2
+
+    def solve_position(self, phi_rad: float, label: str):
+        """Solve at pinion angle φ (warm start from the last position). Returns the SolveReport."""
+        dpsi = self.windup_rad if self.windup_rad is not None else self.windup_guess_rad()
+        self.set_position(phi_rad, dpsi)
+        rep = self.problem.solve(label)
+        self.windup_rad = self.problem.controlled_angle - self.kinematic_wheel_angle(phi_rad)
+        return rep
+
+    # -------------------------------------------------------------------------------------------
+    def transmission_error_m(self) -> float:
+        """Wind-up of the wheel as a displacement along the line of action (lag > 0), m."""
+        return self.base_radius_m["wheel"] * self.windup_rad
+
+    def pinion_torque_Nm(self) -> float:
+        """Torque the pinion hub must supply (minus the contact moment on the pinion), N m."""
+        mot = self.problem.motions["pinion"]
+        return -self.problem.contact_moment(np.asarray(mot.center), np.asarray(mot.axis))
