@@ -53,15 +53,24 @@ class ContactPoints:
     pressure: np.ndarray  # Pa
     active: np.ndarray  # bool
     slip_direction: np.ndarray  # (n, 3) ŝ (regularised unit slip direction)
-    slip_speed: np.ndarray  # |v_T|, kinematic tangential relative speed, m/s
+    slip_velocity: np.ndarray  # (n, 3) v_T, kinematic tangential relative velocity (slave - master), m/s
     traction: np.ndarray  # (n, 3) traction on the slave, Pa
     eps: np.ndarray  # penalty, Pa/m
+    slope: np.ndarray  # dp/d(λ − εg): 1 where active (0..1 with pressure smoothing)
     Ns: np.ndarray  # (n, nn)
     Nm: np.ndarray  # (n, nn)
 
     @property
     def num_points(self) -> int:
         return len(self.dA)
+
+    @property
+    def slip_speed(self) -> np.ndarray:
+        return np.linalg.norm(self.slip_velocity, axis=1)
+
+    def friction_power_density(self, mu: float) -> np.ndarray:
+        """Power dissipated by friction per unit area, −t_T·v_T = μ p ŝ·v_T (W/m²)."""
+        return mu * self.pressure * np.einsum("pd,pd->p", self.slip_direction, self.slip_velocity)
 
 
 @dataclasses.dataclass
@@ -183,7 +192,38 @@ class ContactInterface:
             si, mj = self._candidate_pairs(ps, xs, xm, mdata)
             nv = ps.slave.ref.num_vertices
             pair, xi, wref = segment(ps.slave.ref, xs[si, :nv], xm[mj, :nv], self._tri_points, self._tri_weights)
-            self._segments.append((si[pair], mj[pair], xi, wref))
+            # master facets overlapping each slave facet (for re-projection across facet edges)
+            used = np.unique(np.stack([si[pair], mj[pair]], axis=1), axis=0) if len(pair) else np.zeros((0, 2), np.int64)
+            ptr = np.searchsorted(used[:, 0], np.arange(xs.shape[0] + 1))
+            self._segments.append([si[pair], mj[pair], xi, wref, None, (ptr, used[:, 1])])
+        self.update_slip(u_array, motions)
+
+    def update_slip(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
+        """Freeze the friction slip directions ŝ at the current configuration (collective).
+
+        ŝ = v_T / sqrt(|v_T|² + v_ε²) from the bodies' kinematic velocities at the slave points.
+        Near rolling (small |v_T|) it depends on the deformed position, which the Newton tangent
+        does not follow; it is therefore held fixed within a Newton solve and updated between
+        solves like the multipliers (:meth:`ContactProblem.solve`) until it settles. Returns the
+        largest change of ŝ at points in contact (global).
+        """
+        worst = 0.0
+        for ps, seg in zip(self.passes, self._segments):
+            fs, fm, xi, wref, old, cand = seg
+            seg[4] = None
+            pts = self._points(ps, *self._configuration(ps, u_array, motions), fs, fm, xi, wref,
+                               motions[ps.slave.body], motions[ps.master.body], frozen=False, candidates=cand)
+            if old is not None and len(old) == pts.num_points:
+                on = pts.pressure > 0.0
+                if on.any():
+                    worst = max(worst, float(np.abs(pts.slip_direction[on] - old[on]).max()))
+            seg[4] = pts.slip_direction
+        return self.a.comm.allreduce(worst, op=_mpi_max())
+
+    def _configuration(self, ps: _Pass, u_array: np.ndarray, motions: dict[str, RigidMotion]):
+        sdata, xs = self._nodes(ps.slave, u_array, motions[ps.slave.body], gathered=False)
+        mdata, xm = self._nodes(ps.master, u_array, motions[ps.master.body], gathered=True)
+        return sdata, xs, mdata, xm
 
     def evaluate(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> list[ContactPoints]:
         """Contact state at all slave points of all passes for displacement ``u_array`` (collective).
@@ -193,14 +233,14 @@ class ContactInterface:
         if self._segments is None:
             self.update_segmentation(u_array, motions)
         out = []
-        for ps, (fs, fm, xi, wref) in zip(self.passes, self._segments):
+        for ps, (fs, fm, xi, wref, s_hat, cand) in zip(self.passes, self._segments):
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
-            sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
-            mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
-            out.append(self._points(ps, sdata, xs, mdata, xm, fs, fm, xi, wref, ms, mm))
+            out.append(self._points(ps, *self._configuration(ps, u_array, motions), fs, fm, xi, wref, ms, mm,
+                                    frozen=True, s_hat=s_hat, candidates=cand))
         return out
 
-    def _points(self, ps: _Pass, sdata, xs, mdata, xm, fs, fm, xi, wref, ms: RigidMotion, mm: RigidMotion) -> ContactPoints:
+    def _points(self, ps: _Pass, sdata, xs, mdata, xm, fs, fm, xi, wref, ms: RigidMotion, mm: RigidMotion,
+                frozen: bool = False, s_hat: np.ndarray | None = None, candidates=None) -> ContactPoints:
         ref_s, ref_m = ps.slave.ref, ps.master.ref
         n = len(fs)
         x, _, _, Ns = evaluate(ref_s, xs[fs], xi)
@@ -210,32 +250,67 @@ class ContactInterface:
         v = xm[fm, :nv]
         zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[:, 0, :]
         zeta, _ = project(ref_m, xm[fm], x, zeta0)
+        tol = self.options.projection_tolerance
+        valid = ref_m.inside(zeta, tol=tol)
+        # A point whose closest-point foot left the master facet it was segmented against is
+        # projected onto the other master facets overlapping the same slave facet and takes the
+        # one its foot lies on: the gap stays the (continuous) distance to the master surface, and
+        # the segmentation only partitions the slave facet for integration. Points with no foot on
+        # any of them (beyond the master surface) carry no contact; without this test facets that
+        # overlap in the slave plane but are not closest-point neighbours would extrapolate the
+        # master polynomial and invent penetrations.
+        if candidates is not None and not valid.all():
+            fm = fm.copy()
+            zeta = zeta.copy()
+            ptr, cm = candidates
+            bad = np.nonzero(~valid)[0]
+            cnt = ptr[fs[bad] + 1] - ptr[fs[bad]]
+            rows = np.repeat(bad, cnt)
+            mcand = cm[np.concatenate([np.arange(ptr[f], ptr[f + 1]) for f in fs[bad]])] if len(bad) else \
+                np.zeros(0, np.int64)
+            keep = mcand != fm[rows]
+            rows, mcand = rows[keep], mcand[keep]
+            if len(rows):
+                v = xm[mcand, :nv]
+                z0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[rows][:, None, :])[:, 0, :]
+                z, dist = project(ref_m, xm[mcand], x[rows], z0)
+                ok = ref_m.inside(z, tol=tol)
+                rows, mcand, z, dist = rows[ok], mcand[ok], z[ok], dist[ok]
+                order = np.lexsort((dist, rows))
+                first = np.unique(rows[order], return_index=True)[1]
+                pick = order[first]
+                fm[rows[pick]] = mcand[pick]
+                zeta[rows[pick]] = z[pick]
+                valid[rows[pick]] = True
         xmp, t1, t2, Nm = evaluate(ref_m, xm[fm], zeta)
         normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
         gap = np.einsum("pd,pd->p", x - xmp, normal)
-        # A segment point belongs to the contact only if its closest-point foot lies on the master
-        # facet it was segmented against (up to a small tolerance for curvature): facets overlapping
-        # in the slave plane without being closest-point neighbours would otherwise extrapolate the
-        # master polynomial and invent penetrations.
-        valid = ref_m.inside(zeta, tol=self.options.projection_tolerance)
         gap = np.where(valid, gap, np.inf)
         eps = ps.eps[fs]
         coef = np.einsum("kq,fq->fk", self.fit, ps.lam)  # linear fit per slave facet
         lam = coef[fs, 0] + coef[fs, 1] * xi[:, 0] + coef[fs, 2] * xi[:, 1] if n else np.zeros(0)
         trial = np.where(valid, lam - eps * np.where(valid, gap, 0.0), -np.inf)
-        active = trial > 0.0
-        pressure = np.where(active, trial, 0.0)
+        delta = self.options.pressure_smoothing_Pa
+        if delta > 0.0:  # C1 ramp p = (t + sqrt(t² + δ²)) / 2 (see ContactOptions.pressure_smoothing_Pa)
+            tt = np.where(valid, trial, 0.0)
+            root = np.sqrt(tt * tt + delta * delta)
+            pressure = np.where(valid, 0.5 * (tt + root), 0.0)
+            slope = np.where(valid, 0.5 * (1.0 + tt / root), 0.0)
+            active = slope > 1e-6
+            slope = np.where(active, slope, 0.0)
+        else:
+            active = trial > 0.0
+            pressure = np.where(active, trial, 0.0)
+            slope = active.astype(np.float64)
         mu = self.options.friction_coefficient
         vrel = ms.velocity(x) - mm.velocity(x)
         vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
-        vt2 = np.einsum("pd,pd->p", vt, vt)
-        if mu > 0.0 and n:
-            s_hat = vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None]
-        else:
-            s_hat = np.zeros((n, 3))
+        if not (frozen and s_hat is not None):
+            vt2 = np.einsum("pd,pd->p", vt, vt)
+            s_hat = vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None] if n else np.zeros((0, 3))
         traction = pressure[:, None] * (normal - mu * s_hat)
         return ContactPoints(ps.slave.name, ps.master.name, fs, fm, xi, zeta, ps.weight * wref * jac, x, normal,
-                             gap, pressure, active, s_hat, np.sqrt(vt2), traction, eps, Ns, Nm)
+                             gap, pressure, active, s_hat, vt, traction, eps, slope, Ns, Nm)
 
     # -------------------------------------------------------------------------------------------
     def assemble(self, points: list[ContactPoints], motions: dict[str, RigidMotion], matrix: bool):
@@ -280,7 +355,7 @@ class ContactInterface:
                 inv = inv.reshape(k, m)
                 ptr = np.repeat(np.arange(k), m)
                 B = sp.csr_matrix((rho[act].ravel(), (ptr, inv.ravel())), shape=(k, len(local_ids)))
-                C = sp.csr_matrix(((gam[act] * (pts.dA[act] * pts.eps[act])[:, None]).ravel(), (ptr, inv.ravel())),
+                C = sp.csr_matrix(((gam[act] * (pts.dA[act] * pts.eps[act] * pts.slope[act])[:, None]).ravel(), (ptr, inv.ravel())),
                                   shape=(k, len(local_ids)))
                 K = (B.T @ C).tocoo()
                 nz = K.data != 0.0
@@ -321,7 +396,7 @@ class ContactInterface:
             mcoef = sign * np.einsum("d,pd->p", axis, np.cross(lever, dirn))
             M += float(np.sum(pts.dA * pts.pressure * mcoef))
             act = pts.active
-            w = pts.dA * pts.eps * act
+            w = pts.dA * pts.eps * pts.slope
             kpp += float(np.sum(w * mcoef * beta))
             sdata, mdata = ps.slave.local, ps.master.gathered()
             Rs, Rm = motions[ps.slave.body].R, motions[ps.master.body].R
@@ -350,7 +425,7 @@ class ContactInterface:
         if self._segments is None:
             self.update_segmentation(u_array, motions)
         for ps, seg in zip(self.passes, self._segments):
-            ms, mm = motions[ps.slave.body], motions[ps.master.body]
+            ms, mm = motions[ps.slave.body], motions[ps.master.body]  # noqa: F841
             sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
             # the facet pairs that overlap in the current segmentation

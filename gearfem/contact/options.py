@@ -27,7 +27,14 @@ class ContactOptions:
         penalty_Pa_m: explicit ε in Pa/m (overrides the factor).
         penetration_tolerance_rel: AL stop: max penetration / facet size.
         penetration_tolerance_m: AL stop as a length (overrides the relative one).
-        max_uzawa: AL outer iterations before giving up (raises ConvergenceError).
+        max_uzawa: Outer iterations (multiplier updates, slip-direction updates) before giving up
+            (raises ConvergenceError).
+        pressure_smoothing_Pa: δ of the C1 pressure ramp p = (t + sqrt(t² + δ²))/2, t = λ − εg
+            (0: the exact ramp max(0, t)). A δ far below the contact pressures removes the kink
+            at the edge of the contact zone on which Newton can cycle when friction makes the
+            tangent non-symmetric; it adds a pressure of about δ²/(4εg) at open gaps.
+        slip_tolerance: The friction slip directions are frozen within a Newton solve and updated
+            between solves until they change by less than this (norm of the change of ŝ).
         friction_coefficient: Coulomb μ in [0, 2].
         slip_regularization_m_s: v_ε.
         two_pass: both surfaces act as slave in turn, each pass weighted 1/2.
@@ -55,6 +62,8 @@ class ContactOptions:
     penetration_tolerance_rel: float = 0.01
     penetration_tolerance_m: float | None = None
     max_uzawa: int = 25
+    slip_tolerance: float = 0.02
+    pressure_smoothing_Pa: float = 0.0
     friction_coefficient: float = 0.0
     slip_regularization_m_s: float = 1e-5
     two_pass: bool = True
@@ -81,6 +90,8 @@ class ContactOptions:
         if self.penetration_tolerance_m is not None:
             require_positive("contact.penetration_tolerance_m", self.penetration_tolerance_m)
         require_int("contact.max_uzawa", self.max_uzawa, 1, 1000)
+        require_nonnegative("contact.pressure_smoothing_Pa", self.pressure_smoothing_Pa)
+        require_range("contact.slip_tolerance", self.slip_tolerance, 0.0, 2.0, lo_open=True)
         require_range("contact.friction_coefficient", self.friction_coefficient, 0.0, 2.0)
         require_positive("contact.slip_regularization_m_s", self.slip_regularization_m_s)
         require_int("contact.quadrature_degree", self.quadrature_degree, 1, 12)

@@ -372,30 +372,38 @@ class ContactProblem:
         """Solve the contact problem at the current BC values and rigid motions (collective)."""
         t0 = time.perf_counter()
         ls0 = self.linear_solves
-        total_it, uz, pen = 0, 0, 0.0
-        if self.options.method == "penalty":
-            total_it, rnorm = self.newton(label)
-            pen = self.max_penetration()
-        else:
-            tol = min(itf.penetration_tolerance() for itf in self.interfaces) if self.interfaces else 0.0
-            loose = max(self.options.uzawa_newton_rtol, self.options.newton_rtol)
-            for uz in range(1, self.options.max_uzawa + 1):
-                its, rnorm = self.newton(f"{label} (Uzawa {uz})", rtol=loose)
-                total_it += its
-                pen = self.max_penetration()
-                log.debug("%s Uzawa %d: max penetration %.3e m (tol %.3e m)", label, uz, pen, tol)
-                if pen <= tol:
-                    break
+        total_it, uz, pen, rnorm = 0, 0, 0.0, 0.0
+        o = self.options
+        al = o.method == "augmented_lagrangian"
+        friction = o.friction_coefficient > 0.0
+        tol = min(itf.penetration_tolerance() for itf in self.interfaces) if (al and self.interfaces) else np.inf
+        # Outer loop: Newton with frozen multipliers and slip directions, then update both
+        # (Uzawa for the multipliers; a fixed point for the slip directions) until the penetration
+        # and the change of the slip directions are within tolerance. Intermediate Newton solves
+        # may be loose; the last one is tightened.
+        loose = max(o.uzawa_newton_rtol, o.newton_rtol) if (al or friction) else o.newton_rtol
+        for uz in range(1, o.max_uzawa + 1):
+            its, rnorm = self.newton(f"{label} (outer {uz})", rtol=loose)
+            total_it += its
+            pen = self.max_penetration() if self.interfaces else 0.0
+            dslip = max((itf.update_slip(self.u.x.array, self.motions) for itf in self.interfaces), default=0.0) \
+                if friction else 0.0
+            log.debug("%s outer %d: max penetration %.3e m (tol %.3e m), slip direction change %.2e (tol %.2e)",
+                      label, uz, pen, tol, dslip, o.slip_tolerance)
+            if pen <= tol and dslip <= o.slip_tolerance:
+                break
+            if al and pen > tol:
                 for itf in self.interfaces:
                     itf.update_multipliers(self.u.x.array, self.motions)
-            else:
-                raise ConvergenceError("augmented Lagrangian (Uzawa)",
-                                       f"max penetration {pen:.3e} m > tolerance {tol:.3e} m after {uz} updates",
-                                       step=label, iteration=uz)
-            if loose > self.options.newton_rtol:  # tighten the last pass to the final tolerance
-                its, rnorm = self.newton(f"{label} (final)")
-                total_it += its
-                pen = self.max_penetration()
+        else:
+            raise ConvergenceError("contact outer iteration (Uzawa / slip directions)",
+                                   f"max penetration {pen:.3e} m (tolerance {tol:.3e} m), slip direction change "
+                                   f"{dslip:.2e} (tolerance {o.slip_tolerance:.2e}) after {uz} passes",
+                                   step=label, iteration=uz)
+        if loose > o.newton_rtol:  # tighten the last pass to the final tolerance
+            its, rnorm = self.newton(f"{label} (final)")
+            total_it += its
+            pen = self.max_penetration()
         rep = SolveReport(label, total_it, uz, rnorm, pen, time.perf_counter() - t0, self.linear_solves - ls0)
         log.info("%s: %d Newton iterations, %d Uzawa, max penetration %.3e m, %.2f s", label, total_it, uz, pen,
                  rep.wall_time_s)

@@ -137,12 +137,6 @@ class CycleResult:
 # ------------------------------------------------------------------------------------------------
 
 
-def friction_power_density(pts, mu: float, v_eps: float) -> np.ndarray:
-    """−t_T·v_T per point (W/m² per unit ω₁): μ p |v_T|² / sqrt(|v_T|² + v_ε²) (regularised law)."""
-    s = pts.slip_speed
-    return mu * pts.pressure * s * s / np.sqrt(s * s + v_eps * v_eps)
-
-
 class _RootStress:
     """Largest principal stress on the root surfaces of each body (sampled at the facet nodes)."""
 
@@ -236,7 +230,6 @@ def run_cycle(model: GearContactModel, positions_per_pitch: int | None = None, p
         b1, b2 = (model.materials[b].thermal_effusivity for b in BODIES)
         heat_fraction = {"pinion": b1 / (b1 + b2), "wheel": b2 / (b1 + b2)}
     mu = model.contact.friction_coefficient
-    v_eps = model.contact.slip_regularization_m_s
     itf = model.interface
     se = _StrainEnergy(model)
     rs = _RootStress(model)
@@ -268,7 +261,7 @@ def run_cycle(model: GearContactModel, positions_per_pitch: int | None = None, p
         per_facet_press = {}
         for ps, pts in zip(itf.passes, pts_list):
             slave = ps.slave.body
-            q = friction_power_density(pts, mu, v_eps)
+            q = pts.friction_power_density(mu)
             pf += float(np.sum(pts.dA * q))
             if pts.num_points:
                 pmax = max(pmax, float(pts.pressure.max()))
