@@ -178,6 +178,7 @@ def test_radiation_only_cooling_matches_ode():
         assert r.balance.convected_W == 0.0 and r.balance.radiated_W > 0.0
 
 
+@pytest.mark.mpi
 def test_heat_balance_closes_every_step():
     """Everything on (H(T) hysteresis, flank flux with mu(T) factor, film-temperature h(T), k(T), c_p(T),
     radiation, bore heat path): generated = stored + convected + radiated + bore at every step to the

@@ -49,7 +49,8 @@ class ThermalOptions:
             (measured; see the benchmark), at a fraction of the cost.
         newton_rtol, newton_atol_W: SNES tolerances (residual in W).
         newton_max_it: Newton iterations per step.
-        linear_solver: ``"auto"`` (LU below 20 000 DOFs, else CG/GMRES + BoomerAMG), ``"direct"``, ``"iterative"``.
+        linear_solver: ``"auto"`` (MUMPS LU below 20 000 DOFs, else CG (GMRES with k(T)) with algebraic
+            multigrid: hypre BoomerAMG if PETSc has it, else GAMG), ``"direct"``, ``"iterative"``.
     """
 
     ambient_C: float = 23.0

@@ -246,8 +246,14 @@ class ThermalProblem:
         else:
             # CG for the symmetric Jacobian (constant k; radiation, H(T), c_p(T), h(T) keep it
             # symmetric), GMRES when k(T) adds the non-symmetric k'(T) grad T term.
-            opts.update({"ksp_type": "cg" if self._symmetric else "gmres", "ksp_rtol": 1e-10,
-                         "ksp_max_it": 1000, "pc_type": "hypre", "pc_hypre_type": "boomeramg"})
+            # Preconditioner: BoomerAMG when PETSc has hypre, else PETSc's own algebraic multigrid.
+            from petsc4py import PETSc
+
+            opts.update({"ksp_type": "cg" if self._symmetric else "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 1000})
+            if PETSc.Sys.hasExternalPackage("hypre"):
+                opts.update({"pc_type": "hypre", "pc_hypre_type": "boomeramg"})
+            else:
+                opts.update({"pc_type": "gamg"})
         return opts
 
     def _make_solver(self, F, kind: str):
