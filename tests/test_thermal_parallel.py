@@ -25,7 +25,7 @@ def _run(comm, linear_solver):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("linear_solver", ["direct", "iterative"])
+@pytest.mark.parametrize("linear_solver", ["iterative", "direct", "multigrid"])
 def test_serial_and_parallel_agree(comms, linear_solver):
     serial, world = comms
     rs, n_s = _run(serial, linear_solver)

@@ -30,6 +30,7 @@ from gearfem.materials import STEFAN_BOLTZMANN_W_m2K4, ZERO_CELSIUS_K, Material
 from gearfem.thermal.balance import HeatBalance
 from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.domain import ThermalDomain
+from gearfem.thermal.newton import NewtonSolver
 from gearfem.thermal.options import ThermalOptions
 from gearfem.thermal.properties import enthalpy_ufl
 from gearfem.thermal.sources import HeatSources, field_ufl
@@ -41,8 +42,6 @@ from gearfem.thermal.timestepping import (
 )
 
 log = logging.getLogger(__name__)
-
-DIRECT_SOLVER_MAX_DOFS = 20000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -170,16 +169,24 @@ class ThermalProblem:
                 if rad_term is not None:
                     surf["radiated"].append((rad_term, dsr))
 
-        kk = kT.ufl(T)
-        F_space = kk * ufl.inner(ufl.grad(T), ufl.grad(v)) * dx
-        for name, q in vol.items():
-            F_space -= q * v * dx
+        # Residual split for the Newton solver (gearfem.thermal.newton): constant c_p and k give
+        # matrices assembled once; everything else is in F_nl.
+        u = ufl.TrialFunction(self.V)
+        self._cp_const, self._k_const = cp.is_constant, kT.is_constant
+        F_nl = 0
+        if not self._k_const:
+            F_nl += kT.ufl(T) * ufl.inner(ufl.grad(T), ufl.grad(v)) * dx
+        for q in vol.values():
+            F_nl -= q * v * dx
         for name, terms in surf.items():
             sign = -1.0 if name == "friction" else 1.0
             for q, m in terms:
-                F_space += sign * q * v * m
-        self._F_transient = stored * v * dx + F_space
-        self._F_steady = F_space
+                F_nl += sign * q * v * m
+        F_nl_transient = F_nl if self._cp_const else F_nl + stored * v * dx
+        mass = rho * float(cp.values[0]) * u * v * dx if self._cp_const else None
+        stiffness = float(kT.values[0]) * ufl.inner(ufl.grad(u), ufl.grad(v)) * dx if self._k_const else None
+        self._split = {"F_nl": F_nl, "F_nl_transient": F_nl_transient, "mass": mass, "stiffness": stiffness,
+                       "pattern": u * v * dx}
 
         # balance forms (v = 1)
         self._content = fem.form(e(T) * dx)
@@ -192,8 +199,9 @@ class ThermalProblem:
                 self._balance_forms[f"{name}_W"] = fem.form(sum(q * m for q, m in terms))
 
         self._symmetric = kT.is_constant
-        self._transient_solver = self._make_solver(self._F_transient, "transient")
-        self._steady_solver = None  # compiled on first use
+        self._hist = fem.Function(self.V)  # (a1 T^n + a2 T^{n-1}) / dt
+        self._transient_solver: NewtonSolver | None = None  # built on first use
+        self._steady_solver: NewtonSolver | None = None
 
         # probes
         fdim = mesh.topology.dim - 1
@@ -229,56 +237,55 @@ class ThermalProblem:
         return im.size_global * self.V.dofmap.index_map_bs
 
     def _petsc_options(self, steady: bool) -> dict[str, Any]:
+        """SNES/KSP/PC options (under the problem's prefix), see ``ThermalOptions.linear_solver``."""
         o = self.options
-        direct = o.linear_solver == "direct" or (o.linear_solver == "auto" and self.num_dofs < DIRECT_SOLVER_MAX_DOFS)
         opts: dict[str, Any] = {
             "snes_type": "newtonls",
             # transient: full Newton steps from the extrapolated predictor; steady: backtracking,
-            # since the start (uniform ambient) can be far from the solution.
+            # since the start (uniform ambient) can be far from the solution (set again per solve)
             "snes_linesearch_type": "bt" if steady else "basic",
             "snes_rtol": o.newton_rtol,
             "snes_atol": o.newton_atol_W,
             "snes_stol": 1e-14,  # ||dT|| < 1e-14 ||T||: no further progress possible
             "snes_max_it": o.newton_max_it,
         }
-        if direct:
+        # CG for the symmetric Jacobian (constant k: radiation, H(T), c_p(T), h(T) keep it
+        # symmetric), GMRES when k(T) adds the non-symmetric k'(T) grad T term.
+        krylov = {"ksp_type": "cg" if self._symmetric else "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 2000}
+        if o.linear_solver == "direct":
             opts.update({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"})
-        else:
-            # CG for the symmetric Jacobian (constant k; radiation, H(T), c_p(T), h(T) keep it
-            # symmetric), GMRES when k(T) adds the non-symmetric k'(T) grad T term.
-            # Preconditioner: BoomerAMG when PETSc has hypre, else PETSc's own algebraic multigrid.
+        elif o.linear_solver == "iterative":
+            # block Jacobi (one block per rank) with incomplete Cholesky / LU(0) blocks: cheapest on
+            # the thermal meshes measured (mass-dominated at small steps), see benchmarks/thermal.py
+            opts.update(krylov | {"pc_type": "bjacobi", "sub_pc_type": "icc" if self._symmetric else "ilu"})
+        else:  # multigrid: BoomerAMG when PETSc has hypre, else PETSc's GAMG
             from petsc4py import PETSc
 
-            opts.update({"ksp_type": "cg" if self._symmetric else "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 1000})
+            opts.update(krylov)
             if PETSc.Sys.hasExternalPackage("hypre"):
                 opts.update({"pc_type": "hypre", "pc_hypre_type": "boomeramg"})
             else:
                 opts.update({"pc_type": "gamg"})
         return opts
 
-    def _make_solver(self, F, kind: str):
-        from dolfinx.fem.petsc import NonlinearProblem
+    def _make_solver(self, transient: bool) -> NewtonSolver:
+        import ufl
+        from dolfinx import fem
 
-        return NonlinearProblem(F, self.T, petsc_options_prefix=f"{self._prefix}{kind}_",
-                                petsc_options=self._petsc_options(kind == "steady"))
-
-    def _solve(self, solver, where: str) -> int:
-        from petsc4py import PETSc
-
-        solver.solve()
-        snes = solver.solver
-        reason = snes.getConvergedReason()
-        its = snes.getIterationNumber()
-        if reason <= 0 or not np.all(np.isfinite(self.T.x.array)):
-            names = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
-            ksp_reason = snes.getKSP().getConvergedReason()
-            knames = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
-            raise ConvergenceError(
-                "thermal Newton (SNES)",
-                f"{names.get(reason, '?')} ({reason}); last KSP {knames.get(ksp_reason, '?')} ({ksp_reason})",
-                step=where, iteration=its, residual=snes.getFunctionNorm(),
-            )
-        return its
+        sp = self._split
+        F = sp["F_nl_transient"] if transient else sp["F_nl"]
+        if isinstance(F, int):  # no sources, no exchange, constant properties: F_nl vanishes
+            F = fem.Constant(self.domain.mesh, 0.0) * ufl.TestFunction(self.V) * self._dx
+        dF = ufl.algorithms.expand_derivatives(ufl.derivative(F, self.T))
+        J = None if dF.empty() else fem.form(dF)
+        opts = self._petsc_options(steady=not transient)
+        return NewtonSolver(
+            self.T, fem.form(F), J,
+            fem.form(sp["mass"]) if (transient and sp["mass"] is not None) else None,
+            fem.form(sp["stiffness"]) if sp["stiffness"] is not None else None,
+            fem.form(sp["pattern"]), f"{self._prefix}{'transient' if transient else 'steady'}_", opts,
+            iterative=opts["ksp_type"] != "preonly",
+        )
 
     # ------------------------------------------------------------------------------------------
     # quantities
@@ -343,9 +350,11 @@ class ThermalProblem:
         """Steady state (from the current T as initial guess). Raises ConvergenceError when Newton
         fails, e.g. when hysteresis grows faster with T than the losses (thermal runaway)."""
         if self._steady_solver is None:
-            self._steady_solver = self._make_solver(self._F_steady, "steady")
+            self._steady_solver = self._make_solver(transient=False)
         self._t.value = self.time_s
-        its = self._solve(self._steady_solver, "steady state (no steady solution if the heating runs away)")
+        self._steady_solver.set_time_terms(0.0, None)
+        its = self._steady_solver.solve("steady state (no steady solution if the heating runs away)",
+                                        linesearch="bt")
         self._T_n.x.array[:] = self.T.x.array
         self._a[0].value, self._a[1].value, self._a[2].value = 0.0, 0.0, 0.0  # stored = 0 in the balance
         rec = self._record(0, 0.0, 0, its, math.nan, self.heat_balance())
@@ -384,7 +393,11 @@ class ThermalProblem:
         self._t.value = t_new
         self._predict(t_new)
         self.T.x.array[:] = self._T_pred.x.array
-        its = self._solve(self._transient_solver, f"t = {t_new:.6g} s (dt = {dt:.4g} s)")
+        self._hist.x.array[:] = (a[1] * self._T_n.x.array + a[2] * self._T_nm1.x.array) / dt
+        if self._transient_solver is None:
+            self._transient_solver = self._make_solver(transient=True)
+        self._transient_solver.set_time_terms(a[0] / dt, self._hist.x.petsc_vec)
+        its = self._transient_solver.solve(f"t = {t_new:.6g} s (dt = {dt:.4g} s)")
         err = math.nan
         if len(ts) >= 3:
             f = estimator_factor(dt, ts[0] - ts[1], ts[1] - ts[2])
