@@ -131,6 +131,38 @@ class ThermalDomain:
 
     # ------------------------------------------------------------------------------------------
     @classmethod
+    def from_gear_mesh(cls, gear_mesh, body: str = "pinion", flux_flanks: str = "drive") -> ThermalDomain:
+        """The domain of one body of a :class:`gearfem.geometry.mesh.GearMesh`.
+
+        Uses ``gear_mesh.mesh``, ``facet_tags``, ``cell_tags``, ``physical_groups`` (name ->
+        (dim, tag)) and ``geometry.teeth_<body>``. When the mesh holds both bodies, the body's
+        cells are extracted as a submesh (its facet tags transferred); a single-body mesh
+        (``[mesh] bodies = ["pinion"]``) is used as it is and is better balanced in parallel.
+        """
+        import dolfinx
+
+        msh = gear_mesh.mesh
+        tdim = msh.topology.dim
+        groups = {name: (int(pg.tag),) for name, pg in gear_mesh.physical_groups.items()
+                  if int(pg.dim) == tdim - 1 and name.startswith(f"{body}_")}
+        if body not in gear_mesh.physical_groups:
+            raise ParameterError("mesh.bodies", tuple(gear_mesh.physical_groups)[:4], f"a mesh containing {body!r}")
+        body_tag = int(gear_mesh.physical_groups[body].tag)
+        ct = gear_mesh.cell_tags
+        other = np.count_nonzero(ct.values != body_tag)
+        from mpi4py import MPI
+
+        ft = gear_mesh.facet_tags
+        if msh.comm.allreduce(int(other), op=MPI.SUM) > 0:
+            cells = np.sort(ct.find(body_tag)).astype(np.int32)
+            sub, cell_map, vertex_map, _ = dolfinx.mesh.create_submesh(msh, tdim, cells)
+            msh.topology.create_connectivity(tdim - 1, tdim)
+            ft = dolfinx.mesh.transfer_meshtags_to_submesh(ft, sub, vertex_map, cell_map)
+            msh = sub
+        total = getattr(gear_mesh.geometry, f"teeth_{body}", None)
+        return cls.from_gear_groups(msh, ft, groups, body=body, total_teeth=total, flux_flanks=flux_flanks)
+
+    @classmethod
     def from_gear_groups(
         cls,
         mesh,

@@ -44,14 +44,16 @@ class ThermalOptions:
         output_times_s: Times at which fields are written (and steps land exactly); the end is always written.
 
     Discretisation and solver:
-        degree: Lagrange degree of the temperature, 1 or 2. Default 1: on the contact-resolved
-            gear mesh P1 and P2 give the same temperatures to well below the step-size error
-            (measured; see the benchmark), at a fraction of the cost.
-        newton_rtol, newton_atol_W: SNES tolerances (residual in W).
+        degree: Lagrange degree of the temperature, 1 or 2. Default 2: on the default gear mesh
+            (3 element layers across the face width, like the thesis's quadratic model) P2 is within
+            0.35 K of a P2 solution on a mesh with 10 layers and finer web/tooth sizes, while P1 is
+            off by up to 3 K (tip, coast flank) at 40 W per gear (benchmarks/thermal.py).
+        newton_rtol, newton_atol_W: Newton tolerances on ||F||_2 (residual in W per test function).
         newton_max_it: Newton iterations per step.
-        linear_solver: ``"iterative"`` (CG, GMRES with k(T), preconditioned by block Jacobi with
-            incomplete Cholesky/LU blocks; cheapest measured on the gear meshes), ``"direct"`` (MUMPS
-            LU) or ``"multigrid"`` (CG/GMRES with hypre BoomerAMG or PETSc GAMG, for large meshes).
+        linear_solver: ``"direct"`` (CG, GMRES with k(T), preconditioned by a MUMPS Cholesky/LU
+            factorisation that is reused while dt changes little; fastest measured on the gear
+            meshes), ``"iterative"`` (block Jacobi with incomplete Cholesky/LU blocks, no
+            factorisation) or ``"multigrid"`` (hypre BoomerAMG or PETSc GAMG, for large meshes).
     """
 
     ambient_C: float = 23.0
@@ -77,11 +79,11 @@ class ThermalOptions:
     time_error_K: float = 0.05
     output_times_s: tuple[float, ...] = ()
 
-    degree: int = 1
+    degree: int = 2
     newton_rtol: float = 1.0e-10
     newton_atol_W: float = 1.0e-10
     newton_max_it: int = 25
-    linear_solver: str = "iterative"
+    linear_solver: str = "direct"
 
     def __post_init__(self) -> None:
         require_range("thermal.ambient_C", self.ambient_C, -273.15, 1000.0, lo_open=True, unit="C")

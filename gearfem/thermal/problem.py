@@ -10,9 +10,9 @@ Strong form, temperature T in kelvin::
 with e(T) = rho int c_p dT (see :mod:`gearfem.thermal.properties`). Lagrange elements of degree
 1 or 2, explicit quadrature degrees (volume 2p+1, boundary 2p+3; exact for radiation with p = 1)
 shared by residual and heat balance. Time: variable-step BDF2 with a backward-Euler first step
-and local error control (:mod:`gearfem.thermal.timestepping`). Each step is solved by PETSc SNES
-(Newton, full steps) on the residual below; the Jacobian is UFL's exact derivative (radiation,
-H(T), k(T), c_p(T), film-temperature h(T)).
+and local error control (:mod:`gearfem.thermal.timestepping`). Each step is solved by Newton's
+method around a PETSc KSP (:mod:`gearfem.thermal.newton`); the Jacobian is UFL's exact derivative
+(radiation, H(T), k(T), c_p(T), film-temperature h(T)), its constant part assembled once.
 """
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ class ThermalProblem:
         sources: Hysteresis and friction (and prescribed) sources.
         boundary: Surface exchanges of teeth, sides, bore.
         options: Discretisation, time stepping, solver tolerances, initial temperature.
-        petsc_options_prefix: Prefix of the SNES/KSP/PC options (unique per problem).
+        petsc_options_prefix: Prefix of the KSP/PC options (unique per problem).
 
     The unknown is :attr:`T` (kelvin); :attr:`time_s` the time of its current value.
     """
@@ -236,24 +236,20 @@ class ThermalProblem:
         im = self.V.dofmap.index_map
         return im.size_global * self.V.dofmap.index_map_bs
 
-    def _petsc_options(self, steady: bool) -> dict[str, Any]:
-        """SNES/KSP/PC options (under the problem's prefix), see ``ThermalOptions.linear_solver``."""
+    def _petsc_options(self) -> dict[str, Any]:
+        """KSP/PC options (under the problem's prefix), see ``ThermalOptions.linear_solver``."""
         o = self.options
-        opts: dict[str, Any] = {
-            "snes_type": "newtonls",
-            # transient: full Newton steps from the extrapolated predictor; steady: backtracking,
-            # since the start (uniform ambient) can be far from the solution (set again per solve)
-            "snes_linesearch_type": "bt" if steady else "basic",
-            "snes_rtol": o.newton_rtol,
-            "snes_atol": o.newton_atol_W,
-            "snes_stol": 1e-14,  # ||dT|| < 1e-14 ||T||: no further progress possible
-            "snes_max_it": o.newton_max_it,
-        }
+        opts: dict[str, Any] = {}
         # CG for the symmetric Jacobian (constant k: radiation, H(T), c_p(T), h(T) keep it
         # symmetric), GMRES when k(T) adds the non-symmetric k'(T) grad T term.
         krylov = {"ksp_type": "cg" if self._symmetric else "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 2000}
         if o.linear_solver == "direct":
-            opts.update({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"})
+            # Krylov iterations preconditioned by a MUMPS factorisation that is kept while
+            # alpha = a0/dt stays close to its value at factorisation (NewtonSolver.REBUILD_RATIO):
+            # one or two iterations when only radiation/H(T) changed, a few after a small change
+            # of dt; refactorised otherwise. Cholesky (LDL^T) for the symmetric Jacobian.
+            opts.update(krylov | {"pc_type": "cholesky" if self._symmetric else "lu",
+                                  "pc_factor_mat_solver_type": "mumps"})
         elif o.linear_solver == "iterative":
             # block Jacobi (one block per rank) with incomplete Cholesky / LU(0) blocks: cheapest on
             # the thermal meshes measured (mass-dominated at small steps), see benchmarks/thermal.py
@@ -278,13 +274,14 @@ class ThermalProblem:
             F = fem.Constant(self.domain.mesh, 0.0) * ufl.TestFunction(self.V) * self._dx
         dF = ufl.algorithms.expand_derivatives(ufl.derivative(F, self.T))
         J = None if dF.empty() else fem.form(dF)
-        opts = self._petsc_options(steady=not transient)
+        o = self.options
         return NewtonSolver(
             self.T, fem.form(F), J,
             fem.form(sp["mass"]) if (transient and sp["mass"] is not None) else None,
             fem.form(sp["stiffness"]) if sp["stiffness"] is not None else None,
-            fem.form(sp["pattern"]), f"{self._prefix}{'transient' if transient else 'steady'}_", opts,
-            iterative=opts["ksp_type"] != "preonly",
+            fem.form(sp["pattern"]), f"{self._prefix}{'transient' if transient else 'steady'}_",
+            self._petsc_options(), rtol=o.newton_rtol, atol_W=o.newton_atol_W, max_it=o.newton_max_it,
+            reuse_preconditioner=transient and o.linear_solver == "direct",
         )
 
     # ------------------------------------------------------------------------------------------
