@@ -23,6 +23,7 @@ class ThermalOptions:
     """Options of the thermal model (the ``[thermal]`` table). SI units, temperatures in C.
 
     Boundary model:
+        body: The gear whose temperature is computed, ``"pinion"`` or ``"wheel"``.
         ambient_C: Air and surroundings temperature (thesis: 23 C).
         initial_C: Initial temperature of the gear (None: ambient).
         emissivity: Radiation emissivity of teeth and sides (None: the material's, 0.9).
@@ -56,6 +57,7 @@ class ThermalOptions:
             factorisation) or ``"multigrid"`` (hypre BoomerAMG or PETSc GAMG, for large meshes).
     """
 
+    body: str = "pinion"
     ambient_C: float = 23.0
     initial_C: float | None = None
     emissivity: float | None = None
@@ -86,6 +88,7 @@ class ThermalOptions:
     linear_solver: str = "direct"
 
     def __post_init__(self) -> None:
+        require_choice("thermal.body", self.body, ("pinion", "wheel"))
         require_range("thermal.ambient_C", self.ambient_C, -273.15, 1000.0, lo_open=True, unit="C")
         if self.initial_C is not None:
             require_range("thermal.initial_C", self.initial_C, -273.15, 1000.0, lo_open=True, unit="C")

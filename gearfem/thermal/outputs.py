@@ -112,7 +112,7 @@ def _jsonable(obj: Any) -> Any:
 
 
 def plot_history(rows: list[dict[str, Any]], path: Path, title: str = "") -> None:
-    """Temperatures (C) versus time (s) of every ``T_*_C`` column."""
+    """Temperatures (C) of every ``T_*_C`` column versus time: linear and logarithmic time axes."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -121,17 +121,21 @@ def plot_history(rows: list[dict[str, Any]], path: Path, title: str = "") -> Non
     if not rows:
         return
     t = [r["time_s"] for r in rows]
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for key in rows[0]:
-        if key.startswith("T_") and key.endswith("_C"):
-            style = "-" if key in ("T_max_surface_C", "T_mean_bulk_C") else "--"
-            ax.plot(t, [r[key] for r in rows], style, label=key[2:-2].replace("_", " "))
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("temperature (C)")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5), sharey=True)
+    for ax, log in zip(axes, (False, True)):
+        for key in rows[0]:
+            if key.startswith("T_") and key.endswith("_C"):
+                style = "-" if key in ("T_max_surface_C", "T_mean_bulk_C") else "--"
+                tt, TT = zip(*[(ti, r[key]) for ti, r in zip(t, rows) if ti > 0 or not log])
+                ax.plot(tt, TT, style, label=key[2:-2].replace("_", " "))
+        ax.set_xlabel("time (s)" + (", log scale" if log else ""))
+        if log:
+            ax.set_xscale("log")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("temperature (C)")
+    axes[1].legend(fontsize=8, ncol=2)
     if title:
-        ax.set_title(title)
+        fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -188,14 +188,28 @@ class ThermalProblem:
         self._split = {"F_nl": F_nl, "F_nl_transient": F_nl_transient, "mass": mass, "stiffness": stiffness,
                        "pattern": u * v * dx}
 
-        # balance forms (v = 1)
+        # Balance: the residual's terms tested with v = 1. Terms linear in T with constant
+        # coefficients (storage with constant c_p, convection with constant h) are evaluated as
+        # dot products with the weight vectors int phi_i (exactly the same sums); the rest as forms.
         self._content = fem.form(e(T) * dx)
-        self._balance_forms: dict[str, Any] = {"stored_W": fem.form(stored * dx)}
+        self._w_vol = self._weights(v * dx)
+        self._fast_stored = self._cp_const
+        self._rho_cp = rho * float(cp.values[0])
+        self._balance_forms: dict[str, Any] = {} if self._fast_stored else {"stored_W": fem.form(stored * dx)}
         names = {"hysteresis": "hysteresis_W", "volumetric": "volumetric_W"}
         for name, q in vol.items():
             self._balance_forms[names[name]] = fem.form(q * dx)
+        self._fast_conv = []  # (h, T_fluid, weights, area) per role with constant h
+        exchanges = boundary.exchanges()
+        if all(not callable(exchanges[r].h_W_m2K) for r in ("teeth", "sides")):
+            for role in ("teeth", "sides"):
+                if getattr(domain, role):
+                    ex = exchanges[role]
+                    tags = domain.role_tags(role)
+                    self._fast_conv.append((float(ex.h_W_m2K), ex.fluid_K, self._weights(v * ds(tags)),
+                                            self._integrate(1.0 * ds(tags))))
         for name, terms in surf.items():
-            if terms:
+            if terms and not (name == "convected" and self._fast_conv):
                 self._balance_forms[f"{name}_W"] = fem.form(sum(q * m for q, m in terms))
 
         self._symmetric = kT.is_constant
@@ -206,12 +220,14 @@ class ThermalProblem:
         # probes
         fdim = mesh.topology.dim - 1
         self._volume = self._integrate(1.0 * dx)
-        self._T_mean = fem.form(T * dx)
+        self.volume_m3 = self._volume
+        self._role_areas = {role: self._integrate(1.0 * ds(domain.role_tags(role)))
+                            for role in ("teeth", "sides", "bore", "cuts") if getattr(domain, role)}
         self._surface_dofs = self._dofs(fdim, domain.teeth + domain.sides + domain.bore)
-        self._monitors = {}
+        self._monitors = {}  # name -> (weights int_S phi_i, area, dofs on S)
         for mon, groups in domain.monitors.items():
             area = self._integrate(1.0 * ds(domain.tags(groups)))
-            self._monitors[mon] = (fem.form(T * ds(domain.tags(groups))), area, self._dofs(fdim, groups))
+            self._monitors[mon] = (self._weights(v * ds(domain.tags(groups))), area, self._dofs(fdim, groups))
         self._controller = StepController(options.time_error_K, options.dt_min_s, options.dt_max_s)
 
     # ------------------------------------------------------------------------------------------
@@ -223,6 +239,19 @@ class ThermalProblem:
 
         return self.comm.allreduce(fem.assemble_scalar(fem.form(expr)), op=MPI.SUM)
 
+    def _weights(self, linear_form):
+        """The vector int phi_i (assembled once): w . T is the integral of T (exact, same quadrature)."""
+        from dolfinx import fem
+        from dolfinx.fem.petsc import assemble_vector
+        from petsc4py import PETSc
+
+        w = assemble_vector(fem.form(linear_form))
+        w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return w
+
+    def _dot(self, w, f) -> float:
+        return w.dot(f.x.petsc_vec)
+
     def _dofs(self, fdim: int, groups: tuple[str, ...]) -> np.ndarray:
         from dolfinx import fem
 
@@ -230,6 +259,10 @@ class ThermalProblem:
         dofs = fem.locate_dofs_topological(self.V, fdim, facets)
         n_owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
         return dofs[dofs < n_owned]
+
+    def role_areas_m2(self) -> dict[str, float]:
+        """Surface area of each role present (teeth, sides, bore, cuts), m^2."""
+        return dict(self._role_areas)
 
     @property
     def num_dofs(self) -> int:
@@ -293,6 +326,14 @@ class ThermalProblem:
         from mpi4py import MPI
 
         vals = {k: self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM) for k, f in self._balance_forms.items()}
+        if self._fast_stored:
+            a0, a1, a2 = (float(c.value) for c in self._a)
+            dt = float(self._dt.value)
+            w = self._w_vol
+            vals["stored_W"] = self._rho_cp * (a0 * self._dot(w, self.T) + a1 * self._dot(w, self._T_n)
+                                               + a2 * self._dot(w, self._T_nm1)) / dt
+        if self._fast_conv:
+            vals["convected_W"] = sum(h * (self._dot(w, self.T) - Tf * area) for h, Tf, w, area in self._fast_conv)
         return HeatBalance(**vals)
 
     def temperatures_K(self) -> dict[str, float]:
@@ -306,10 +347,9 @@ class ThermalProblem:
             local = float(arr[dofs].max()) if len(dofs) else -math.inf
             return self.comm.allreduce(local, op=MPI.MAX)
 
-        out = {"max_surface": gmax(self._surface_dofs),
-               "mean_bulk": self.comm.allreduce(fem.assemble_scalar(self._T_mean), op=MPI.SUM) / self._volume}
-        for mon, (form, area, dofs) in self._monitors.items():
-            out[f"{mon}_mean"] = self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM) / area
+        out = {"max_surface": gmax(self._surface_dofs), "mean_bulk": self._dot(self._w_vol, self.T) / self._volume}
+        for mon, (w, area, dofs) in self._monitors.items():
+            out[f"{mon}_mean"] = self._dot(w, self.T) / area
             out[f"{mon}_max"] = gmax(dofs)
         return out
 
@@ -394,7 +434,7 @@ class ThermalProblem:
         if self._transient_solver is None:
             self._transient_solver = self._make_solver(transient=True)
         self._transient_solver.set_time_terms(a[0] / dt, self._hist.x.petsc_vec)
-        its = self._transient_solver.solve(f"t = {t_new:.6g} s (dt = {dt:.4g} s)")
+        its = self._transient_solver.solve(f"t = {t_new:.6g} s (dt = {dt:.4g} s)", chord=True)
         err = math.nan
         if len(ts) >= 3:
             f = estimator_factor(dt, ts[0] - ts[1], ts[1] - ts[2])

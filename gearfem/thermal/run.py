@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -15,10 +16,13 @@ log = logging.getLogger(__name__)
 
 
 def run_and_write(problem: ThermalProblem, out_dir: str | Path, extra: dict[str, Any] | None = None,
-                  write_fields: bool = True) -> tuple[list[StepRecord], dict[str, Any]]:
+                  write_fields: bool = True,
+                  more: Callable[[list[StepRecord]], dict[str, Any]] | None = None,
+                  ) -> tuple[list[StepRecord], dict[str, Any]]:
     """Solve (transient or steady, as ``problem.options.mode`` says) and write CSV, VTX, plot, summary.
 
-    The summary (``thermal_summary.json``) is written last: a run that fails leaves none.
+    ``extra`` and ``more(records)`` (computed after the run, collectively) are added to the
+    summary. The summary (``thermal_summary.json``) is written last: a run that fails leaves none.
     """
     t0 = time.perf_counter()
     with ThermalWriter(out_dir, problem, write_fields=write_fields) as writer:
@@ -30,6 +34,8 @@ def run_and_write(problem: ThermalProblem, out_dir: str | Path, extra: dict[str,
             records = problem.run(observer=writer)
         info = {"wall_time_s": time.perf_counter() - t0, "mode": problem.options.mode}
         info.update(extra or {})
+        if more is not None:
+            info.update(more(records))
         summ = summary(problem, records, info)
         writer.finish(summ)
     last = records[-1]
