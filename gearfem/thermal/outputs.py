@@ -126,10 +126,12 @@ def plot_history(rows: list[dict[str, Any]], path: Path, title: str = "") -> Non
         for key in rows[0]:
             if key.startswith("T_") and key.endswith("_C"):
                 style = "-" if key in ("T_max_surface_C", "T_mean_bulk_C") else "--"
-                tt, TT = zip(*[(ti, r[key]) for ti, r in zip(t, rows) if ti > 0 or not log])
-                ax.plot(tt, TT, style, label=key[2:-2].replace("_", " "))
+                pts = [(ti, r[key]) for ti, r in zip(t, rows) if ti > 0 or not log]
+                if pts:
+                    ax.plot(*zip(*pts), style, marker="o" if len(pts) == 1 else None,
+                            label=key[2:-2].replace("_", " "))
         ax.set_xlabel("time (s)" + (", log scale" if log else ""))
-        if log:
+        if log and any(ti > 0 for ti in t):
             ax.set_xscale("log")
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel("temperature (C)")
