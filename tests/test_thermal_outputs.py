@@ -30,7 +30,8 @@ def test_run_writes_complete_outputs(tmp_out):
     records, summ = run_and_write(prob, tmp_out / "run")
     out = tmp_out / "run"
     if MPI.COMM_WORLD.rank == 0:
-        rows = list(csv.DictReader(open(out / "thermal_history.csv")))
+        with open(out / "thermal_history.csv") as fh:
+            rows = list(csv.DictReader(fh))
         assert len(rows) == len(records) and float(rows[-1]["time_s"]) == 60.0
         for col in ("T_max_surface_C", "T_mean_bulk_C", "T_flank_mean_C", "T_flank_max_C", "T_root_mean_C",
                     "T_root_max_C", "generated_W", "stored_W", "convected_W", "radiated_W", "imbalance_W"):

@@ -135,7 +135,7 @@ def plot_history(rows: list[dict[str, Any]], path: Path, title: str = "") -> Non
             ax.set_xscale("log")
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel("temperature (C)")
-    axes[1].legend(fontsize=8, ncol=2)
+    axes[0].legend(fontsize=8, ncol=2)
     if title:
         fig.suptitle(title)
     fig.tight_layout()
