@@ -248,3 +248,35 @@ def test_hysteresis_source_uses_local_temperature():
     prob.solve_steady()
     T_ss = brentq(lambda T: H(T) * U * f * vol - h * area * (T - TA), TA, TA + 50.0)  # the lower root
     assert prob.temperatures_K()["mean_bulk"] == pytest.approx(T_ss, abs=1e-3)
+
+
+def test_lumped_estimate_equals_high_conductivity_steady_state():
+    """With k -> large the steady FE solution is uniform and solves the same scalar balance as the
+    one-node estimate used for plausibility checks (convection + radiation)."""
+    from gearfem.thermal.case import lumped_estimate
+
+    dom, mat, vol, area = _lumped_box()
+    P = 2.0
+    opts = ThermalOptions(h_teeth_W_m2K=20.0, h_sides_W_m2K=30.0, mode="steady")
+    prob = ThermalProblem(dom, mat, HeatSources(volumetric_W_m3=P / vol),
+                          ThermalBoundary.from_options(opts, mat, 0.0, None), opts, petsc_options_prefix="lumpest_")
+    rec = prob.solve_steady()
+    est = lumped_estimate(prob, rec.balance.generated_W)
+    assert est["area_teeth_m2"] == pytest.approx(4 * 0.02 * 0.01) and est["area_sides_m2"] == pytest.approx(8e-4)
+    assert rec.temperatures_K["mean_bulk"] - TA == pytest.approx(est["theta_ss_K"], rel=1e-3)
+    assert est["tau_s"] == pytest.approx(mat.density_kg_m3 * mat.specific_heat_J_kgK * vol * est["theta_ss_K"] / P)
+
+
+def test_newton_failure_raises_convergence_error():
+    """A Newton budget too small for the radiation nonlinearity fails with the reason and the time."""
+    from gearfem.errors import ConvergenceError
+
+    dom, mat, vol, area = _lumped_box()
+    opts = ThermalOptions(convection="none", emissivity=0.9, initial_C=500.0, duration_s=10.0,
+                          time_stepping="fixed", dt_initial_s=5.0, newton_max_it=1, newton_rtol=1e-14,
+                          newton_atol_W=1e-14)
+    prob = ThermalProblem(dom, mat, HeatSources(), ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
+                          petsc_options_prefix="fail_")
+    with pytest.raises(ConvergenceError) as err:
+        prob.run()
+    assert "DIVERGED_MAX_IT" in err.value.reason and "t = 5 s" in err.value.step
