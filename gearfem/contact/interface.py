@@ -1,0 +1,343 @@
+"""A contact interface between two surfaces: search, segmentation, gaps, tractions, linearisation.
+
+Formulation (Gauss-point-to-surface with segmentation, two-pass):
+
+* Each pass takes one surface as slave and the other as master. Each owned slave facet is split
+  into the pieces covered by nearby master facets (:func:`~gearfem.contact.kinematics.segment`),
+  and a triangle rule is placed on every piece. At each slave point the gap
+  g = (x_s − x_m(ζ))·n_m is taken from the closest-point projection ζ onto the curved master facet
+  in the current configuration (body displacement plus rigid motion).
+* Pressure p = ⟨λ − εg⟩ (λ = 0: penalty). λ lives at the standard Gauss points of each slave facet
+  and is carried to the segment points by the facet's linear least-squares fit (exact for uniform
+  and linear multiplier fields), so the multipliers survive re-segmentation when surfaces slide.
+* Traction on the slave t = p (n_m − μ ŝ); the master receives −t at the projected point.
+* Virtual work: ∫ t·(δu_s − δu_m) dA with δg = (δu_s − δu_m)·n (normal and projection point frozen
+  in the linearisation: the tangent is ε ∫ [ρ][γ]ᵀ dA with ρ = N⊗(n − μŝ), γ = N⊗n on the slave and
+  their negatives with N(ζ) on the master, rotated into each body frame. It omits the variation
+  of n and ζ (curvature terms): Newton converges superlinearly rather than quadratically on curved
+  surfaces; the residual is exact.)
+
+With segmentation, both the slave and the master integrals of a uniform pressure over flat facets
+are exact, so the contact patch test is passed to solver tolerance with non-matching meshes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from gearfem.contact.kinematics import _affine_coords, evaluate, project, segment, unit_normal
+from gearfem.contact.options import ContactOptions
+from gearfem.contact.rigid import RigidMotion
+from gearfem.contact.surface import ContactSurface
+
+
+@dataclasses.dataclass
+class ContactPoints:
+    """Per-point state of one pass on this rank (all arrays of length n unless noted)."""
+
+    slave: str
+    master: str
+    facet: np.ndarray  # local slave facet
+    mfacet: np.ndarray  # gathered master facet
+    xi: np.ndarray  # (n, 2) slave reference coordinates
+    zeta: np.ndarray  # (n, 2) master reference coordinates
+    dA: np.ndarray  # integration weight incl. the pass weight, m^2
+    x: np.ndarray  # (n, 3) current slave point
+    normal: np.ndarray  # (n, 3) master outward normal
+    gap: np.ndarray  # m (negative: penetration)
+    pressure: np.ndarray  # Pa
+    active: np.ndarray  # bool
+    slip_direction: np.ndarray  # (n, 3) ŝ (regularised unit slip direction)
+    traction: np.ndarray  # (n, 3) traction on the slave, Pa
+    eps: np.ndarray  # penalty, Pa/m
+    Ns: np.ndarray  # (n, nn)
+    Nm: np.ndarray  # (n, nn)
+
+    @property
+    def num_points(self) -> int:
+        return len(self.dA)
+
+
+@dataclasses.dataclass
+class _Pass:
+    slave: ContactSurface
+    master: ContactSurface
+    weight: float
+    eps: np.ndarray  # per local slave facet
+    lam: np.ndarray  # (nf, n_fixed) multipliers at the fixed points
+
+
+class ContactInterface:
+    """Two surfaces that may touch, with their penalty parameters and multipliers.
+
+    Args:
+        a, b: The two surfaces (different bodies).
+        options: Contact options.
+        youngs_modulus_Pa: dict body name -> Young's modulus, used to scale the penalty.
+    """
+
+    def __init__(self, a: ContactSurface, b: ContactSurface, options: ContactOptions,
+                 youngs_modulus_Pa: dict[str, float]) -> None:
+        self.a, self.b, self.options = a, b, options
+        shared = np.intersect1d(a.gathered().blocks, b.gathered().blocks)
+        if len(shared):
+            from gearfem.errors import GearfemError
+
+            raise GearfemError(
+                f"contact surfaces {a.name!r} and {b.name!r} share {len(shared)} mesh node(s): the bodies are "
+                "joined in the mesh (coincident vertices fused by the mesher); mesh them as separate volumes"
+            )
+        roles = [(a, b), (b, a)] if options.two_pass else [(a, b)]
+        w = 0.5 if options.two_pass else 1.0
+        self.fixed_points, self.fixed_weights = a.ref.quadrature(max(2, options.quadrature_degree))
+        self.fit = a.ref.linear_fit(self.fixed_points)  # (3, n_fixed)
+        self.passes: list[_Pass] = []
+        for s, m in roles:
+            if options.penalty_Pa_m is not None:
+                eps = np.full(s.local.num_facets, options.penalty_Pa_m)
+            else:
+                eps = options.penalty_factor * youngs_modulus_Pa[s.body] / s.local.size
+            lam = np.zeros((s.local.num_facets, len(self.fixed_points)))
+            self.passes.append(_Pass(s, m, w, eps, lam))
+        self._tri_points, self._tri_weights = _triangle_rule(options.quadrature_degree)
+        self._segments: list | None = None
+
+    # -------------------------------------------------------------------------------------------
+    def reset_multipliers(self) -> None:
+        for ps in self.passes:
+            ps.lam[:] = 0.0
+
+    def penetration_tolerance(self) -> float:
+        """Allowed penetration (m) for the augmented Lagrangian stop (global, same on all ranks)."""
+        if self.options.penetration_tolerance_m is not None:
+            return self.options.penetration_tolerance_m
+        hmin = min(
+            self.a.comm.allreduce(float(ps.slave.local.size.min(initial=np.inf)), op=_mpi_min())
+            for ps in self.passes
+        )
+        return self.options.penetration_tolerance_rel * hmin
+
+    # -------------------------------------------------------------------------------------------
+    def _nodes(self, surf: ContactSurface, u_array: np.ndarray, motion: RigidMotion, gathered: bool):
+        if gathered:
+            data = surf.gathered()
+            u = surf.gathered_displacement(u_array)
+        else:
+            data = surf.local
+            u = surf.local_displacement(u_array)
+        return data, motion.place(data.X + u)
+
+    def _candidate_pairs(self, ps: _Pass, xs: np.ndarray, xm: np.ndarray, mdata) -> tuple[np.ndarray, np.ndarray]:
+        """Slave/master facet pairs that are close and face each other."""
+        nv = ps.slave.ref.num_vertices
+        if xs.shape[0] == 0 or xm.shape[0] == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        cs, cm = xs[:, :nv].mean(axis=1), xm[:, :nv].mean(axis=1)
+        rs = np.linalg.norm(xs[:, :nv] - cs[:, None], axis=2).max(axis=1)
+        rm = np.linalg.norm(xm[:, :nv] - cm[:, None], axis=2).max(axis=1)
+        margin = self.options.search_distance_rel * np.maximum(ps.slave.local.size, 1e-300)
+        tree = cKDTree(cm)
+        lists = tree.query_ball_point(cs, rs + rm.max() + margin)
+        counts = np.fromiter((len(v) for v in lists), dtype=np.int64, count=len(lists))
+        si = np.repeat(np.arange(len(lists)), counts)
+        mj = np.fromiter((j for v in lists for j in v), dtype=np.int64, count=int(counts.sum()))
+        if len(si) == 0:
+            return si, mj
+        ns = _facet_normal(ps.slave.ref, xs, ps.slave.local.orientation)
+        nm = _facet_normal(ps.master.ref, xm, mdata.orientation)
+        cos_max = math.cos(math.radians(self.options.max_normal_angle_deg))
+        keep = np.einsum("pd,pd->p", ns[si], nm[mj]) < -cos_max
+        si, mj = si[keep], mj[keep]
+        # signed distances of the slave vertices from the master facet plane
+        d = np.einsum("pkd,pd->pk", xs[si, :nv] - cm[mj][:, None, :], nm[mj])
+        keep = (d.min(axis=1) < margin[si]) & (d.max(axis=1) > -2.0 * rm[mj] - margin[si])
+        return si[keep], mj[keep]
+
+    def update_segmentation(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> None:
+        """Find candidate pairs and integration points for the current configuration (collective).
+
+        The segmentation is kept until the next call: within one Newton solve only gaps, normals and
+        projections follow the iterates, so the residual is a piecewise-smooth function of u (a
+        re-segmentation re-lays the quadrature points and would make it jump at the level of the
+        quadrature error). Callers re-segment at the start of every solve (load step, position).
+        """
+        self._segments = []
+        for ps in self.passes:
+            ms, mm = motions[ps.slave.body], motions[ps.master.body]
+            _, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
+            mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
+            si, mj = self._candidate_pairs(ps, xs, xm, mdata)
+            nv = ps.slave.ref.num_vertices
+            pair, xi, wref = segment(ps.slave.ref, xs[si, :nv], xm[mj, :nv], self._tri_points, self._tri_weights)
+            self._segments.append((si[pair], mj[pair], xi, wref))
+
+    def evaluate(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> list[ContactPoints]:
+        """Contact state at all slave points of all passes for displacement ``u_array`` (collective).
+
+        Uses the segmentation of the last :meth:`update_segmentation` (made now if there is none).
+        """
+        if self._segments is None:
+            self.update_segmentation(u_array, motions)
+        out = []
+        for ps, (fs, fm, xi, wref) in zip(self.passes, self._segments):
+            ms, mm = motions[ps.slave.body], motions[ps.master.body]
+            sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
+            mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
+            out.append(self._points(ps, sdata, xs, mdata, xm, fs, fm, xi, wref, ms, mm))
+        return out
+
+    def _points(self, ps: _Pass, sdata, xs, mdata, xm, fs, fm, xi, wref, ms: RigidMotion, mm: RigidMotion) -> ContactPoints:
+        ref_s, ref_m = ps.slave.ref, ps.master.ref
+        n = len(fs)
+        x, _, _, Ns = evaluate(ref_s, xs[fs], xi)
+        _, T1, T2, _ = evaluate(ref_s, sdata.X[fs], xi)  # reference area scale (small strain)
+        jac = np.linalg.norm(np.cross(T1, T2), axis=1)
+        nv = ref_m.num_vertices
+        v = xm[fm, :nv]
+        zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[:, 0, :]
+        zeta, _ = project(ref_m, xm[fm], x, zeta0)
+        xmp, t1, t2, Nm = evaluate(ref_m, xm[fm], zeta)
+        normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
+        gap = np.einsum("pd,pd->p", x - xmp, normal)
+        eps = ps.eps[fs]
+        coef = np.einsum("kq,fq->fk", self.fit, ps.lam)  # linear fit per slave facet
+        lam = coef[fs, 0] + coef[fs, 1] * xi[:, 0] + coef[fs, 2] * xi[:, 1] if n else np.zeros(0)
+        trial = lam - eps * gap
+        active = trial > 0.0
+        pressure = np.where(active, trial, 0.0)
+        mu = self.options.friction_coefficient
+        if mu > 0.0 and n:
+            vrel = ms.velocity(x) - mm.velocity(x)
+            vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
+            s_hat = vt / np.sqrt(np.einsum("pd,pd->p", vt, vt) + self.options.slip_regularization_m_s**2)[:, None]
+        else:
+            s_hat = np.zeros((n, 3))
+        traction = pressure[:, None] * (normal - mu * s_hat)
+        return ContactPoints(ps.slave.name, ps.master.name, fs, fm, xi, zeta, ps.weight * wref * jac, x, normal,
+                             gap, pressure, active, s_hat, traction, eps, Ns, Nm)
+
+    # -------------------------------------------------------------------------------------------
+    def assemble(self, points: list[ContactPoints], motions: dict[str, RigidMotion], matrix: bool):
+        """Residual entries (dofs, values) and, if ``matrix``, tangent COO (rows, cols, values).
+
+        Residual convention: R = K u − f + R_c, with R_c = −∫ t·(N_s, −N_m) dA in body frames.
+        Dofs are global; Dirichlet-fixed dofs are left out.
+        """
+        rdofs, rvals, rows, cols, vals = [], [], [], [], []
+        mu = self.options.friction_coefficient
+        for ps, pts in zip(self.passes, points):
+            if pts.num_points == 0:
+                continue
+            sdata, mdata = ps.slave.local, ps.master.gathered()
+            Rs, Rm = motions[ps.slave.body].R, motions[ps.master.body].R
+            dirn = pts.normal - mu * pts.slip_direction
+            rho_s, rho_m = dirn @ Rs, -(dirn @ Rm)  # R^T v for row vectors
+            gam_s, gam_m = pts.normal @ Rs, -(pts.normal @ Rm)
+            nn = pts.Ns.shape[1]
+            dofs_s = 3 * sdata.blocks[pts.facet][:, :, None] + np.arange(3)  # (n, nn, 3)
+            dofs_m = 3 * mdata.blocks[pts.mfacet][:, :, None] + np.arange(3)
+            free_s = ~sdata.fixed[pts.facet]
+            free_m = ~mdata.fixed[pts.mfacet]
+            # rho vectors per point: (n, 2, nn, 3)
+            rho = np.stack([pts.Ns[:, :, None] * rho_s[:, None, :], pts.Nm[:, :, None] * rho_m[:, None, :]], axis=1)
+            free = np.stack([free_s, free_m], axis=1)
+            dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(len(pts.dA), -1)
+            rho = np.where(free, rho, 0.0).reshape(len(pts.dA), -1)
+            r = -(pts.dA * pts.pressure)[:, None] * rho
+            sel = pts.pressure > 0.0
+            rdofs.append(dofs[sel].ravel())
+            rvals.append(r[sel].ravel())
+            if matrix:
+                act = np.nonzero(pts.active)[0]
+                if len(act) == 0:
+                    continue
+                gam = np.stack([pts.Ns[:, :, None] * gam_s[:, None, :], pts.Nm[:, :, None] * gam_m[:, None, :]], axis=1)
+                gam = np.where(free, gam, 0.0).reshape(len(pts.dA), -1)
+                k = len(act)
+                m = dofs.shape[1]
+                local_ids, inv = np.unique(dofs[act].ravel(), return_inverse=True)
+                inv = inv.reshape(k, m)
+                ptr = np.repeat(np.arange(k), m)
+                B = sp.csr_matrix((rho[act].ravel(), (ptr, inv.ravel())), shape=(k, len(local_ids)))
+                C = sp.csr_matrix(((gam[act] * (pts.dA[act] * pts.eps[act])[:, None]).ravel(), (ptr, inv.ravel())),
+                                  shape=(k, len(local_ids)))
+                K = (B.T @ C).tocoo()
+                nz = K.data != 0.0
+                rows.append(local_ids[K.row[nz]])
+                cols.append(local_ids[K.col[nz]])
+                vals.append(K.data[nz])
+                del nn
+        cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)  # noqa: E731
+        res = (cat(rdofs, np.int64), cat(rvals, np.float64))
+        if not matrix:
+            return res, None
+        return res, (cat(rows, np.int64), cat(cols, np.int64), cat(vals, np.float64))
+
+    # -------------------------------------------------------------------------------------------
+    def update_multipliers(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
+        """Uzawa step λ ← ⟨λ − εg⟩ at the fixed points; returns the largest penetration (global, m)."""
+        worst = 0.0
+        for ps in self.passes:
+            ms, mm = motions[ps.slave.body], motions[ps.master.body]
+            sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
+            mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
+            si, mj = self._candidate_pairs(ps, xs, xm, mdata)
+            nf, nq = ps.lam.shape
+            gaps = np.full((nf, nq), np.inf)
+            if len(si):
+                q = len(self.fixed_points)
+                fs = np.repeat(si, q)
+                fm = np.repeat(mj, q)
+                xi = np.tile(self.fixed_points, (len(si), 1))
+                x = evaluate(ps.slave.ref, xs[fs], xi)[0]
+                nv = ps.master.ref.num_vertices
+                v = xm[fm, :nv]
+                zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[:, 0, :]
+                zeta, _ = project(ps.master.ref, xm[fm], x, zeta0)
+                inside = ps.master.ref.inside(zeta, tol=1e-9)
+                xmp, t1, t2, _ = evaluate(ps.master.ref, xm[fm], zeta)
+                normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
+                g = np.einsum("pd,pd->p", x - xmp, normal)
+                # a fixed point takes the gap from the master facet it projects into (smallest |g|)
+                key = fs * nq + np.tile(np.arange(q), len(si))
+                key, g = key[inside], g[inside]
+                order = np.lexsort((np.abs(g), key))
+                first = np.unique(key[order], return_index=True)[1]
+                chosen = order[first]
+                gaps.ravel()[key[chosen]] = g[chosen]
+            has = np.isfinite(gaps)
+            new = np.where(has, np.maximum(0.0, ps.lam - ps.eps[:, None] * np.where(has, gaps, 0.0)), 0.0)
+            pen = np.where(has & (new > 0.0), -gaps, 0.0)
+            worst = max(worst, float(pen.max(initial=0.0)))
+            ps.lam[:] = new
+        return self.a.comm.allreduce(worst, op=_mpi_max())
+
+
+def _facet_normal(ref, nodes: np.ndarray, orientation: np.ndarray) -> np.ndarray:
+    centre = np.tile(ref.reference_polygon.mean(axis=0), (nodes.shape[0], 1))
+    _, t1, t2, _ = evaluate(ref, nodes, centre)
+    return unit_normal(t1, t2, orientation)[0]
+
+
+def _triangle_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
+    import basix
+
+    pts, wts = basix.make_quadrature(basix.CellType.triangle, degree)
+    return np.asarray(pts), np.asarray(wts)
+
+
+def _mpi_max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+def _mpi_min():
+    from mpi4py import MPI
+
+    return MPI.MIN

@@ -1,0 +1,87 @@
+"""Contact and nonlinear-solver parameters (the ``[contact]`` table of a case file)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from gearfem.params import require_choice, require_int, require_nonnegative, require_positive, require_range
+
+
+@dataclasses.dataclass(frozen=True)
+class ContactOptions:
+    """How contact is enforced and how the nonlinear problem is solved.
+
+    Normal contact: penalty p = ε⟨−g⟩ or augmented Lagrangian p = ⟨λ − εg⟩ with Uzawa updates of λ
+    until the largest penetration is below the tolerance. ε = ``penalty_factor`` · E / h per slave
+    facet (E: Young's modulus of the slave body, h: the facet size) unless ``penalty_Pa_m`` is set.
+
+    Friction: Coulomb gross sliding, traction −μ p ŝ with ŝ = v_T / sqrt(|v_T|² + v_ε²) from the
+    bodies' kinematic relative velocity v_T (regularised near zero slip by v_ε =
+    ``slip_regularization_m_s``).
+
+    Attributes (units in names):
+        method: "penalty" or "augmented_lagrangian".
+        penalty_factor: dimensionless ε·h/E (default 1: with the augmented Lagrangian a soft penalty
+            keeps the pressure smooth; stiff penalties over-constrain Gauss-point contact on P2 and
+            make the pressure oscillate near the contact edge).
+        penalty_Pa_m: explicit ε in Pa/m (overrides the factor).
+        penetration_tolerance_rel: AL stop: max penetration / facet size.
+        penetration_tolerance_m: AL stop as a length (overrides the relative one).
+        max_uzawa: AL outer iterations before giving up (raises ConvergenceError).
+        friction_coefficient: Coulomb μ in [0, 2].
+        slip_regularization_m_s: v_ε.
+        two_pass: both surfaces act as slave in turn, each pass weighted 1/2.
+        quadrature_degree: degree of the triangle rule on each segment of a slave facet.
+        search_distance_rel: pairs farther apart than this many facet sizes are ignored.
+        max_normal_angle_deg: candidate pairs whose normals are not opposed within this angle are ignored.
+        newton_rtol, newton_atol_N: residual tolerances (relative to the internal force norm; absolute, N).
+        newton_max_it: Newton iterations per solve.
+        line_search: backtracking on the residual norm.
+        reuse_factorization: solve each Newton system with GMRES preconditioned by the LU factors of
+            an earlier Jacobian, refactoring only when GMRES needs more than ``max_krylov_its``
+            (the tangent changes only through the contact active set, so one factorization usually
+            serves a whole solve; the linear systems are still solved to ``krylov_rtol``). Factors
+            that needed more than ``refactor_krylov_its`` iterations are replaced at the next solve.
+    """
+
+    method: str = "augmented_lagrangian"
+    penalty_factor: float = 1.0
+    penalty_Pa_m: float | None = None
+    penetration_tolerance_rel: float = 0.01
+    penetration_tolerance_m: float | None = None
+    max_uzawa: int = 25
+    friction_coefficient: float = 0.0
+    slip_regularization_m_s: float = 1e-5
+    two_pass: bool = True
+    quadrature_degree: int = 4
+    search_distance_rel: float = 1.0
+    max_normal_angle_deg: float = 60.0
+    newton_rtol: float = 1e-9
+    newton_atol_N: float = 1e-12
+    newton_max_it: int = 40
+    line_search: bool = True
+    reuse_factorization: bool = True
+    max_krylov_its: int = 25
+    refactor_krylov_its: int = 4
+    krylov_rtol: float = 1e-12
+
+    def __post_init__(self) -> None:
+        require_choice("contact.method", self.method, ("penalty", "augmented_lagrangian"))
+        require_positive("contact.penalty_factor", self.penalty_factor)
+        if self.penalty_Pa_m is not None:
+            require_positive("contact.penalty_Pa_m", self.penalty_Pa_m)
+        require_range("contact.penetration_tolerance_rel", self.penetration_tolerance_rel, 0.0, 1.0, lo_open=True)
+        if self.penetration_tolerance_m is not None:
+            require_positive("contact.penetration_tolerance_m", self.penetration_tolerance_m)
+        require_int("contact.max_uzawa", self.max_uzawa, 1, 1000)
+        require_range("contact.friction_coefficient", self.friction_coefficient, 0.0, 2.0)
+        require_positive("contact.slip_regularization_m_s", self.slip_regularization_m_s)
+        require_int("contact.quadrature_degree", self.quadrature_degree, 1, 12)
+        require_positive("contact.search_distance_rel", self.search_distance_rel)
+        require_range("contact.max_normal_angle_deg", self.max_normal_angle_deg, 0.0, 90.0, lo_open=True)
+        require_range("contact.newton_rtol", self.newton_rtol, 0.0, 1.0, lo_open=True, hi_open=True)
+        require_nonnegative("contact.newton_atol_N", self.newton_atol_N)
+        require_int("contact.newton_max_it", self.newton_max_it, 1, 1000)
+        require_int("contact.max_krylov_its", self.max_krylov_its, 1, 10000)
+        require_int("contact.refactor_krylov_its", self.refactor_krylov_its, 1, 10000)
+        require_range("contact.krylov_rtol", self.krylov_rtol, 0.0, 1e-3, lo_open=True)

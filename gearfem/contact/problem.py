@@ -1,0 +1,340 @@
+"""Small-strain elasticity of several bodies in one mesh with contact between them.
+
+The elastic operator is assembled once (it is linear and constant in each body frame); contact
+adds a residual and a tangent that change with the configuration. Newton's method with
+backtracking line search solves R(u) = K u − f + R_c(u) = 0 with MUMPS LU on K + K_c (non-symmetric
+when there is friction). The augmented Lagrangian wraps Newton in Uzawa updates of the contact
+multipliers until the largest penetration is below the tolerance.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from collections.abc import Sequence
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from gearfem.contact.interface import ContactInterface, ContactPoints
+from gearfem.contact.options import ContactOptions
+from gearfem.contact.rigid import RigidMotion
+from gearfem.errors import ConvergenceError
+
+log = logging.getLogger(__name__)
+
+_KSP_REASONS = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
+
+
+def elastic_stress(u, mu, lmbda):
+    """Linear isotropic stress σ = 2μ ε(u) + λ tr(ε(u)) I (UFL)."""
+    eps = ufl.sym(ufl.grad(u))
+    return 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(len(u))
+
+
+@dataclasses.dataclass
+class SolveReport:
+    """What one contact solve did (all values global)."""
+
+    label: str
+    newton_iterations: int
+    uzawa_iterations: int
+    residual_norm: float
+    max_penetration_m: float
+    wall_time_s: float
+    linear_solves: int
+
+
+class ContactProblem:
+    """Elastic bodies + contact interfaces, solved by Newton (+ Uzawa for the augmented Lagrangian).
+
+    Args:
+        V: Vector Lagrange space (degree = mesh geometry degree) on the mesh holding all bodies.
+        mu, lmbda: Lamé parameters (floats, Constants or DG0 Functions), Pa.
+        bcs: Dirichlet conditions in the body frames (their values may be changed between solves).
+        interfaces: Contact interfaces.
+        motions: Rigid motion of every body by name (changeable between solves, :meth:`set_motion`).
+        options: Contact and Newton options.
+        traction_form: Optional linear form of external loads (N), assembled once.
+        petsc_options_prefix: Prefix of this problem's PETSc options (KSP/PC/MUMPS).
+    """
+
+    def __init__(
+        self,
+        V: fem.FunctionSpace,
+        mu,
+        lmbda,
+        bcs: Sequence[fem.DirichletBC],
+        interfaces: Sequence[ContactInterface],
+        motions: dict[str, RigidMotion],
+        options: ContactOptions,
+        traction_form=None,
+        petsc_options_prefix: str = "gearfem_contact_",
+    ) -> None:
+        self.V, self.options = V, options
+        self.comm: MPI.Comm = V.mesh.comm
+        self.bcs = list(bcs)
+        self.interfaces = list(interfaces)
+        self.motions = dict(motions)
+        self.u = fem.Function(V, name="displacement")
+        du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+        self.a = fem.form(ufl.inner(elastic_stress(du, mu, lmbda), ufl.sym(ufl.grad(v))) * ufl.dx)
+        self.K_full = fem_petsc.assemble_matrix(self.a)  # for residuals (no BC rows)
+        self.K_full.assemble()
+        self.K_bc = fem_petsc.assemble_matrix(self.a, bcs=self.bcs)  # Jacobian base (BC rows: identity)
+        self.K_bc.assemble()
+        self.f_ext = self.K_full.createVecLeft()
+        if traction_form is not None:
+            fem_petsc.assemble_vector(self.f_ext, fem.form(traction_form))
+            self.f_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._bc_rows = self._owned_bc_rows()
+        # Linear solver: GMRES preconditioned by MUMPS LU factors. When the factors are those of the
+        # current Jacobian GMRES converges in one iteration; with factorization reuse they may be
+        # those of an earlier Jacobian of the same problem (see ContactOptions.reuse_factorization).
+        self.ksp = PETSc.KSP().create(self.comm)
+        self.ksp.setOptionsPrefix(petsc_options_prefix)
+        opts = PETSc.Options()
+        defaults = {
+            "ksp_type": "gmres",  # Krylov wrapper around the (possibly lagged) direct solve
+            "ksp_gmres_restart": 100,
+            "ksp_pc_side": "right",  # residual-based stopping on the true residual
+            "pc_type": "lu",
+            "pc_factor_mat_solver_type": "mumps",
+            "mat_mumps_icntl_14": 200,  # workspace increase (%) for contact fill-in
+            "mat_mumps_icntl_24": 1,  # detect null pivots: report singular systems instead of garbage
+        }
+        for k, val in defaults.items():
+            if not opts.hasName(petsc_options_prefix + k):
+                opts[petsc_options_prefix + k] = val
+        self.ksp.setFromOptions()
+        self.ksp.setTolerances(rtol=options.krylov_rtol, atol=0.0, max_it=options.max_krylov_its)
+        self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        self._P: PETSc.Mat | None = None  # matrix whose factors precondition
+        self._refactor = False
+        self.factorizations = 0
+        self.linear_solves = 0
+        self.last_points: list[list[ContactPoints]] = []
+
+    # -------------------------------------------------------------------------------------------
+    def _owned_bc_rows(self) -> np.ndarray:
+        imap, bs = self.V.dofmap.index_map, self.V.dofmap.index_map_bs
+        n_owned = imap.size_local * bs
+        rows = []
+        for bc in self.bcs:
+            dofs, n = bc.dof_indices()
+            rows.append(dofs[:n])
+        loc = np.unique(np.concatenate(rows)) if rows else np.zeros(0, np.int32)
+        loc = loc[loc < n_owned]
+        return (loc + imap.local_range[0] * bs).astype(PETSc.IntType)
+
+    def fixed_mask(self) -> np.ndarray:
+        """Boolean mask of Dirichlet dofs over the local (owned + ghost) dof array."""
+        return fixed_mask(self.V, self.bcs)
+
+    def set_motion(self, body: str, motion: RigidMotion) -> None:
+        self.motions[body] = motion
+
+    def _apply_bc_values(self) -> None:
+        for bc in self.bcs:
+            bc.set(self.u.x.array)
+        self.u.x.scatter_forward()
+
+    # -------------------------------------------------------------------------------------------
+    def residual(self, u_vec: PETSc.Vec, matrix: bool):
+        """R(u) (PETSc Vec), contact points per interface, and the contact tangent COO data."""
+        u_loc = self.u.x.array
+        pts_all, coos = [], []
+        R = self.K_full.createVecLeft()
+        self.K_full.mult(u_vec, R)
+        R.axpy(-1.0, self.f_ext)
+        for itf in self.interfaces:
+            pts = itf.evaluate(u_loc, self.motions)
+            (rd, rv), coo = itf.assemble(pts, self.motions, matrix)
+            R.setValues(rd.astype(PETSc.IntType), rv, addv=PETSc.InsertMode.ADD_VALUES)
+            pts_all.append(pts)
+            coos.append(coo)
+        R.assemblyBegin()
+        R.assemblyEnd()
+        if len(self._bc_rows):
+            R.setValues(self._bc_rows, np.zeros(len(self._bc_rows)), addv=PETSc.InsertMode.INSERT_VALUES)
+            R.assemblyBegin()
+            R.assemblyEnd()
+        return R, pts_all, coos
+
+    def _jacobian(self, coos) -> PETSc.Mat:
+        rows = np.concatenate([c[0] for c in coos if c is not None] or [np.zeros(0, np.int64)])
+        cols = np.concatenate([c[1] for c in coos if c is not None] or [np.zeros(0, np.int64)])
+        vals = np.concatenate([c[2] for c in coos if c is not None] or [np.zeros(0)])
+        Kc = PETSc.Mat().create(self.comm)
+        Kc.setSizes(self.K_bc.getSizes())
+        Kc.setType(PETSc.Mat.Type.AIJ)
+        Kc.setPreallocationCOO(rows.astype(PETSc.IntType), cols.astype(PETSc.IntType))
+        Kc.setValuesCOO(vals, addv=PETSc.InsertMode.ADD_VALUES)
+        Kc.assemble()
+        A = self.K_bc.copy()
+        A.axpy(1.0, Kc, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        Kc.destroy()
+        return A
+
+    def _linear_solve(self, A: PETSc.Mat, b: PETSc.Vec, x: PETSc.Vec, label: str, it: int) -> None:
+        """Solve A x = b with GMRES + LU factors (reused from an earlier A while they work)."""
+        reuse = self.options.reuse_factorization and self._P is not None and not self._refactor
+        for attempt in range(2):
+            if not reuse:
+                if self._P is not None:
+                    self._P.destroy()
+                self._P = A.copy()
+                self.factorizations += 1
+            self.ksp.setOperators(A, self._P)
+            x.set(0.0)
+            self.ksp.solve(b, x)
+            self.linear_solves += 1
+            reason = self.ksp.getConvergedReason()
+            if reason > 0:
+                its = self.ksp.getIterationNumber()
+                log.debug("%s Newton %d: linear solve %d GMRES its (%s factors)", label, it, its,
+                          "reused" if reuse else "new")
+                # factors that needed many iterations are replaced at the next solve
+                self._refactor = its > self.options.refactor_krylov_its
+                A.destroy()
+                return
+            if not reuse:
+                break
+            reuse = False  # the old factors no longer precondition well enough: refactor
+        A.destroy()
+        raise ConvergenceError("contact linear solve (GMRES + MUMPS LU)", f"{_KSP_REASONS.get(reason, '?')} ({reason})",
+                               step=label, iteration=it)
+
+    def _force_scale(self, u_vec: PETSc.Vec) -> float:
+        """Norm of the internal forces K u (reactions included): the scale of the residual."""
+        f = self.K_full.createVecLeft()
+        self.K_full.mult(u_vec, f)
+        s = f.norm()
+        f.destroy()
+        return max(s, self.f_ext.norm())
+
+    def newton(self, label: str = "") -> tuple[int, float]:
+        """Solve for fixed multipliers; returns (iterations, final residual norm)."""
+        o = self.options
+        self._apply_bc_values()
+        u_vec = self.u.x.petsc_vec
+        for itf in self.interfaces:
+            itf.update_segmentation(self.u.x.array, self.motions)
+        R, pts, coos = self.residual(u_vec, matrix=True)
+        rnorm = R.norm()
+        du = u_vec.duplicate()
+        for it in range(1, o.newton_max_it + 1):
+            scale = self._force_scale(u_vec)
+            tol = max(o.newton_rtol * scale, o.newton_atol_N)
+            log.debug("%s Newton %d: |R| = %.3e (tol %.3e)", label, it - 1, rnorm, tol)
+            if rnorm <= tol and it > 1:
+                self.last_points = pts
+                return it - 1, rnorm
+            A = self._jacobian(coos)
+            R.scale(-1.0)
+            self._linear_solve(A, R, du, label, it)
+            # backtracking line search on |R| (the last trial is kept if none decreases |R|)
+            u0 = u_vec.copy()
+            alpha, tries = 1.0, (12 if o.line_search else 1)
+            for k in range(tries):
+                u_vec.waxpy(alpha, du, u0)
+                self.u.x.scatter_forward()
+                R_new, pts_new, coos_new = self.residual(u_vec, matrix=True)
+                r_new = R_new.norm()
+                if r_new <= (1.0 - 1e-4 * alpha) * rnorm or r_new <= tol or k == tries - 1:
+                    break
+                R_new.destroy()
+                alpha *= 0.5
+            if r_new > (1.0 - 1e-4 * alpha) * rnorm and r_new > tol:
+                log.debug("%s Newton %d: line search did not decrease |R| (alpha=%g)", label, it, alpha)
+            u0.destroy()
+            R.destroy()
+            R, pts, coos, rnorm = R_new, pts_new, coos_new, r_new
+            if it > 1 and alpha < 1.0:
+                log.debug("%s Newton %d: line search step %g", label, it, alpha)
+            if not np.isfinite(rnorm):
+                raise ConvergenceError("contact Newton", "residual is not finite", step=label, iteration=it)
+        scale = self._force_scale(u_vec)
+        tol = max(o.newton_rtol * scale, o.newton_atol_N)
+        if rnorm <= tol:
+            self.last_points = pts
+            return o.newton_max_it, rnorm
+        raise ConvergenceError("contact Newton", f"DIVERGED_MAX_IT (residual {rnorm:.3e} > tolerance {tol:.3e})",
+                               step=label, iteration=o.newton_max_it, residual=rnorm)
+
+    def solve(self, label: str = "") -> SolveReport:
+        """Solve the contact problem at the current BC values and rigid motions (collective)."""
+        t0 = time.perf_counter()
+        ls0 = self.linear_solves
+        total_it, uz, pen = 0, 0, 0.0
+        if self.options.method == "penalty":
+            total_it, rnorm = self.newton(label)
+            pen = self.max_penetration()
+        else:
+            tol = min(itf.penetration_tolerance() for itf in self.interfaces) if self.interfaces else 0.0
+            for uz in range(1, self.options.max_uzawa + 1):
+                its, rnorm = self.newton(f"{label} (Uzawa {uz})")
+                total_it += its
+                pen = self.max_penetration()
+                log.debug("%s Uzawa %d: max penetration %.3e m (tol %.3e m)", label, uz, pen, tol)
+                if pen <= tol:
+                    break
+                for itf in self.interfaces:
+                    itf.update_multipliers(self.u.x.array, self.motions)
+            else:
+                raise ConvergenceError("augmented Lagrangian (Uzawa)",
+                                       f"max penetration {pen:.3e} m > tolerance {tol:.3e} m after {uz} updates",
+                                       step=label, iteration=uz)
+        rep = SolveReport(label, total_it, uz, rnorm, pen, time.perf_counter() - t0, self.linear_solves - ls0)
+        log.info("%s: %d Newton iterations, %d Uzawa, max penetration %.3e m, %.2f s", label, total_it, uz, pen,
+                 rep.wall_time_s)
+        return rep
+
+    # -------------------------------------------------------------------------------------------
+    def max_penetration(self) -> float:
+        worst = 0.0
+        for pts_list in self.last_points:
+            for p in pts_list:
+                if p.num_points:
+                    worst = max(worst, float(np.max(np.where(p.pressure > 0.0, -p.gap, 0.0))))
+        return self.comm.allreduce(worst, op=MPI.MAX)
+
+    def contact_force(self, interface: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Total (normal, tangential) force on the first surface of an interface, N (global).
+
+        The two passes are combined with their weights; in each pass the traction on the slave acts
+        on the slave body, its reaction on the master.
+        """
+        itf = self.interfaces[interface]
+        fn, ft = np.zeros(3), np.zeros(3)
+        for ps, pts in zip(itf.passes, self.last_points[interface]):
+            sign = 1.0 if ps.slave is itf.a else -1.0
+            fn += sign * np.einsum("p,pd->d", pts.dA * pts.pressure, pts.normal)
+            ft += sign * np.einsum("p,pd->d", pts.dA, pts.traction - pts.pressure[:, None] * pts.normal)
+        return self.comm.allreduce(fn, op=MPI.SUM), self.comm.allreduce(ft, op=MPI.SUM)
+
+    def contact_moment(self, center: np.ndarray, axis: np.ndarray, interface: int = 0) -> float:
+        """Moment (N m) about ``axis`` through ``center`` of the contact forces on surface ``a``."""
+        itf = self.interfaces[interface]
+        a = np.asarray(axis, float) / np.linalg.norm(axis)
+        m = 0.0
+        for ps, pts in zip(itf.passes, self.last_points[interface]):
+            sign = 1.0 if ps.slave is itf.a else -1.0
+            f = pts.dA[:, None] * pts.traction * sign
+            m += float(np.einsum("pd,d->", np.cross(pts.x - np.asarray(center), f), a))
+        return self.comm.allreduce(m, op=MPI.SUM)
+
+
+def fixed_mask(V: fem.FunctionSpace, bcs: Sequence[fem.DirichletBC]) -> np.ndarray:
+    """Boolean mask over the local (owned + ghost) dofs of V marking Dirichlet dofs."""
+    imap, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+    mask = np.zeros((imap.size_local + imap.num_ghosts) * bs, dtype=bool)
+    for bc in bcs:
+        dofs, _ = bc.dof_indices()
+        mask[dofs] = True
+    return mask

@@ -1,0 +1,136 @@
+"""Reference-facet data for contact on Lagrange (P1/P2) tetrahedral and hexahedral meshes.
+
+A facet of a degree-d Lagrange cell is itself a degree-d Lagrange triangle or quadrilateral: its
+nodes are the cell's closure dofs on that facet. :class:`FacetReference` lists, for every local
+facet of the reference cell, the cell-local node numbers in the order of the basix facet element
+(vertices, then edges, then the face interior), so the facet's curved geometry and the displacement
+on it are evaluated with the facet element's shape functions directly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from functools import cached_property
+
+import basix
+import numpy as np
+
+from gearfem.errors import ParameterError
+
+_FACET_TYPE = {
+    basix.CellType.tetrahedron: basix.CellType.triangle,
+    basix.CellType.hexahedron: basix.CellType.quadrilateral,
+}
+
+# Counter-clockwise vertex cycle of the reference facet (basix numbers quad vertices in tensor order).
+_VERTEX_CYCLE = {
+    basix.CellType.triangle: np.array([0, 1, 2]),
+    basix.CellType.quadrilateral: np.array([0, 1, 3, 2]),
+}
+
+
+def _lagrange(cell: basix.CellType, degree: int) -> basix.finite_element.FiniteElement:
+    return basix.create_element(basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.equispaced)
+
+
+@dataclasses.dataclass(frozen=True)
+class FacetReference:
+    """Facet element of a Lagrange cell type and degree (1 or 2).
+
+    Attributes:
+        cell_type: basix cell type of the volume cells.
+        degree: Lagrange degree of the geometry and of the displacement (equal here).
+        facet_nodes: (n_facets_per_cell, n_facet_nodes) cell-local node numbers per local facet.
+    """
+
+    cell_type: basix.CellType
+    degree: int
+    facet_nodes: np.ndarray
+
+    @classmethod
+    def create(cls, cell_type: basix.CellType, degree: int) -> FacetReference:
+        if cell_type not in _FACET_TYPE:
+            raise ParameterError("mesh cell type", str(cell_type), "tetrahedron or hexahedron")
+        if degree not in (1, 2):
+            raise ParameterError("contact element degree", degree, "1 or 2 (one node per sub-entity)")
+        ftype = _FACET_TYPE[cell_type]
+        cell_el, facet_el = _lagrange(cell_type, degree), _lagrange(ftype, degree)
+        ctopo, ftopo = basix.topology(cell_type), basix.topology(ftype)
+        lookup = {(d, frozenset(vs)): e for d in range(3) for e, vs in enumerate(ctopo[d])}
+        rows = []
+        for fverts in ctopo[2]:
+            nodes = np.full(facet_el.dim, -1, dtype=np.int64)
+            for d in range(3):
+                for e, local_vs in enumerate(ftopo[d]):
+                    key = (d, frozenset(fverts[i] for i in local_vs))
+                    cdofs = cell_el.entity_dofs[d][lookup[key]]
+                    fdofs = facet_el.entity_dofs[d][e]
+                    nodes[fdofs] = cdofs
+            assert (nodes >= 0).all()
+            rows.append(nodes)
+        return cls(cell_type, degree, np.array(rows, dtype=np.int64))
+
+    # -------------------------------------------------------------------------------------------
+    @property
+    def facet_type(self) -> basix.CellType:
+        return _FACET_TYPE[self.cell_type]
+
+    @cached_property
+    def element(self) -> basix.finite_element.FiniteElement:
+        return _lagrange(self.facet_type, self.degree)
+
+    @property
+    def num_nodes(self) -> int:
+        return self.facet_nodes.shape[1]
+
+    @property
+    def num_vertices(self) -> int:
+        return 3 if self.facet_type == basix.CellType.triangle else 4
+
+    @property
+    def vertex_cycle(self) -> np.ndarray:
+        """Facet-local vertex numbers in counter-clockwise order around the reference facet."""
+        return _VERTEX_CYCLE[self.facet_type]
+
+    @cached_property
+    def reference_polygon(self) -> np.ndarray:
+        """Reference facet as a counter-clockwise polygon (n_vertices, 2)."""
+        return np.asarray(basix.geometry(self.facet_type))[self.vertex_cycle]
+
+    def tabulate(self, xi: np.ndarray, derivatives: int = 1) -> np.ndarray:
+        """Shape functions at reference points ``xi`` (n, 2): array (n_deriv, n, n_nodes).
+
+        Index 0 is the value, 1 and 2 the derivatives in xi_1 and xi_2, (with ``derivatives=2``)
+        3, 4, 5 the second derivatives 11, 12, 22.
+        """
+        return self.element.tabulate(derivatives, np.ascontiguousarray(xi, dtype=np.float64))[..., 0]
+
+    def quadrature(self, degree: int) -> tuple[np.ndarray, np.ndarray]:
+        """Gauss points and weights on the reference facet (weights sum to its area)."""
+        pts, wts = basix.make_quadrature(self.facet_type, degree)
+        return np.asarray(pts), np.asarray(wts)
+
+    def linear_fit(self, points: np.ndarray) -> np.ndarray:
+        """Matrix F (3, n) such that c = F @ values are the coefficients of the least-squares linear
+        function a0 + a1 xi1 + a2 xi2 through ``values`` at ``points`` (exact for linear data)."""
+        phi = np.column_stack([np.ones(len(points)), points])
+        return np.linalg.solve(phi.T @ phi, phi.T)
+
+    def inside(self, xi: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """True where the reference point lies in the facet (within ``tol``)."""
+        if self.facet_type == basix.CellType.triangle:
+            return (xi[..., 0] >= -tol) & (xi[..., 1] >= -tol) & (xi[..., 0] + xi[..., 1] <= 1.0 + tol)
+        return np.all((xi >= -tol) & (xi <= 1.0 + tol), axis=-1)
+
+    def clamp(self, xi: np.ndarray) -> np.ndarray:
+        """Nearest point of the reference facet (in reference coordinates)."""
+        out = np.array(xi, dtype=np.float64, copy=True)
+        if self.facet_type == basix.CellType.quadrilateral:
+            return np.clip(out, 0.0, 1.0)
+        out = np.maximum(out, 0.0)
+        s = out.sum(axis=-1)
+        over = s > 1.0
+        if np.any(over):  # project onto the hypotenuse xi1 + xi2 = 1, then clip to its ends
+            a = np.clip(0.5 * (1.0 + xi[over, 0] - xi[over, 1]), 0.0, 1.0)
+            out[over, 0], out[over, 1] = a, 1.0 - a
+        return out

@@ -1,0 +1,264 @@
+"""Two-body contact on curved P2 meshes, each test against an analytic value.
+
+Patch test (uniform pressure, non-matching meshes, exact), Hertz line contact (p0 and a, with
+refinement), sliding in gross slip (t = μ p, equilibrium), augmented Lagrangian vs stiff penalty,
+frame invariance under rigid motions, 1 vs 2 ranks, and the building blocks (facet node order,
+projection on a curved facet, segmentation areas).
+"""
+
+from __future__ import annotations
+
+import math
+
+import basix
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from gearfem.contact import ContactInterface, ContactOptions
+from gearfem.contact.kinematics import evaluate, project, segment
+from gearfem.contact.output import summary, write_vtx
+from gearfem.contact.reference import FacetReference
+from gearfem.contact.verification import block_case, compare_hertz, hertz_case
+from gearfem.errors import ConvergenceError, GearfemError, ParameterError
+
+# ------------------------------------------------------------------------------------------------
+# building blocks
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("cell", [basix.CellType.tetrahedron, basix.CellType.hexahedron])
+def test_facet_nodes_are_the_facet_element_nodes(cell):
+    """Cell-local facet node lists reproduce the basix facet element's reference points."""
+    ref = FacetReference.create(cell, 2)
+    cell_pts = basix.create_element(basix.ElementFamily.P, cell, 2, basix.LagrangeVariant.equispaced).points
+    facet_pts = ref.element.points
+    for f, nodes in enumerate(ref.facet_nodes):
+        # the facet's affine map from its vertex positions in the reference cell
+        v = cell_pts[nodes[: ref.num_vertices]]
+        mapped = v[0] + facet_pts[:, :1] * (v[1] - v[0]) + facet_pts[:, 1:2] * (v[2] - v[0])
+        if ref.num_vertices == 4:  # bilinear: add the twist term (zero for the reference cube faces)
+            mapped += (facet_pts[:, :1] * facet_pts[:, 1:2]) * (v[3] - v[2] - v[1] + v[0])
+        np.testing.assert_allclose(cell_pts[nodes], mapped, atol=1e-14, err_msg=f"facet {f}")
+
+
+def test_projection_onto_curved_facet_matches_the_parabola():
+    """A P2 facet on the parabolic cylinder z = x² is exact; projections match a scalar Newton."""
+    ref = FacetReference.create(basix.CellType.tetrahedron, 2)
+    pts = ref.element.points  # reference points of the 6 facet nodes
+    # facet over x in [0.2, 0.6], y in [0, 0.5]; nodes mapped affinely in (x, y), z = x^2
+    X = 0.2 + 0.4 * pts[:, 0]
+    Y = 0.5 * pts[:, 1]
+    nodes = np.column_stack([X, Y, X**2])[None]
+    rng = np.random.default_rng(1)
+    n = 50
+    x0 = rng.uniform(0.3, 0.45, n)
+    y0 = rng.uniform(0.05, 0.2, n)
+    off = rng.uniform(-0.05, 0.05, n)
+    # points off the surface along the normal at (x0, x0^2): n = (-2x, 0, 1)/sqrt(1+4x^2)
+    nrm = np.column_stack([-2 * x0, np.zeros(n), np.ones(n)]) / np.sqrt(1 + 4 * x0**2)[:, None]
+    targets = np.column_stack([x0, y0, x0**2]) + off[:, None] * nrm
+    xi, dist = project(ref, np.repeat(nodes, n, axis=0), targets)
+    xm = evaluate(ref, np.repeat(nodes, n, axis=0), xi)[0]
+    np.testing.assert_allclose(xm[:, 0], x0, atol=1e-12)
+    np.testing.assert_allclose(xm[:, 2], x0**2, atol=1e-12)
+    np.testing.assert_allclose(dist, np.abs(off), atol=1e-12)
+
+
+def test_segmentation_of_a_facet_by_a_tiling_recovers_its_area():
+    """Master triangles tiling the plane cover a slave triangle exactly: weights sum to its area."""
+    ref = FacetReference.create(basix.CellType.tetrahedron, 1)
+    rng = np.random.default_rng(3)
+    slave = np.array([[0.1, 0.05, 0.0], [0.83, 0.2, 0.0], [0.3, 0.9, 0.0]])
+    # a structured tiling of [-1, 2]^2 by triangles at z = 0.01 (offset: projection must not matter)
+    g = np.linspace(-1, 2, 10)
+    tris = []
+    for i in range(9):
+        for j in range(9):
+            a, b, c, d = (g[i], g[j]), (g[i + 1], g[j]), (g[i], g[j + 1]), (g[i + 1], g[j + 1])
+            tris += [[a, b, d], [a, d, c]]
+    tris = np.array(tris)
+    master = np.concatenate([tris, np.full(tris.shape[:2] + (1,), 0.01)], axis=2)
+    master += rng.normal(0, 1e-3, master.shape) * np.array([0, 0, 1])  # slightly warped
+    P = len(master)
+    pts, wts = basix.make_quadrature(basix.CellType.triangle, 4)
+    pair, xi, w = segment(ref, np.repeat(slave[None], P, axis=0), master, np.asarray(pts), np.asarray(wts))
+    assert w.sum() == pytest.approx(0.5, rel=1e-12)  # reference-triangle area
+    # and the points integrate a quadratic exactly: ∫ xi1^2 over the reference triangle = 1/12
+    assert np.sum(w * xi[:, 0] ** 2) == pytest.approx(1.0 / 12.0, rel=1e-12)
+
+
+# ------------------------------------------------------------------------------------------------
+# patch test, frame invariance, sliding
+# ------------------------------------------------------------------------------------------------
+
+_PATCH = ContactOptions(method="penalty", penalty_Pa_m=100.0)
+
+
+def _uniform_pressure(case) -> tuple[float, float, float]:
+    prob = case.problem
+    comm = prob.comm
+    p = np.concatenate([pts.pressure for pts in prob.last_points[0]])
+    return (comm.allreduce(p.min(initial=np.inf), op=MPI.MIN), comm.allreduce(p.max(initial=-np.inf), op=MPI.MAX),
+            summary(prob).normal_force_N[2])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("hexahedra", [False, True], ids=["tet10", "hex27"])
+def test_patch_test_uniform_pressure_non_matching(comms, hexahedra):
+    """Uniaxial compression through a non-matching interface: p = δ / (H/E + 1/ε) at every point."""
+    delta, E, eps, H = 1e-3, 1.0, 100.0, 1.0
+    p_exact = delta / (H / E + 1.0 / eps)
+    for comm in comms:
+        case = block_case(comm, _PATCH, compression_m=delta, youngs_modulus_Pa=E, hexahedra=hexahedra)
+        case.problem.solve("patch")
+        pmin, pmax, fz = _uniform_pressure(case)
+        assert pmin == pytest.approx(p_exact, rel=1e-10) and pmax == pytest.approx(p_exact, rel=1e-10)
+        assert fz == pytest.approx(-p_exact * 1.0, rel=1e-10)  # on the lower block: downwards, area 1
+
+
+def test_patch_test_is_frame_invariant():
+    """Rotating both bodies rigidly (30° about (1, 2, 3)) leaves the contact state unchanged."""
+    delta = 1e-3
+    p_exact = delta / (1.0 + 1.0 / 100.0)
+    # Unlike the unrotated case (linear once in contact: exact after two Newton steps), here the
+    # projection points move between iterates, so the uniformity is that of the Newton tolerance:
+    # solve to 1e-12 of the internal force norm (roundoff is reached near 1e-13).
+    opts = ContactOptions(method="penalty", penalty_Pa_m=100.0, newton_rtol=1e-12, newton_atol_N=0.0)
+    case = block_case(MPI.COMM_WORLD, opts, compression_m=delta, motion_angle_rad=math.radians(30.0))
+    case.problem.solve("rotated patch")
+    pmin, pmax, _ = _uniform_pressure(case)
+    assert pmin == pytest.approx(p_exact, rel=1e-10) and pmax == pytest.approx(p_exact, rel=1e-10)
+    # the force on the lower block points along its rotated -z axis
+    R = case.problem.motions["lower"].R
+    fn = np.array(summary(case.problem).normal_force_N)
+    np.testing.assert_allclose(fn, -p_exact * R[:, 2], rtol=0, atol=1e-12)
+
+
+def test_sliding_block_gross_slip_traction_is_mu_p_and_balances_the_support():
+    """Upper block sliding in +x: |t_T| = μ p, t_T ⟂ n and opposing the slip at every contact point;
+    the held top of the sliding block reacts exactly the force the interface transmits."""
+    mu = 0.3
+    opts = ContactOptions(method="penalty", penalty_Pa_m=100.0, friction_coefficient=mu)
+    case = block_case(MPI.COMM_WORLD, opts, compression_m=1e-3, upper_velocity_m_s=(1.0, 0.0, 0.0), clamped=True)
+    prob = case.problem
+    prob.solve("sliding")
+    total_t = total_p = 0.0
+    for ps, pts in zip(prob.interfaces[0].passes, prob.last_points[0]):
+        on = pts.pressure > 0
+        tt = (pts.traction - pts.pressure[:, None] * pts.normal)[on]
+        # slip speed 1 m/s against v_eps = 1e-5 m/s: the regularisation changes |t_T| by 5e-11
+        np.testing.assert_allclose(np.linalg.norm(tt, axis=1), mu * pts.pressure[on], rtol=1e-9)
+        np.testing.assert_allclose(np.einsum("pd,pd->p", tt, pts.normal[on]), 0.0, atol=1e-15)
+        # the slave's friction opposes its slip relative to the master (upper moves in +x)
+        sign = -1.0 if ps.slave.body == "upper" else 1.0
+        assert np.all(sign * tt[:, 0] > 0.999 * np.linalg.norm(tt, axis=1))
+        total_t += float(np.sum(pts.dA[on] * np.linalg.norm(tt, axis=1)))
+        total_p += float(np.sum(pts.dA[on] * pts.pressure[on]))
+    assert total_t == pytest.approx(mu * total_p, rel=1e-9)
+    s = summary(prob)
+    assert -s.normal_force_N[2] > 0 and s.tangential_force_N[0] > 0  # lower block pushed down, dragged +x
+    # equilibrium of the upper block, supported only at its top: the internal force there (K u on
+    # the Dirichlet rows) balances what the interface applies to it, i.e. minus the force on the lower
+    # block
+    from dolfinx import fem
+
+    V, md = prob.V, case.mesh_data
+    top = md.facet_tags.find(md.physical_groups["upper_zmax"].tag)
+    f = prob.K_full.createVecLeft()
+    prob.K_full.mult(prob.u.x.petsc_vec, f)
+    arr, n_owned = f.getArray(), V.dofmap.index_map.size_local * 3
+    reaction = np.zeros(3)
+    for c in range(3):
+        dofs = fem.locate_dofs_topological(V.sub(c), 2, top)
+        reaction[c] = arr[dofs[dofs < n_owned]].sum()
+    reaction = prob.comm.allreduce(reaction, op=MPI.SUM)
+    on_lower = np.array(s.normal_force_N) + np.array(s.tangential_force_N)
+    np.testing.assert_allclose(reaction, on_lower, rtol=1e-8, atol=1e-9 * np.linalg.norm(on_lower))
+
+
+# ------------------------------------------------------------------------------------------------
+# Hertz
+# ------------------------------------------------------------------------------------------------
+
+HERTZ = ContactOptions(search_distance_rel=2.0)
+HERTZ_DEFAULT_SIZE = 0.01  # contact element size: about a/3
+HERTZ_FINE_SIZE = 0.007
+
+
+@pytest.mark.slow
+def test_hertz_line_contact_p0_and_a_converge(tmp_out):
+    """Two equal cylinders in plane strain: p0 and a within 3 % at the default mesh, closer when finer."""
+    errors = {}
+    for h in (HERTZ_DEFAULT_SIZE, HERTZ_FINE_SIZE):
+        case = hertz_case(MPI.COMM_WORLD, HERTZ, contact_size=h)
+        rep = case.problem.solve(f"hertz h={h}")
+        assert rep.max_penetration_m <= case.problem.interfaces[0].penetration_tolerance()
+        r = compare_hertz(case)
+        assert 0.02 < r.a_analytic_m < 0.05  # the load gives a ≈ 0.031 R as designed
+        errors[h] = (abs(r.p0_error), abs(r.a_error))
+        if h == HERTZ_DEFAULT_SIZE:
+            write_vtx(case.problem, tmp_out / "hertz_contact.bp")
+    (p_d, a_d), (p_f, a_f) = errors[HERTZ_DEFAULT_SIZE], errors[HERTZ_FINE_SIZE]
+    assert p_d < 0.03 and a_d < 0.03
+    assert p_f < p_d and a_f < a_d
+
+
+@pytest.mark.slow
+def test_augmented_lagrangian_meets_tolerance_and_matches_stiff_penalty():
+    """AL reaches its penetration tolerance; its force differs from a stiff penalty's by less than
+    the discretisation error (the change of force from the default to a finer mesh)."""
+    tol_rel = 1e-3
+    al = ContactOptions(search_distance_rel=2.0, penetration_tolerance_rel=tol_rel)
+    stiff = ContactOptions(method="penalty", penalty_factor=100.0, search_distance_rel=2.0)
+    forces = {}
+    for name, opts, h in (("al", al, HERTZ_DEFAULT_SIZE), ("stiff", stiff, HERTZ_DEFAULT_SIZE),
+                          ("al_fine", al, HERTZ_FINE_SIZE)):
+        case = hertz_case(MPI.COMM_WORLD, opts, contact_size=h)
+        rep = case.problem.solve(name)
+        if name == "al":
+            tol = case.problem.interfaces[0].penetration_tolerance()
+            assert tol == pytest.approx(tol_rel * min(float(ps.slave.local.size.min()) for ps in
+                                                      case.problem.interfaces[0].passes), rel=0.5)
+            assert rep.uzawa_iterations > 1 and rep.max_penetration_m <= tol
+        forces[name] = -summary(case.problem).normal_force_N[1]
+    discretisation = abs(forces["al_fine"] - forces["al"])
+    assert abs(forces["al"] - forces["stiff"]) < discretisation
+
+
+@pytest.mark.mpi
+def test_hertz_one_and_two_ranks_agree(comms):
+    results = []
+    for comm in comms:
+        case = hertz_case(comm, HERTZ, contact_size=0.014)
+        case.problem.solve("hertz")
+        r = compare_hertz(case)
+        results.append((r.force_per_length_N_m, r.p0_fe_Pa, r.a_fe_m))
+    (F1, p1, a1), (F2, p2, a2) = results
+    assert F2 == pytest.approx(F1, rel=1e-8)
+    assert p2 == pytest.approx(p1, rel=1e-8)
+    assert a2 == pytest.approx(a1, rel=1e-8)
+
+
+# ------------------------------------------------------------------------------------------------
+# errors
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [({"friction_coefficient": 2.5}, "contact.friction_coefficient"), ({"method": "lagrange"}, "contact.method"),
+     ({"penalty_factor": 0.0}, "contact.penalty_factor"), ({"quadrature_degree": 0}, "contact.quadrature_degree")],
+)
+def test_bad_contact_options_name_the_parameter(kwargs, name):
+    with pytest.raises(ParameterError, match=name.replace(".", r"\.")):
+        ContactOptions(**kwargs)
+
+
+def test_joined_bodies_and_non_convergence_are_reported():
+    case = block_case(MPI.COMM_WORLD, ContactOptions(method="penalty", penalty_Pa_m=100.0, newton_max_it=1))
+    itf = case.problem.interfaces[0]
+    with pytest.raises(GearfemError, match="share"):
+        ContactInterface(itf.a, itf.a, itf.options, {"lower": 1.0})
+    with pytest.raises(ConvergenceError, match="contact Newton.*at first step"):
+        case.problem.solve("first step")

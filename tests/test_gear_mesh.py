@@ -1,0 +1,449 @@
+"""Gear-pair meshes: named groups, exact geometry of the P2 nodes, conjugate placement, volumes,
+1 vs 2 ranks, hex and full-gear variants, cache, CLI."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import dolfinx
+import ufl
+from gearfem.errors import ParameterError
+from gearfem.geometry.gmsh_pair import GMSH_REF, TOOTH_KINDS, MeshOptions, gmsh_session
+from gearfem.geometry.involute import GearPair, GearPairGeometry
+from gearfem.geometry.mesh import analytic_areas_mm2, body_volumes_m3, build_gear_mesh, mesh_report
+
+THESIS = GearPairGeometry()
+COARSE = MeshOptions(size_flank_mm=0.3, size_tip_mm=0.3, size_root_mm=0.3, size_tooth_mm=0.8, size_body_mm=3.0,
+                     layers=2)
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory) -> Path:
+    comm = MPI.COMM_WORLD
+    path = str(tmp_path_factory.mktemp("meshcache")) if comm.rank == 0 else None
+    return Path(comm.bcast(path, root=0))
+
+
+@pytest.fixture(scope="module")
+def default_mesh(cache):
+    return build_gear_mesh(THESIS, MeshOptions(), MPI.COMM_WORLD, cache_dir=cache)
+
+
+@pytest.fixture(scope="module")
+def coarse_mesh(cache):
+    return build_gear_mesh(THESIS, COARSE, MPI.COMM_WORLD, cache_dir=cache)
+
+
+def _global_nodes(gm, names) -> np.ndarray:
+    """Coordinates of all geometry nodes of the named facet groups, gathered on every rank."""
+    f = gm.facets(*names)
+    g = dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False)
+    x = gm.mesh.geometry.x[np.unique(g)] if len(f) else np.empty((0, 3))
+    allx = np.vstack(gm.mesh.comm.allgather(x))
+    return np.unique(allx, axis=0)
+
+
+def _to_tooth_frame(gm, body: str, k: int, X: np.ndarray) -> np.ndarray:
+    th = gm.tooth_angles(body)[k]
+    xy = X[:, :2] - gm.center(body)[:2]
+    c, s = math.cos(-th), math.sin(-th)
+    return np.column_stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]])
+
+
+def _max_profile_edge(gm, name: str) -> float:
+    """Largest in-plane (constant z) edge of the facets of a group [m] (the profile-direction size)."""
+    f = gm.facets(name)
+    g = dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False)[:, :3] if len(f) else np.empty((0, 3), dtype=np.int32)
+    x = gm.mesh.geometry.x
+    h = 0.0
+    for a, b in ((0, 1), (1, 2), (0, 2)):
+        same_z = np.abs(x[g[:, a], 2] - x[g[:, b], 2]) < 1e-12
+        if np.any(same_z):
+            h = max(h, float(np.max(np.linalg.norm(x[g[same_z, a], :2] - x[g[same_z, b], :2], axis=1))))
+    return gm.mesh.comm.allreduce(h, op=MPI.MAX)
+
+
+def _expected_names(options: MeshOptions, full: bool = False) -> set[str]:
+    names = set()
+    for body in options.bodies:
+        names.add(body)
+        names |= {f"{body}_tooth{k}_{kind}" for k in range(options.teeth_in_model) for kind in TOOTH_KINDS}
+        names |= {f"{body}_side_front", f"{body}_side_back", f"{body}_bore"}
+        if not full:
+            names |= {f"{body}_cut_start", f"{body}_cut_end"}
+    return names
+
+
+# --- gmsh conventions ----------------------------------------------------------------------------
+
+
+def test_gmsh_reference_node_orderings():
+    with gmsh_session() as gmsh:
+        for t, (nv, ref) in GMSH_REF.items():
+            _, dim, _, nn, coords, npv = gmsh.model.mesh.getElementProperties(t)
+            assert (nn, npv) == (len(ref), nv)
+            assert np.allclose(np.asarray(coords).reshape(nn, dim), np.asarray(ref, dtype=float))
+
+
+# --- groups --------------------------------------------------------------------------------------
+
+
+def _check_groups(gm, full: bool = False) -> None:
+    comm = gm.mesh.comm
+    assert set(gm.physical_groups) == _expected_names(gm.options, full)
+    tdim = gm.mesh.topology.dim
+    gm.mesh.topology.create_connectivity(tdim - 1, tdim)
+    n_owned = gm.mesh.topology.index_map(tdim - 1).size_local
+    for name, (dim, tag) in gm.physical_groups.items():
+        tags = gm.facet_tags if dim == 2 else gm.cell_tags
+        local = tags.find(tag)
+        count = comm.allreduce(int(np.count_nonzero(local < n_owned)) if dim == 2 else len(local), op=MPI.SUM)
+        assert count > 0, f"group {name} is empty"
+    # one value per facet, and exactly the exterior facets are tagged
+    ft = gm.facet_tags
+    assert len(np.unique(ft.indices)) == len(ft.indices)
+    ext = dolfinx.mesh.exterior_facet_indices(gm.mesh.topology)
+    owned_tagged = ft.indices[ft.indices < n_owned]
+    assert np.array_equal(np.sort(owned_tagged), np.sort(ext))
+    # every cell in exactly one body
+    ct = gm.cell_tags
+    n_cells = gm.mesh.topology.index_map(tdim).size_local
+    assert len(np.unique(ct.indices)) == len(ct.indices) == n_cells
+    assert set(np.unique(ct.values)) <= {gm.tag(b) for b in gm.bodies}
+
+
+@pytest.mark.mpi
+def test_named_groups_complete_disjoint_and_non_empty(default_mesh):
+    _check_groups(default_mesh)
+
+
+def test_group_name_api(default_mesh):
+    gm = default_mesh
+    assert gm.names(body="wheel", kind="root") == [f"wheel_tooth{k}_root" for k in range(8)]
+    assert gm.names(tooth=4, kind="drive_flank") == ["pinion_tooth4_drive_flank", "wheel_tooth4_drive_flank"]
+    assert gm.names(body="pinion", kind="volume") == ["pinion"]
+    assert gm.reference_tooth("pinion") == 4 and gm.reference_tooth("wheel") == 3
+    assert np.allclose(gm.center("wheel"), [0.06, 0.0, 0.0])
+    f = gm.facets("pinion_tooth4_tip", "pinion_tooth4_drive_flank")
+    assert np.all(np.diff(f) > 0)
+    with pytest.raises(KeyError, match="pinion_tooth9_tip"):
+        gm.tag("pinion_tooth9_tip")
+
+
+# --- geometry ------------------------------------------------------------------------------------
+
+
+@pytest.mark.mpi
+def test_sector_volume_equals_profile_area_times_width(default_mesh):
+    pair = GearPair(THESIS)
+    vols = body_volumes_m3(default_mesh)
+    for body, v in vols.items():
+        exact = pair.profile(body).body_area_m2(8) * pair.face_width_m
+        # issue: within 0.5 %; the curved P2 geometry gets ~1e-6 (spline through exact points)
+        assert abs(v - exact) / exact < 1e-5
+
+
+@pytest.mark.mpi
+def test_p2_nodes_lie_on_the_exact_tooth_outline(default_mesh):
+    gm = default_mesh
+    pair = GearPair(THESIS)
+    for body in gm.bodies:
+        prof = pair.profile(body)
+        root_exact = np.vstack([prof.root_points("coast", 20000, 2000), prof.root_points("drive", 20000, 2000)])
+        for k in (0, gm.reference_tooth(body), 7):
+            f = gm.facets(f"{body}_tooth{k}_drive_flank")
+            if len(f):
+                assert dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False).shape[1] == 6  # curved P2 facets
+            for side in ("drive", "coast"):
+                xy = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_{side}_flank"]))
+                assert prof.distance_to_flank(xy, side).max() < 1e-9  # metres
+            tip = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_tip"]))
+            assert np.allclose(np.hypot(*tip.T), prof.tip_radius_m, rtol=1e-12)
+            root = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_root"]))
+            d = np.min(np.linalg.norm(root[:, None, :] - root_exact[None, ::4, :], axis=2), axis=1)
+            assert d.max() < 2e-7  # dense polyline (1e-7 m spacing) vs spline
+
+
+def _drive_contact_check(gm, pinion_angle_rad: float) -> None:
+    """Wheel reference drive-flank nodes vs. the exact pinion drive flank: no penetration, and
+    touching within the bound of the node spacing h: gap(s) = s^2/2 (1/rho1 + 1/rho2), s <= h/4."""
+    pair = GearPair(gm.geometry)
+    kp, kw = gm.reference_tooth("pinion"), gm.reference_tooth("wheel")
+    W = _global_nodes(gm, [f"wheel_tooth{kw}_drive_flank"])
+    xy = _to_tooth_frame(gm, "pinion", kp, W)
+    r = np.hypot(*xy.T)
+    prof = pair.pinion
+    inside = (r > prof.base_radius_m) & (r < prof.tip_radius_m)
+    theta = np.arctan2(xy[:, 1], xy[:, 0])
+    dist = prof.distance_to_flank(xy, "drive")
+    penetrating = inside & (theta < prof.half_thickness_angle(np.maximum(r, prof.base_radius_m)))
+    assert np.all(dist[penetrating] < 1e-9), "wheel nodes inside the pinion tooth"
+    h = max(_max_profile_edge(gm, f"pinion_tooth{kp}_drive_flank"),
+            _max_profile_edge(gm, f"wheel_tooth{kw}_drive_flank"))
+    S = float(pair.contact_parameter(pinion_angle_rad))
+    aw = pair.operating_pressure_angle_rad
+    rho1 = pair.pinion.operating_pitch_radius_m * math.sin(aw) + S
+    rho2 = pair.wheel.operating_pitch_radius_m * math.sin(aw) - S
+    bound = 0.5 * (h / 4) ** 2 * (1 / rho1 + 1 / rho2)
+    assert dist.min() <= bound
+    # the closest wheel node is at the contact point of the line of action (S = r_b1 phi)
+    X = pair.path_of_contact().point(np.array([S]))[0]
+    nearest = W[np.argmin(dist), :2]
+    assert np.linalg.norm(nearest - X) < h
+
+
+@pytest.mark.mpi
+def test_conjugate_pair_touches_at_the_pitch_point(default_mesh):
+    _drive_contact_check(default_mesh, 0.0)
+
+
+def test_conjugate_pair_touches_at_a_rotated_position(cache):
+    options = dataclasses.replace(COARSE, pinion_angle_deg=4.0)
+    gm = build_gear_mesh(THESIS, options, MPI.COMM_WORLD, cache_dir=cache)
+    _drive_contact_check(gm, math.radians(4.0))
+
+
+@pytest.mark.mpi
+def test_coast_side_clearance_is_the_normal_backlash(default_mesh):
+    """Backlash is all on the coast side: the coast flanks of the engaged teeth are j_n apart
+    (exact surfaces); the nodes are within the node-spacing bound of that."""
+    gm = default_mesh
+    pair = GearPair(THESIS)
+    kp, kw = gm.reference_tooth("pinion"), gm.reference_tooth("wheel")
+    W = _global_nodes(gm, [f"wheel_tooth{kw}_coast_flank"])
+    xy = _to_tooth_frame(gm, "pinion", kp + 1, W)
+    d = pair.pinion.distance_to_flank(xy, "coast")
+    i = int(np.argmin(d))
+    jn = pair.backlash_normal_m
+    h = max(_max_profile_edge(gm, f"wheel_tooth{kw}_coast_flank"),
+            _max_profile_edge(gm, f"pinion_tooth{kp + 1}_coast_flank"))
+    rb = pair.pinion.base_radius_m
+    rho_w = math.sqrt(np.sum((W[i, :2] - gm.center("wheel")[:2]) ** 2) - rb**2)  # wheel flank curvature radius there
+    rho_p = math.sqrt(np.sum(xy[i] ** 2) - rb**2) - jn  # pinion flank, at most j_n lower along the normal
+    bound = 0.5 * (h / 4) ** 2 * (1 / rho_w + 1 / rho_p)
+    assert jn - 1e-9 <= d[i] <= jn + bound
+
+
+def _exact_body_outline(gm, body: str, spacing: float = 1e-6) -> np.ndarray:
+    """Closed polygon of the exact section of a body (teeth, cut lines, bore arc) in the pair frame."""
+    prof = GearPair(gm.geometry).profile(body)
+    c = gm.center(body)[:2]
+    n = int(0.02 / spacing)  # dense: the tooth outline is ~15 mm long
+    one = prof.outline_polyline(n_flank=n // 4, n_fillet=n // 8, n_land=n // 40, n_tip=n // 40)
+    pts = [c + _rotate_xy(one, th) for th in gm.tooth_angles(body)]
+    t0 = gm.tooth_angles(body)[0] - math.pi / prof.teeth
+    t1 = gm.tooth_angles(body)[-1] + math.pi / prof.teeth
+    arc = np.linspace(t1, t0, 2000)
+    pts.append(c + prof.bore_radius_m * np.column_stack([np.cos(arc), np.sin(arc)]))
+    return np.vstack(pts)
+
+
+def _rotate_xy(xy, angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return np.column_stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]])
+
+
+@pytest.mark.mpi
+def test_no_penetration_and_positive_gap_elsewhere(default_mesh):
+    """No boundary node of one body lies inside the exact section of the other; away from the
+    pitch line every node keeps a positive gap to the other body."""
+    from matplotlib.path import Path as MplPath
+    from scipy.spatial import cKDTree
+
+    gm = default_mesh
+    for body, other in (("pinion", "wheel"), ("wheel", "pinion")):
+        X = _global_nodes(gm, gm.names(body=body)[1:])
+        dist, _ = cKDTree(_exact_body_outline(gm, other)).query(X[:, :2])  # dense polyline, 1 um spacing
+        coarse = _exact_body_outline(gm, other, spacing=1e-4)  # polygon within 5 um of the curves
+        inside = MplPath(coarse).contains_points(X[:, :2])
+        assert not np.any(inside & (dist > 1e-5)), f"{body} nodes inside the {other}"
+        away = np.hypot(X[:, 0] - 30e-3, X[:, 1]) > 0.5e-3
+        assert dist[away].min() > 1e-5  # positive gap (the nearest: an approaching tip, ~0.13 mm)
+        assert dist[~away].min() < 1e-6  # and contact at the pitch line
+
+
+# --- report, variants ----------------------------------------------------------------------------
+
+
+@pytest.mark.mpi
+def test_mesh_report(default_mesh):
+    rep = mesh_report(default_mesh)
+    assert rep["counts"]["dofs_p2_vector"] == 3 * rep["counts"]["nodes"]  # P2 geometry nodes = P2 dofs
+    assert rep["quality"]["min_scaled_jacobian"] > 0.0  # no inverted (curved) cell
+    assert rep["element"]["cell_type"] == "Tetrahedron 10"
+    for name, g in rep["groups"].items():
+        if g["dim"] == 2:
+            assert g["facets"] > 0
+            assert g["area_mm2"] == pytest.approx(g["analytic_mm2"], rel=2e-4), name
+    # the same areas from DOLFINx
+    gm = default_mesh
+    one = dolfinx.fem.Constant(gm.mesh, 1.0)
+    for name in ("pinion_tooth4_drive_flank", "wheel_tooth3_root", "pinion_bore"):
+        a = gm.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * gm.ds(name))), op=MPI.SUM)
+        assert a * 1e6 == pytest.approx(rep["groups"][name]["area_mm2"], rel=1e-9)
+
+
+@pytest.mark.mpi
+def test_one_and_two_ranks_give_the_same_mesh(cache, comms):
+    results = []
+    for comm in reversed(comms):  # world first: rank 0 builds, then every rank reads the cache serially
+        gm = build_gear_mesh(THESIS, COARSE, comm, cache_dir=cache)
+        one = dolfinx.fem.Constant(gm.mesh, 1.0)
+        areas = [comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * gm.ds(n))), op=MPI.SUM)
+                 for n in ("pinion_tooth4_drive_flank", "wheel_cut_end")]
+        results.append((body_volumes_m3(gm), areas, gm.mesh.topology.index_map(3).size_global))
+    (v2, a2, n2), (v1, a1, n1) = results
+    assert n1 == n2
+    for body in v1:
+        assert v2[body] == pytest.approx(v1[body], rel=1e-12)
+    assert np.allclose(a2, a1, rtol=1e-12)
+
+
+def test_hex_variant(cache):
+    options = dataclasses.replace(COARSE, element="hex")
+    gm = build_gear_mesh(THESIS, options, MPI.COMM_WORLD, cache_dir=cache)
+    assert gm.mesh.topology.cell_type == dolfinx.mesh.CellType.hexahedron
+    assert gm.mesh.geometry.cmaps[0].degree == 2
+    _check_groups(gm)
+    pair = GearPair(THESIS)
+    for body, v in body_volumes_m3(gm).items():
+        exact = pair.profile(body).body_area_m2(8) * pair.face_width_m
+        assert abs(v - exact) / exact < 1e-5
+    f = gm.facets("pinion_tooth4_drive_flank")
+    assert dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False).shape[1] == 9  # 9-node curved quads
+    xy = _to_tooth_frame(gm, "pinion", 4, _global_nodes(gm, ["pinion_tooth4_drive_flank"]))
+    assert pair.pinion.distance_to_flank(xy, "drive").max() < 1e-9
+    assert gm.build_info["quality"]["min_scaled_jacobian"] > 0.0
+
+
+def test_full_gear_is_closed(cache):
+    g = GearPairGeometry(teeth_pinion=16, teeth_wheel=16, bore_radius_mm=8.0)
+    options = dataclasses.replace(COARSE, teeth_in_model=16, bodies=("pinion",))
+    gm = build_gear_mesh(g, options, MPI.COMM_WORLD, cache_dir=cache)
+    _check_groups(gm, full=True)
+    prof = GearPair(g).pinion
+    v = body_volumes_m3(gm)["pinion"]
+    exact = 16 * prof.tooth_sector_area_m2(prof.bore_radius_m) * g.face_width_mm * 1e-3
+    assert abs(v - exact) / exact < 1e-4  # coarse: 3 mm quadratic edges on the 8 mm bore
+    # closed surface: the integral of the normal over the whole boundary vanishes
+    n = ufl.FacetNormal(gm.mesh)
+    ds = gm.ds(*gm.names(body="pinion")[1:])
+    total_area = gm.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * ds)), op=MPI.SUM)
+    for i in range(3):
+        ni = gm.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(n[i] * ds)), op=MPI.SUM)
+        assert abs(ni) < 1e-10 * total_area
+
+
+def test_single_body_mesh(cache):
+    gm = build_gear_mesh(THESIS, dataclasses.replace(COARSE, bodies=("wheel",)), MPI.COMM_WORLD, cache_dir=cache)
+    assert set(gm.physical_groups) == _expected_names(gm.options)
+    assert all(n.startswith("wheel") for n in gm.physical_groups)
+
+
+def test_analytic_areas_of_body_faces():
+    areas = analytic_areas_mm2(THESIS, MeshOptions())
+    b = THESIS.face_width_mm
+    assert areas["pinion_bore"] == pytest.approx(15.0 * 8 * 2 * math.pi / 30 * b, rel=1e-14)
+    assert areas["wheel_cut_start"] == pytest.approx((27.5 - 15.0) * b, rel=1e-14)
+
+
+# --- cache, errors, CLI --------------------------------------------------------------------------
+
+
+def test_cache_dir_from_environment(monkeypatch, tmp_path):
+    from gearfem.geometry.mesh import ENV_CACHE, default_cache_dir
+
+    monkeypatch.setenv(ENV_CACHE, str(tmp_path / "elsewhere"))
+    assert default_cache_dir() == tmp_path / "elsewhere"
+    monkeypatch.delenv(ENV_CACHE)
+    assert default_cache_dir() == Path("meshes") / "cache"
+
+
+@pytest.mark.parametrize("element", ["tet", "hex"])
+def test_first_order_meshes(element, cache):
+    options = dataclasses.replace(COARSE, order=1, element=element, teeth_in_model=3)
+    gm = build_gear_mesh(THESIS, options, MPI.COMM_WORLD, cache_dir=cache)
+    assert gm.mesh.geometry.cmaps[0].degree == 1
+    _check_groups(gm)
+    pair = GearPair(THESIS)
+    for body, v in body_volumes_m3(gm).items():
+        prof = pair.profile(body)
+        exact = prof.body_area_m2(3) * pair.face_width_m
+        # straight edges on curved boundaries: segment areas L h^2 / (12 R), dominated by the bore
+        # (3 mm edges on R = 15 mm over L = 3 tau R); twice that covers the (finer) tooth curves
+        L, h, R = 3 * prof.pitch_angle_rad * prof.bore_radius_m, 3e-3, prof.bore_radius_m
+        bound = 2 * L * h**2 / (12 * R) / prof.body_area_m2(3)
+        assert abs(v - exact) / exact < bound
+
+
+def test_cache_hit_and_interrupted_build(tmp_path, monkeypatch):
+    opts = dataclasses.replace(COARSE, bodies=("pinion",), teeth_in_model=3)
+    gm = build_gear_mesh(THESIS, opts, MPI.COMM_SELF, cache_dir=tmp_path)
+    mtime = gm.msh_path.stat().st_mtime_ns
+    again = build_gear_mesh(THESIS, opts, MPI.COMM_SELF, cache_dir=tmp_path)
+    assert again.cache_key == gm.cache_key and again.msh_path.stat().st_mtime_ns == mtime
+
+    import gearfem.geometry.mesh as meshmod
+
+    def broken(path, geometry, options):
+        Path(path).write_text("partial")
+        raise RuntimeError("interrupted")
+
+    monkeypatch.setattr(meshmod, "write_model", broken)
+    other = dataclasses.replace(opts, layers=1)
+    with pytest.raises(RuntimeError, match="interrupted"):
+        build_gear_mesh(THESIS, other, MPI.COMM_SELF, cache_dir=tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [gm.cache_key]  # nothing half-built left
+
+
+@pytest.mark.parametrize(
+    "changes, name",
+    [
+        (dict(teeth_in_model=31), "mesh.teeth_in_model"),  # N > Z = 30
+        (dict(teeth_in_model=0), "mesh.teeth_in_model"),
+        (dict(size_flank_mm=0.0), "mesh.size_flank_mm"),
+        (dict(size_body_mm=-3.0), "mesh.size_body_mm"),
+        (dict(layers=0), "mesh.layers"),
+        (dict(element="prism"), "mesh.element"),
+        (dict(order=3), "mesh.order"),
+        (dict(bodies=("gear",)), "mesh.bodies"),
+        (dict(bodies=()), "mesh.bodies"),
+    ],
+)
+def test_bad_mesh_options_raise_parameter_error(changes, name, tmp_path):
+    with pytest.raises(ParameterError) as err:
+        options = dataclasses.replace(MeshOptions(), **changes)
+        build_gear_mesh(THESIS, options, MPI.COMM_SELF, cache_dir=tmp_path)
+    assert err.value.name == name
+    assert not any(tmp_path.iterdir())
+
+
+def test_cli_mesh_writes_mesh_json_and_picture(tmp_path, capsys):
+    from gearfem.cli import main
+
+    case = tmp_path / "case.toml"
+    case.write_text(
+        "[geometry]\nteeth_pinion = 30\n\n"
+        "[mesh]\nteeth_in_model = 5\nsize_flank_mm = 0.4\nsize_tip_mm = 0.4\nsize_root_mm = 0.4\nlayers = 1\n"
+        'bodies = ["pinion", "wheel"]\n\n'
+        "[material]\nname = 'ignored by the mesh command'\n"
+    )
+    out = tmp_path / "out"
+    assert main(["mesh", str(case), "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
+    rep = json.loads((out / "mesh.json").read_text())
+    assert rep["mesh_options"]["teeth_in_model"] == 5
+    assert len(rep["groups"]) == 2 * (1 + 5 * 4 + 5)
+    assert (out / "mesh.msh").stat().st_size > 0
+    png = (out / "gear_pair_mesh.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 50_000
+    assert "P2 vector DOFs" in capsys.readouterr().out
+    case.write_text("[mesh]\nsize_flnk_mm = 0.2\n")
+    assert main(["mesh", str(case), "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 2
+    assert "mesh.size_flnk_mm" in capsys.readouterr().err
