@@ -99,6 +99,12 @@ def test_domain_checks():
         ThermalDomain.from_gear_groups(msh, ft, groups, body="wheel")
     with pytest.raises(ParameterError, match="geometry.teeth"):
         ThermalDomain.from_gear_groups(msh, ft, groups, total_teeth=1)
+    # a sector of 4 teeth: monitors on the interior teeth 1 and 2 only, flux on all drive flanks
+    msh4, ft4, groups4 = annular_sector(MPI.COMM_SELF, teeth=4)
+    dom4 = ThermalDomain.from_gear_groups(msh4, ft4, groups4, total_teeth=30)
+    assert dom4.monitors["flank"] == ("pinion_tooth1_drive_flank", "pinion_tooth2_drive_flank")
+    assert dom4.monitors["root"] == ("pinion_tooth1_root", "pinion_tooth2_root")
+    assert len(dom4.flux_surfaces) == 4
 
 
 def test_prescribed_flank_heat_is_scaled_to_the_sector():
