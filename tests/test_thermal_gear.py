@@ -110,3 +110,30 @@ def test_cli_case_runs_and_writes(cache, tmp_out):
     assert lump["theta_ss_K"] > 0 and lump["tau_s"] > 0
     if MPI.COMM_WORLD.rank == 0:
         assert (tmp_out / "cli" / "thermal_summary.json").exists()
+
+
+@pytest.mark.mpi
+def test_cell_field_transfer_from_the_pair_mesh(cache):
+    """A DG0 field on the pair mesh (U_max of the cycle) arrives cell by cell on the pinion submesh:
+    a field equal to each cell's centroid x-coordinate stays equal to it."""
+    import numpy as np
+    from dolfinx import fem, mesh as dmesh
+
+    gm = build_gear_mesh(GearPairGeometry(), COARSE, MPI.COMM_WORLD, cache_dir=cache)
+    dom = ThermalDomain.from_gear_mesh(gm, "pinion")
+    assert dom.parent_cells is not None
+
+    def centroid_field(msh, axis):
+        Q = fem.functionspace(msh, ("DG", 0))
+        f = fem.Function(Q)
+        tdim = msh.topology.dim
+        n = msh.topology.index_map(tdim).size_local + msh.topology.index_map(tdim).num_ghosts
+        mid = dmesh.compute_midpoints(msh, tdim, np.arange(n, dtype=np.int32))
+        f.x.array[Q.dofmap.list[:n, 0]] = mid[:, axis]
+        return f
+
+    moved = dom.cell_field_from_parent(centroid_field(gm.mesh, 0))
+    assert np.allclose(moved.x.array, centroid_field(dom.mesh, 0).x.array, rtol=0, atol=1e-12)
+    # the submesh holds pinion cells only: centroids within the pinion's tip circle about the origin
+    r = np.hypot(centroid_field(dom.mesh, 0).x.array, centroid_field(dom.mesh, 1).x.array)
+    assert np.all(r < gm.pair.profile("pinion").tip_radius_m)

@@ -280,3 +280,21 @@ def test_newton_failure_raises_convergence_error():
     with pytest.raises(ConvergenceError) as err:
         prob.run()
     assert "DIVERGED_MAX_IT" in err.value.reason and "t = 5 s" in err.value.step
+
+
+def test_flux_function_with_temperature_factor_lumped_steady():
+    """Flux given as a Function (the cycle stage's form) times a factor 1 - c (T - Ta) (the mu(T)/mu_ref
+    hook), on a lumped body: P0 (1 - c theta) = h A theta, so theta = P0 / (h A + c P0)."""
+    dom, mat, vol, area = _lumped_box()
+    h, q0, c = 25.0, 2000.0, 0.004
+    flux = fem.Function(fem.functionspace(dom.mesh, ("Lagrange", 1)))
+    flux.x.array[:] = q0
+    opts = ThermalOptions(h_teeth_W_m2K=h, h_sides_W_m2K=h, emissivity=0.0, mode="steady")
+    src = HeatSources(flank_flux_W_m2=flux, flux_surfaces=("outer",), flux_temperature_factor=lambda T: 1.0 - c * (T - TA))
+    prob = ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
+                          petsc_options_prefix="fluxfn_")
+    rec = prob.solve_steady()
+    P0 = q0 * 4 * 0.02 * 0.01  # the 'outer' faces
+    theta = P0 / (h * area + c * P0)
+    assert rec.temperatures_K["mean_bulk"] - TA == pytest.approx(theta, rel=1e-4)
+    assert rec.balance.friction_W == pytest.approx(P0 * (1 - c * theta), rel=1e-4)

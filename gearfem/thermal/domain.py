@@ -43,6 +43,8 @@ class ThermalDomain:
         flux_surfaces: Default groups receiving the friction flux (drive flanks).
         model_fraction: Modelled fraction of the whole gear, in (0, 1].
         teeth_modelled: Number of teeth in the mesh (for per-tooth quantities), if a gear.
+        parent_cells: When the mesh is a submesh (one body of a pair mesh): the parent-mesh cell of
+            every local cell, for :meth:`cell_field_from_parent`.
     """
 
     mesh: object
@@ -56,6 +58,7 @@ class ThermalDomain:
     flux_surfaces: tuple[str, ...] = ()
     model_fraction: float = 1.0
     teeth_modelled: int | None = None
+    parent_cells: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not (0.0 < self.model_fraction <= 1.0):
@@ -153,14 +156,35 @@ class ThermalDomain:
         from mpi4py import MPI
 
         ft = gear_mesh.facet_tags
+        parent = None
         if msh.comm.allreduce(int(other), op=MPI.SUM) > 0:
             cells = np.sort(ct.find(body_tag)).astype(np.int32)
             sub, cell_map, vertex_map, _ = dolfinx.mesh.create_submesh(msh, tdim, cells)
             msh.topology.create_connectivity(tdim - 1, tdim)
             ft = dolfinx.mesh.transfer_meshtags_to_submesh(ft, sub, vertex_map, cell_map)
+            im = sub.topology.index_map(tdim)
+            parent = np.asarray(cell_map.sub_topology_to_topology(
+                np.arange(im.size_local + im.num_ghosts, dtype=np.int32), False), dtype=np.int32)
             msh = sub
         total = getattr(gear_mesh.geometry, f"teeth_{body}", None)
-        return cls.from_gear_groups(msh, ft, groups, body=body, total_teeth=total, flux_flanks=flux_flanks)
+        dom = cls.from_gear_groups(msh, ft, groups, body=body, total_teeth=total, flux_flanks=flux_flanks)
+        return dataclasses.replace(dom, parent_cells=parent) if parent is not None else dom
+
+    def cell_field_from_parent(self, field):
+        """A DG0 Function on this mesh from a DG0 Function on the parent (pair) mesh, cell by cell
+        (e.g. U_max of the contact cycle); on a mesh that is not a submesh ``field`` must live on it."""
+        from dolfinx import fem
+
+        V = field.function_space
+        if V.mesh is self.mesh:
+            return field
+        if self.parent_cells is None:
+            raise ParameterError("cell field", V.mesh, "a Function on the thermal mesh or on its parent mesh")
+        Q = fem.functionspace(self.mesh, ("DG", 0))
+        out = fem.Function(Q, name=field.name)
+        n = len(self.parent_cells)
+        out.x.array[Q.dofmap.list[:n, 0]] = field.x.array[V.dofmap.list[self.parent_cells, 0]]
+        return out
 
     @classmethod
     def from_gear_groups(
