@@ -43,7 +43,8 @@ def test_domain_from_pair_and_single_body_meshes(cache):
     exact = analytic_areas_mm2(g, COARSE)
     for options in (COARSE, dataclasses.replace(COARSE, bodies=("pinion",))):
         gm = build_gear_mesh(g, options, MPI.COMM_WORLD, cache_dir=cache)
-        prob = _problem(gm, prefix=f"dom{len(options.bodies)}_", mode="steady")
+        with _problem(gm, prefix=f"dom{len(options.bodies)}_", mode="steady") as prob:
+            rec = prob.solve_steady()
         dom = prob.domain
         assert dom.model_fraction == pytest.approx(2 / 30) and dom.teeth_modelled == 2
         areas = prob.role_areas_m2()
@@ -53,7 +54,6 @@ def test_domain_from_pair_and_single_body_meshes(cache):
         assert areas["bore"] == pytest.approx(exact["pinion_bore"] * 1e-6, rel=1e-4)
         assert areas["cuts"] == pytest.approx(2 * exact["pinion_cut_start"] * 1e-6, rel=1e-4)
         assert prob.volume_m3 == pytest.approx(exact["pinion_side_front"] * g.face_width_mm * 1e-9, rel=1e-4)
-        rec = prob.solve_steady()
         assert rec.balance.friction_W == pytest.approx(40.0 * 2 / 30, rel=1e-12)
         assert rec.balance.relative_imbalance < 1e-9
 
@@ -69,9 +69,9 @@ def test_sector_with_adiabatic_cuts_equals_full_gear_for_symmetric_heating(cache
     sector = build_gear_mesh(g, uniform, MPI.COMM_WORLD, cache_dir=cache)
     T = {}
     for name, gm, degree in (("full", full, 2), ("sector", sector, 2), ("sector_p1", sector, 1)):
-        prob = _problem(gm, flanks="both", degree=degree, prefix=f"sym_{name}_", mode="steady")
-        assert (prob.domain.model_fraction == 1.0) == (name == "full")
-        T[name] = prob.solve_steady().temperatures_K
+        with _problem(gm, flanks="both", degree=degree, prefix=f"sym_{name}_", mode="steady") as prob:
+            assert (prob.domain.model_fraction == 1.0) == (name == "full")
+            T[name] = prob.solve_steady().temperatures_K
     keys = ("mean_bulk", "flank_mean", "coast_flank_mean", "root_mean", "tip_mean", "flank_max", "root_max")
     diff = max(abs(T["sector"][k] - T["full"][k]) for k in keys)
     p1_error = max(abs(T["sector"][k] - T["sector_p1"][k]) for k in keys)

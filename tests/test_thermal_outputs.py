@@ -26,8 +26,8 @@ def _problem(comm, **kw):
 
 @pytest.mark.mpi
 def test_run_writes_complete_outputs(tmp_out):
-    prob = _problem(MPI.COMM_WORLD)
-    records, summ = run_and_write(prob, tmp_out / "run")
+    with _problem(MPI.COMM_WORLD) as prob:
+        records, summ = run_and_write(prob, tmp_out / "run")
     out = tmp_out / "run"
     if MPI.COMM_WORLD.rank == 0:
         with open(out / "thermal_history.csv") as fh:

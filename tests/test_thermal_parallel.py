@@ -19,9 +19,9 @@ def _run(comm, linear_solver):
     u.x.array[:] = 3.0e5
     src = HeatSources(u_max=u, loading_frequency_Hz=1000.0 / 60.0, hysteresis=mat.hysteresis_table(),
                       flank_flux_W_m2=4.0e4, flux_surfaces=dom.flux_surfaces)
-    prob = ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear()),
-                          opts, petsc_options_prefix=f"par_{comm.size}_{linear_solver}_")
-    return prob.run(), prob.num_dofs
+    with ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear()),
+                        opts, petsc_options_prefix=f"par_{comm.size}_{linear_solver}_") as prob:
+        return prob.run(), prob.num_dofs
 
 
 @pytest.mark.mpi

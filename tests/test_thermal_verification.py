@@ -196,9 +196,10 @@ def test_heat_balance_closes_every_step():
     src = HeatSources(u_max=u_max, loading_frequency_Hz=1000.0 / 60.0, hysteresis=mat.hysteresis_table(),
                       flank_flux_W_m2=4.0e4, flux_surfaces=dom.flux_surfaces,
                       flux_temperature_factor=lambda T: 1.0 - 0.002 * (T - TA))
-    prob = ThermalProblem(dom, mat, src, boundary, opts, petsc_options_prefix="balance_")
-    E0 = prob.heat_content_J()
-    recs = prob.run()
+    with ThermalProblem(dom, mat, src, boundary, opts, petsc_options_prefix="balance_") as prob:
+        E0 = prob.heat_content_J()
+        recs = prob.run()
+        E1 = prob.heat_content_J()
     b = recs[-1].balance
     assert b.hysteresis_W > 0 and b.friction_W > 0 and b.convected_W > 0 and b.radiated_W > 0 and b.bore_W > 0
     for r in recs[1:]:
@@ -210,7 +211,7 @@ def test_heat_balance_closes_every_step():
     net = np.array([r.balance.generated_W - r.balance.convected_W - r.balance.radiated_W - r.balance.bore_W
                     for r in recs[1:]])
     gen = np.array([r.balance.generated_W for r in recs[1:]])
-    dE = prob.heat_content_J() - E0
+    dE = E1 - E0
     first = recs[1].balance.stored_W * recs[1].dt_s  # backward-Euler first step
     integral = first + np.trapezoid(net, t)
     assert abs(dE - integral) <= 0.005 * (gen[0] * recs[1].dt_s + np.trapezoid(gen, t))

@@ -124,6 +124,7 @@ def run_thermal_case(case: dict[str, Any], out_dir: str | Path, cache_dir: str |
         return {"generated_per_gear_W": gen / domain.model_fraction if math.isfinite(gen) else None,
                 "lumped_estimate": lumped_estimate(problem, gen if math.isfinite(gen) else 0.0)}
 
-    _, summary = run_and_write(problem, out_dir, extra=extra, more=more)
+    with problem:  # frees the solvers collectively, also on failure
+        _, summary = run_and_write(problem, out_dir, extra=extra, more=more)
     return summary
 

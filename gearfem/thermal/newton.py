@@ -103,7 +103,7 @@ class NewtonSolver:
         ksp.setFromOptions()
         self.ksp = ksp
 
-    def destroy(self) -> None:
+    def _forget_options(self) -> None:
         from petsc4py import PETSc
 
         opts = PETSc.Options()
@@ -111,13 +111,20 @@ class NewtonSolver:
             if opts.hasName(k):
                 opts.delValue(k)
         self._option_keys = []
+
+    def destroy(self) -> None:
+        """Free the PETSc objects. Collective: call it at the same point on every rank (the MUMPS
+        factorisation is freed collectively; leaving it to the garbage collector, which may run at
+        different times on different ranks, can deadlock)."""
+        self._forget_options()
         for obj in (self.ksp, self.A, self.M, self.K, self.b, self.dx, self._x0, self._c, self._tmp):
             if obj is not None:
                 obj.destroy()
+        self.ksp = self.A = self.M = self.K = None
 
     def __del__(self) -> None:
         try:
-            self.destroy()
+            self._forget_options()  # not collective; the objects are freed by destroy() or petsc4py
         except Exception:  # noqa: BLE001 - interpreter shutdown
             pass
 

@@ -231,6 +231,26 @@ class ThermalProblem:
         self._controller = StepController(options.time_error_K, options.dt_min_s, options.dt_max_s)
 
     # ------------------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Free the solvers' PETSc objects (collective; also ``with ThermalProblem(...) as p:``).
+
+        Call it on every rank when done with a parallel problem: freeing a MUMPS factorisation is
+        collective, and the garbage collector may otherwise free it at different times on
+        different ranks (e.g. when rank 0 keeps frames alive a little longer while plotting).
+        """
+        for name in ("_transient_solver", "_steady_solver"):
+            solver = getattr(self, name)
+            if solver is not None:
+                solver.destroy()
+                setattr(self, name, None)
+
+    def __enter__(self) -> ThermalProblem:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------------------------------
     # set-up helpers
     # ------------------------------------------------------------------------------------------
     def _integrate(self, expr) -> float:
