@@ -7,7 +7,6 @@ import math
 import numpy as np
 
 import gearfem  # noqa: F401
-import dolfinx
 from dolfinx import mesh as dmesh
 
 from gearfem.thermal.domain import ThermalDomain
@@ -45,7 +44,7 @@ def box_domain(comm, n=(4, 4, 4), size=(0.02, 0.02, 0.01), cell=dmesh.CellType.t
                          monitors={"outer": ("outer",)})
 
 
-def square_domain(comm, n, degree_geometry=1):
+def square_domain(comm, n):
     """Unit square: bottom/top edges 'sides', left/right 'teeth' (2D, for refinement studies)."""
     msh = dmesh.create_unit_square(comm, n, n, dmesh.CellType.triangle)
     ft, groups = _tag(msh, [
@@ -91,5 +90,3 @@ def sector_domain(comm, teeth=2, total_teeth=30, **kw):
     msh, ft, groups = annular_sector(comm, teeth=teeth, **kw)
     return ThermalDomain.from_gear_groups(msh, ft, groups, body=kw.get("body", "pinion"), total_teeth=total_teeth)
 
-
-__all__ = ["box_domain", "square_domain", "annular_sector", "sector_domain", "dolfinx"]

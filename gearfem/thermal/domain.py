@@ -6,13 +6,14 @@ Roles of the exterior facets (every exterior facet must have exactly one):
 * ``sides`` — the two side faces: convection with h_s plus radiation;
 * ``bore`` — the inner surface: adiabatic (thesis) or a Robin heat path when the boundary model
   gives one;
-* ``cuts`` — the cut faces of a fractional (sector) model: adiabatic, the thesis's choice. With
-  rotation-averaged sources every tooth is heated alike, so the cut planes carry no net heat;
-  pointwise they carry a little (drive and coast flanks are heated differently), which the
-  adiabatic cut neglects.
+* ``cuts`` — the cut faces (at mid-gap) of a fractional (sector) model: adiabatic, the thesis's
+  choice. With rotation-averaged sources every tooth is heated alike, so the cut planes carry no
+  net heat, and none at all when both flanks are heated alike (they are then symmetry planes;
+  tested against a full gear). With drive-flank heating only, they carry a little heat: the
+  teeth next to the cuts of the 8-tooth thesis gear are 2-4 K off the full gear at 40 W.
 
 ``monitors`` name the surface sets whose mean and maximum temperature are reported over time
-(flank, root, tip). ``model_fraction`` is the part of the whole gear the mesh represents (8/30
+(flank, coast flank, root, tip; interior teeth of a sector). ``model_fraction`` is the part of the whole gear the mesh represents (8/30
 for the thesis's fractional model) so that per-gear heat is scaled to the modelled sector.
 """
 

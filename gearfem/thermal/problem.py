@@ -358,7 +358,6 @@ class ThermalProblem:
 
     def temperatures_K(self) -> dict[str, float]:
         """max_surface, mean_bulk and monitor mean/max of the current T, kelvin (collective)."""
-        from dolfinx import fem
         from mpi4py import MPI
 
         arr = self.T.x.array
