@@ -80,6 +80,22 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_thermal(args: argparse.Namespace) -> int:
+    """Transient (or steady) temperature of one gear from prescribed sources."""
+    from mpi4py import MPI
+
+    from gearfem.thermal.case import read_case, run_thermal_case
+
+    summary = run_thermal_case(read_case(args.case), args.out, cache_dir=args.cache_dir)
+    if MPI.COMM_WORLD.rank == 0:
+        T = summary["final_temperatures_C"]
+        print(f"thermal: t = {summary['time_s']:g} s, {summary['steps']} steps, {summary['dofs']} DOFs, "
+              f"T max surface {T['max_surface']:.1f} C, mean bulk {T['mean_bulk']:.1f} C; "
+              f"results in {args.out} (thermal_history.csv, temperature.bp, thermal_history.png, "
+              f"thermal_summary.json)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="gearfem",
@@ -104,6 +120,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--rebuild", action="store_true", help="regenerate even if the mesh is cached")
     s.add_argument("--no-picture", action="store_true", help="skip the PNG")
     s.set_defaults(func=_cmd_mesh)
+
+    s = sub.add_parser("thermal", help="temperature history of one gear (prescribed sources until the cycle exists)")
+    s.add_argument("case", help="case TOML: [geometry] [mesh] [material] [operating] [thermal] [sources]")
+    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument("--cache-dir", default=None, help="mesh cache (default: $GEARFEM_MESH_CACHE or meshes/cache)")
+    s.set_defaults(func=_cmd_thermal)
     return p
 
 

@@ -1,0 +1,241 @@
+"""Newton's method around a PETSc KSP for the thermal residual, its linear part assembled once.
+
+The residual of a step is split as::
+
+    F(T) = alpha M T + c + K T + F_nl(T),
+
+with M the (rho c_p) mass matrix (constant c_p), K the conduction matrix (constant k), alpha =
+a0/dt and c = M (a1 T^n + a2 T^{n-1})/dt set per step, and F_nl the rest (sources, convection,
+radiation, and the storage/conduction terms when c_p(T) or k(T) vary), assembled at every
+iteration with its exact Jacobian J_nl. The Jacobian is J = alpha M + K + J_nl(T). For the usual
+case (constant k and c_p) only boundary integrals and the sources are assembled per iteration.
+
+Newton: x <- x - lambda J^{-1} F with full steps (lambda = 1, transient: the extrapolated
+predictor starts close) or backtracking (halving lambda until ||F|| decreases by the Armijo
+factor, steady state). Converged when ||F||_2 <= max(atol, rtol ||F_0||_2) (W; the residual is a
+heat flow per test function) or when the update is below 1e-14 ||x||. Failures raise
+:class:`~gearfem.errors.ConvergenceError` named like PETSc's SNES reasons (DIVERGED_MAX_IT,
+DIVERGED_LINE_SEARCH, DIVERGED_FNORM_NAN, DIVERGED_LINEAR_SOLVE with the KSP reason).
+
+Linear solver: a KSP with the options of ``ThermalOptions.linear_solver``. With
+``reuse_preconditioner`` (the MUMPS factorisation of the ``direct`` choice) the preconditioner
+is rebuilt only when alpha has changed by more than the factor ``REBUILD_RATIO`` since it was
+built; otherwise the old factorisation preconditions the current Jacobian (which differs by the
+change of dt and of the radiation/H(T) terms) and the Krylov method needs a few iterations. The
+Newton iteration stays exact: the residual and the Jacobian are always the current ones.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from gearfem.errors import ConvergenceError
+
+REBUILD_RATIO = 1.25
+ARMIJO = 1e-4
+MAX_HALVINGS = 12
+
+
+def _names(enum) -> dict[int, str]:
+    return {v: k for k, v in vars(enum).items() if isinstance(v, int)}
+
+
+class NewtonSolver:
+    """Newton + KSP on the split residual (see the module docstring).
+
+    Args:
+        T: The unknown Function.
+        F_nl, J_nl: Compiled residual and Jacobian of the nonlinear part (J_nl may be None).
+        mass, stiffness: Compiled bilinear forms of M and K (None when folded into F_nl).
+        pattern: Compiled volume bilinear form fixing the sparsity of every matrix.
+        prefix: PETSc options prefix of the KSP.
+        options: KSP/PC options (under the prefix).
+        rtol, atol_W, max_it: Newton tolerances.
+        reuse_preconditioner: Keep the preconditioner while alpha changes little (see above).
+    """
+
+    def __init__(self, T, F_nl, J_nl, mass, stiffness, pattern, prefix: str, options: dict[str, Any],
+                 rtol: float, atol_W: float, max_it: int, reuse_preconditioner: bool) -> None:
+        from dolfinx.fem.petsc import assemble_matrix, create_matrix, create_vector
+        from petsc4py import PETSc
+
+        self.T = T
+        self._F, self._J = F_nl, J_nl
+        V = T.function_space
+        self.comm = V.mesh.comm
+        self.rtol, self.atol, self.max_it = rtol, atol_W, max_it
+        self.A = create_matrix(pattern)
+        assemble_matrix(self.A, pattern)  # fixes the nonzero structure (entries are zeroed per Jacobian)
+        self.A.assemble()
+        self.M = self.K = None
+        if mass is not None:
+            self.M = create_matrix(pattern)
+            assemble_matrix(self.M, mass)
+            self.M.assemble()
+        if stiffness is not None:
+            self.K = create_matrix(pattern)
+            assemble_matrix(self.K, stiffness)
+            self.K.assemble()
+        self.b = create_vector(V)
+        self.dx = create_vector(V)
+        self._x0 = create_vector(V)
+        self._c = create_vector(V)
+        self._tmp = create_vector(V)
+        self.alpha = 0.0
+        self._alpha_pc: float | None = None
+        self._have_c = False
+        self.reuse = reuse_preconditioner
+        self.pc_builds = 0
+        self.linear_iterations = 0
+
+        # The options stay in the database while the solver lives: some are read only when the
+        # preconditioner is first set up (e.g. the sub-PC of block Jacobi).
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOptionsPrefix(prefix)
+        ksp.setOperators(self.A)
+        opts = PETSc.Options()
+        self._option_keys = [f"{prefix}{k}" for k in options]
+        for k, v in options.items():
+            opts[f"{prefix}{k}"] = v
+        ksp.setFromOptions()
+        self.ksp = ksp
+
+    def _forget_options(self) -> None:
+        from petsc4py import PETSc
+
+        opts = PETSc.Options()
+        for k in self._option_keys:
+            if opts.hasName(k):
+                opts.delValue(k)
+        self._option_keys = []
+
+    def destroy(self) -> None:
+        """Free the PETSc objects. Collective: call it at the same point on every rank (the MUMPS
+        factorisation is freed collectively; leaving it to the garbage collector, which may run at
+        different times on different ranks, can deadlock)."""
+        self._forget_options()
+        for obj in (self.ksp, self.A, self.M, self.K, self.b, self.dx, self._x0, self._c, self._tmp):
+            if obj is not None:
+                obj.destroy()
+        self.ksp = self.A = self.M = self.K = None
+
+    def __del__(self) -> None:
+        try:
+            self._forget_options()  # not collective; the objects are freed by destroy() or petsc4py
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass
+
+    # ------------------------------------------------------------------------------------------
+    def set_time_terms(self, alpha: float, history) -> None:
+        """alpha = a0/dt and the history combination (a1 T^n + a2 T^{n-1})/dt as a PETSc Vec (or None)."""
+        self.alpha = float(alpha)
+        self._have_c = history is not None and self.M is not None
+        if self._have_c:
+            self.M.mult(history, self._c)
+
+    def _residual(self) -> float:
+        """F at the current T into self.b; returns ||F||_2."""
+        from dolfinx.fem.petsc import assemble_vector
+        from petsc4py import PETSc
+
+        x = self.T.x.petsc_vec
+        with self.b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(self.b, self._F)
+        self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self.K is not None:
+            self.K.multAdd(x, self.b, self.b)
+        if self.M is not None and self.alpha != 0.0:
+            self.M.mult(x, self._tmp)
+            self.b.axpy(self.alpha, self._tmp)
+        if self._have_c:
+            self.b.axpy(1.0, self._c)
+        return self.b.norm()
+
+    def _jacobian(self) -> None:
+        from dolfinx.fem.petsc import assemble_matrix
+        from petsc4py import PETSc
+
+        J = self.A
+        J.zeroEntries()
+        same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
+        if self.K is not None:
+            J.axpy(1.0, self.K, same)
+        if self.M is not None and self.alpha != 0.0:
+            J.axpy(self.alpha, self.M, same)
+        if self._J is not None:
+            assemble_matrix(J, self._J)
+        J.assemble()
+
+    def _fail(self, reason: str, where: str, it: int, norm: float):
+        raise ConvergenceError("thermal Newton", reason, step=where, iteration=it, residual=norm)
+
+    # ------------------------------------------------------------------------------------------
+    def solve(self, where: str, linesearch: str = "basic", chord: bool = False) -> int:
+        """Newton from the current T (``linesearch``: "basic" full steps or "bt" backtracking).
+
+        ``chord``: keep the Jacobian of the first iteration while each iteration reduces the
+        residual at least tenfold (a modified Newton method; the converged result is the same,
+        the residual being exact), which saves assemblies and Krylov iterations when the
+        nonlinearity is weak (radiation from a good predictor). Returns the number of
+        iterations; raises ConvergenceError on failure.
+        """
+        from petsc4py import PETSc
+
+        x = self.T.x.petsc_vec
+        pc = self.ksp.getPC()
+        if self.reuse:
+            a, a_pc = self.alpha, self._alpha_pc
+            rebuild = (a_pc is None or (a == 0.0) != (a_pc == 0.0)
+                       or (a != 0.0 and max(a / a_pc, a_pc / a) > REBUILD_RATIO))
+        else:
+            rebuild = True
+        norm0 = norm = self._residual()
+        if not math.isfinite(norm):
+            self._fail("DIVERGED_FNORM_NAN", where, 0, norm)
+        it = 0
+        fresh = True
+        while norm > max(self.atol, self.rtol * norm0):
+            if it >= self.max_it:
+                self._fail(f"DIVERGED_MAX_IT ({self.max_it} iterations)", where, it, norm)
+            if fresh:
+                self._jacobian()
+                pc.setReusePreconditioner(not rebuild)  # rebuild (if at all) at the first iteration only
+                if rebuild:
+                    self._alpha_pc = self.alpha
+                    self.pc_builds += 1
+                    rebuild = False
+                self.ksp.setOperators(self.A)
+            self.ksp.solve(self.b, self.dx)
+            self.linear_iterations += self.ksp.getIterationNumber()
+            kr = self.ksp.getConvergedReason()
+            if kr < 0:
+                if self.reuse and self._alpha_pc is not None:
+                    self._alpha_pc = None  # a stale preconditioner may be the cause: rebuild next time
+                self._fail(f"DIVERGED_LINEAR_SOLVE; KSP {_names(PETSc.KSP.ConvergedReason).get(kr, '?')} ({kr})",
+                           where, it, norm)
+            it += 1
+            x.copy(self._x0)
+            lam = 1.0
+            for _ in range(MAX_HALVINGS + 1):
+                x.waxpy(-lam, self.dx, self._x0)  # x = x0 - lam dx
+                self.T.x.scatter_forward()
+                new = self._residual()
+                if linesearch == "basic" or (math.isfinite(new) and new <= (1.0 - ARMIJO * lam) * norm):
+                    break
+                lam *= 0.5
+            else:
+                self._fail("DIVERGED_LINE_SEARCH", where, it, norm)
+            if not math.isfinite(new):
+                self._fail("DIVERGED_FNORM_NAN", where, it, new)
+            step = lam * self.dx.norm()
+            fresh = not chord or new > 0.1 * norm
+            norm = new
+            if step <= 1e-14 * x.norm():
+                break
+        if not np.all(np.isfinite(self.T.x.array)):
+            self._fail("DIVERGED_FNORM_NAN", where, it, norm)
+        return it

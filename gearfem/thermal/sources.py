@@ -1,0 +1,159 @@
+"""Heat sources of the thermal model: the interface between the contact cycle and the thermal solver.
+
+Two physical sources (thesis 5.2.2, 5.2.3):
+
+* hysteresis, volumetric: ``q_h = s_h H(T) U_max f`` (W/m^3) with U_max the maximum strain energy
+  density of a cell over a load cycle (J/m^3, DG0), H(T) the loss fraction evaluated at the local
+  temperature at every step and iteration, f the loading frequency (the thesis: rotational
+  frequency n/60; tooth-pass frequency z n/60 is the alternative);
+* friction, on the flank surfaces: the rotation-averaged flux into this body (W/m^2), already
+  scaled by speed and split between the two gears, optionally multiplied by a temperature factor
+  (e.g. mu(T)/mu_ref) and a scale.
+
+``volumetric_W_m3`` is an extra prescribed volumetric source (verification, user loads).
+Fields are a float, a ``dolfinx.fem.Function`` on the thermal mesh, or a callable
+``(x, t) -> UFL expression`` of the spatial coordinate (m) and the time constant (s).
+
+:class:`PrescribedSources` is the ``[sources]`` table used until the cycle stage provides
+:class:`HeatSources` itself.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+from gearfem.errors import ParameterError
+from gearfem.materials import Material, TemperatureTable
+from gearfem.params import require_choice, require_nonnegative, require_positive
+
+SourceField = Any  # float | fem.Function | Callable[[x, t], ufl.core.expr.Expr]
+TemperatureFactor = Callable[[Any], Any]  # T (kelvin, UFL) -> dimensionless UFL expression
+
+LOADING_FREQUENCIES = ("rotation", "tooth_pass")
+
+
+def loading_frequency_Hz(choice: str, speed_rpm: float, teeth: int) -> float:
+    """f of q_h = H U_max f: ``"rotation"`` n/60 (thesis eq. 2.15) or ``"tooth_pass"`` z n/60."""
+    require_choice("sources.loading_frequency", choice, LOADING_FREQUENCIES)
+    require_nonnegative("operating.speed_rpm", speed_rpm)
+    return speed_rpm / 60.0 * (teeth if choice == "tooth_pass" else 1)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class HeatSources:
+    """Heat sources on the thermal mesh (see the module docstring).
+
+    Args:
+        u_max: DG0 Function, maximum strain energy density over a load cycle, J/m^3 (None: no hysteresis).
+        loading_frequency_Hz: f in q_h = H(T) U_max f.
+        hysteresis: H(T) (kelvin -> loss fraction), e.g. ``Material.hysteresis_table()``.
+        flank_flux_W_m2: Rotation-averaged friction flux into this body on ``flux_surfaces``.
+        flux_surfaces: Facet group names receiving the flux.
+        hysteresis_scale: Multiplies q_h (model-discrepancy hook).
+        flux_scale: Multiplies the flank flux (model-discrepancy hook).
+        flux_temperature_factor: Optional T -> UFL factor on the flank flux (e.g. mu(T)/mu_ref).
+        volumetric_W_m3: Extra prescribed volumetric source.
+    """
+
+    u_max: Any = None
+    loading_frequency_Hz: float = 0.0
+    hysteresis: TemperatureTable | None = None
+    flank_flux_W_m2: SourceField | None = None
+    flux_surfaces: tuple[str, ...] = ()
+    hysteresis_scale: float = 1.0
+    flux_scale: float = 1.0
+    flux_temperature_factor: TemperatureFactor | None = None
+    volumetric_W_m3: SourceField | None = None
+
+    def __post_init__(self) -> None:
+        require_nonnegative("sources.loading_frequency_Hz", self.loading_frequency_Hz)
+        require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
+        require_nonnegative("sources.flux_scale", self.flux_scale)
+        if self.u_max is not None:
+            if self.hysteresis is None:
+                raise ParameterError("sources.hysteresis", None, "an H(T) table when u_max is given")
+            if self.loading_frequency_Hz <= 0.0:
+                raise ParameterError("sources.loading_frequency_Hz", self.loading_frequency_Hz,
+                                     "> 0 when u_max is given")
+        if self.flank_flux_W_m2 is not None and not self.flux_surfaces:
+            raise ParameterError("sources.flux_surfaces", self.flux_surfaces, "facet groups for the flank flux")
+        if self.flux_temperature_factor is not None and not callable(self.flux_temperature_factor):
+            raise ParameterError("sources.flux_temperature_factor", self.flux_temperature_factor, "a callable T -> factor")
+
+
+def field_ufl(field: SourceField, x: Any, t: Any) -> Any:
+    """UFL expression of a source field (float, Function or callable (x, t))."""
+    import ufl
+
+    if callable(field) and not hasattr(field, "function_space"):
+        return field(x, t)
+    if isinstance(field, (int, float)):
+        return ufl.as_ufl(float(field))
+    return field
+
+
+@dataclasses.dataclass(frozen=True)
+class PrescribedSources:
+    """``[sources]`` table: prescribed sources until the contact cycle provides them.
+
+    Args:
+        flank_heat_per_gear_W: Friction heat into this gear, W, over the whole gear; spread uniformly
+            over the chosen flanks (scaled to the modelled sector by its fraction of the gear).
+        flanks: ``"drive"``, ``"coast"`` or ``"both"``: flanks receiving it.
+        u_max_J_m3: Uniform maximum strain energy density, J/m^3 (0: no hysteresis).
+        loading_frequency: ``"rotation"`` (n/60, thesis) or ``"tooth_pass"`` (z n/60).
+        hysteresis_scale, flux_scale: Multipliers on the two sources.
+    """
+
+    flank_heat_per_gear_W: float = 0.0
+    flanks: str = "drive"
+    u_max_J_m3: float = 0.0
+    loading_frequency: str = "rotation"
+    hysteresis_scale: float = 1.0
+    flux_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        require_nonnegative("sources.flank_heat_per_gear_W", self.flank_heat_per_gear_W)
+        require_choice("sources.flanks", self.flanks, ("drive", "coast", "both"))
+        require_nonnegative("sources.u_max_J_m3", self.u_max_J_m3)
+        require_choice("sources.loading_frequency", self.loading_frequency, LOADING_FREQUENCIES)
+        require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
+        require_nonnegative("sources.flux_scale", self.flux_scale)
+
+    def build(self, domain, material: Material, speed_rpm: float, teeth: int) -> HeatSources:
+        """HeatSources on ``domain`` (a :class:`~gearfem.thermal.domain.ThermalDomain`)."""
+        import ufl
+        from dolfinx import fem
+        from mpi4py import MPI
+
+        require_positive("geometry.teeth", teeth)
+        surfaces = _flank_groups(domain, self.flanks)
+        flux = None
+        if self.flank_heat_per_gear_W > 0.0:
+            ds = ufl.Measure("ds", domain=domain.mesh, subdomain_data=domain.facet_tags)
+            area = domain.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM)
+            if area <= 0.0:
+                raise ParameterError("sources.flanks", self.flanks, "flanks with positive area in the mesh")
+            flux = self.flank_heat_per_gear_W * domain.model_fraction / area
+        u_max = None
+        if self.u_max_J_m3 > 0.0:
+            Q = fem.functionspace(domain.mesh, ("DG", 0))
+            u_max = fem.Function(Q, name="U_max_J_m3")
+            u_max.x.array[:] = self.u_max_J_m3
+        return HeatSources(
+            u_max=u_max,
+            loading_frequency_Hz=loading_frequency_Hz(self.loading_frequency, speed_rpm, teeth) if u_max else 0.0,
+            hysteresis=material.hysteresis_table() if u_max else None,
+            flank_flux_W_m2=flux, flux_surfaces=surfaces if flux is not None else (),
+            hysteresis_scale=self.hysteresis_scale, flux_scale=self.flux_scale,
+        )
+
+
+def _flank_groups(domain, flanks: str) -> tuple[str, ...]:
+    kinds = {"drive": ("drive_flank",), "coast": ("coast_flank",), "both": ("drive_flank", "coast_flank")}[flanks]
+    out = tuple(n for n in domain.teeth if any(n.endswith("_" + k) for k in kinds))
+    if not out:
+        raise ParameterError("sources.flanks", flanks, "a mesh with *_drive_flank / *_coast_flank facet groups")
+    return out
