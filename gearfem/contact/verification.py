@@ -192,6 +192,13 @@ def hertz_line_contact(force_per_length_N_m: float, radius1_m: float, radius2_m:
     return a, 2.0 * force_per_length_N_m / (math.pi * a)
 
 
+def hertz_pressure(x_m: np.ndarray, a_m: float, p0_Pa: float) -> np.ndarray:
+    """Hertz's elliptical pressure p0 sqrt(1 − x²/a²) at distances ``x_m`` from the contact line
+    (zero outside |x| < a), Pa. Its integral over x is the force per length π a p0 / 2."""
+    s = 1.0 - (np.asarray(x_m, dtype=np.float64) / a_m) ** 2
+    return p0_Pa * np.sqrt(np.maximum(s, 0.0))
+
+
 # ------------------------------------------------------------------------------------------------
 # ready-made problems (tests, demos/hertz_contact.py and benchmarks/contact_hertz.py share them)
 # ------------------------------------------------------------------------------------------------
