@@ -30,8 +30,9 @@ Parameters (command-line options, defaults in brackets):
 Outputs (in DIR; rank 0 writes the files, everything is computed on all ranks):
     hertz_pressure.png     FE pressure at the contact integration points (both passes) against the
                            Hertz ellipse, nondimensional (x/a, p/p0), with the pointwise error
-    hertz_pressure.csv     the points: pass, slave surface, position, gap, pressure, traction,
-                           master normal, integration weight, and the Hertz pressure at the same x
+    hertz_pressure.csv     the points: pass, slave surface, undeformed and current position, gap,
+                           pressure, traction, master normal, integration weight, and the Hertz
+                           pressure at the same undeformed x
     hertz_contact.bp/      DOLFINx VTX facet fields contact_pressure and contact_traction (ParaView)
     summary.json           DOFs, ranks, Hertz and FE values and errors, Newton/Uzawa iterations,
                            factorizations, wall times, versions; written last (marks a complete run)
@@ -92,7 +93,7 @@ def plot_pressure(path: Path, table, cmp, info: dict) -> None:
     import matplotlib.pyplot as plt
 
     a, p0 = cmp.a_analytic_m, cmp.p0_analytic_Pa
-    xa = table.x[:, 0] / a
+    xa = table.x_reference[:, 0] / a  # Hertz's theory is small-strain: positions before deformation
     view = np.abs(xa) <= 1.5
     fig, (ax, ax_err) = plt.subplots(2, 1, figsize=(7.2, 6.6), sharex=True, height_ratios=(3, 1.25),
                                      constrained_layout=True)
@@ -103,7 +104,7 @@ def plot_pressure(path: Path, table, cmp, info: dict) -> None:
         sel = view & (table.pass_index == k)
         ax.scatter(xa[sel], table.pressure[sel] / p0, s=11, alpha=0.55, lw=0, label=f"FE, slave: {name}",
                    zorder=2, **styles[k])
-        err = (table.pressure[sel] - hertz_pressure(table.x[sel, 0], a, p0)) / p0
+        err = (table.pressure[sel] - hertz_pressure(table.x_reference[sel, 0], a, p0)) / p0
         ax_err.scatter(xa[sel], 100.0 * err, s=9, alpha=0.55, lw=0, **styles[k])
     mu = info["friction_coefficient"]
     if mu > 0.0:
@@ -118,7 +119,7 @@ def plot_pressure(path: Path, table, cmp, info: dict) -> None:
     ax.set_xlim(-1.5, 1.5)
     ax.set_ylim(-0.05, 1.2)
     ax.set_ylabel(r"contact pressure $p / p_0$")
-    ax_err.set_xlabel(r"position across the contact $x / a$")
+    ax_err.set_xlabel(r"position across the contact (undeformed) $x / a$")
     ax_err.set_ylabel(r"$(p - p_{\rm Hertz}) / p_0$  [%]")
     top = ax.secondary_xaxis("top", functions=(lambda u: u * a * 1e3, lambda v: v / (a * 1e3)))
     top.set_xlabel("x [mm]")
@@ -130,7 +131,8 @@ def plot_pressure(path: Path, table, cmp, info: dict) -> None:
            f"P' = {cmp.force_per_length_N_m:.4g} N/m → a = {a * 1e3:.3f} mm, $p_0$ = {p0:.4g} Pa\n"
            f"h = {info['contact_size_m'] * 1e3:g} mm = a/{a / info['contact_size_m']:.1f}, "
            f"{_METHOD_NAMES[info['method']]}, μ = {mu:g}\n"
-           f"a from pressure moments; ellipse fit: {100 * (cmp.a_fit_m / a - 1):+.2f} %")
+           f"a from pressure moments; ellipse fit: {100 * (cmp.a_fit_m / a - 1):+.2f} %\n"
+           f"x: undeformed position of the integration points")
     ax.text(0.015, 0.975, txt, transform=ax.transAxes, va="top", ha="left", fontsize=8,
             bbox=dict(boxstyle="round", fc="white", ec="0.8", alpha=0.9))
     ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
@@ -141,18 +143,20 @@ def plot_pressure(path: Path, table, cmp, info: dict) -> None:
 
 
 def write_csv(path: Path, table, cmp) -> None:
-    """The integration points with the Hertz pressure at the same x (rank 0 only)."""
+    """The integration points with the Hertz pressure at the same (undeformed) x (rank 0 only)."""
     a, p0 = cmp.a_analytic_m, cmp.p0_analytic_Pa
-    ph = hertz_pressure(table.x[:, 0], a, p0)
+    ph = hertz_pressure(table.x_reference[:, 0], a, p0)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     with open(tmp, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["pass", "slave_surface", "x_m", "y_m", "z_m", "x_over_a", "gap_m", "pressure_Pa",
+        w.writerow(["pass", "slave_surface", "x_ref_m", "y_ref_m", "z_ref_m", "x_m", "y_m", "z_m", "x_ref_over_a",
+                    "gap_m", "pressure_Pa",
                     "p_over_p0", "p_hertz_Pa", "traction_x_Pa", "traction_y_Pa", "traction_z_Pa",
                     "normal_x", "normal_y", "normal_z", "weight_m2"])
         for i in range(table.num_points):
             k = int(table.pass_index[i])
-            w.writerow([k, table.slaves[k], *(f"{v:.10e}" for v in table.x[i]), f"{table.x[i, 0] / a:.6f}",
+            w.writerow([k, table.slaves[k], *(f"{v:.10e}" for v in table.x_reference[i]),
+                        *(f"{v:.10e}" for v in table.x[i]), f"{table.x_reference[i, 0] / a:.6f}",
                         f"{table.gap[i]:.6e}", f"{table.pressure[i]:.10e}", f"{table.pressure[i] / p0:.6f}",
                         f"{ph[i]:.10e}", *(f"{v:.10e}" for v in table.traction[i]),
                         *(f"{v:.8f}" for v in table.normal[i]), f"{table.weight[i]:.10e}"])
@@ -218,7 +222,8 @@ def main(argv: list[str] | None = None) -> int:
             "ranks": comm.size,
             "force_per_length_N_m": cmp.force_per_length_N_m,
             "hertz": {"a_m": cmp.a_analytic_m, "p0_Pa": cmp.p0_analytic_Pa},
-            "fe": {"a_moments_m": cmp.a_fe_m, "a_fit_m": cmp.a_fit_m, "p0_Pa": cmp.p0_fe_Pa},
+            "fe": {"a_moments_m": cmp.a_fe_m, "a_fit_m": cmp.a_fit_m, "p0_Pa": cmp.p0_fe_Pa,
+                   "a_moments_current_positions_m": cmp.a_current_m},
             "errors": {"p0": cmp.p0_error, "a_moments": cmp.a_error, "a_fit": cmp.a_fit_m / cmp.a_analytic_m - 1.0},
             "a_over_h": cmp.a_analytic_m / args.contact_size,
             "solver": {"newton_iterations": report.newton_iterations, "uzawa_iterations": report.uzawa_iterations,

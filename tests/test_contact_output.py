@@ -49,6 +49,9 @@ def test_gathered_points_carry_the_contact_force_and_agree_on_1_and_2_ranks(comm
         on = t.pressure > 0.0
         np.testing.assert_allclose(np.linalg.norm(t.shear[on], axis=1), mu * t.pressure[on], rtol=1e-9)
         np.testing.assert_allclose(np.einsum("pd,pd->p", t.shear, t.normal), 0.0, atol=1e-15)
+        # the interface is the plane z = 0 before deformation; the compressed blocks have moved
+        np.testing.assert_allclose(t.x_reference[:, 2], 0.0, atol=1e-14)
+        assert np.max(np.abs(t.x[:, 2] - t.x_reference[:, 2])) > 1e-4
         tables.append(t)
     serial, world = tables
     assert world.num_points == serial.num_points

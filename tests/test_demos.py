@@ -55,6 +55,6 @@ def test_hertz_contact_demo(tmp_path):
     force = np.sum(w[k == 0] * ty[k == 0]) - np.sum(w[k == 1] * ty[k == 1])
     assert -force / s["case"]["thickness_m"] == pytest.approx(P, rel=1e-8)
     assert p.max() == pytest.approx(s["fe"]["p0_Pa"], rel=1e-9)
-    xa = col("x_m") / s["hertz"]["a_m"]
+    xa = col("x_ref_m") / s["hertz"]["a_m"]
     expected = s["hertz"]["p0_Pa"] * np.sqrt(np.clip(1.0 - xa**2, 0.0, None))
     np.testing.assert_allclose(col("p_hertz_Pa"), expected, rtol=1e-8, atol=1e-12 * s["hertz"]["p0_Pa"])

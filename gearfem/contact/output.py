@@ -33,13 +33,16 @@ class ContactSummary:
 class PointTable:
     """The integration points of one interface from all ranks, in a partition-independent order.
 
-    Rows are sorted by pass, then by position (rounded to 1e-9 of the interface's extent), so the
-    table of a run on N ranks matches the serial one row by row (up to solver round-off).
+    Rows are sorted by pass, then by reference position (rounded to 1e-9 of the interface's
+    extent), so the table of a run on N ranks matches the serial one row by row (up to solver
+    round-off).
 
     Attributes:
         slaves: Name of the slave surface of each pass (index with ``pass_index``).
         pass_index: (n,) pass of each point (0, 1).
         x: (n, 3) current position of the slave point, m.
+        x_reference: (n, 3) the slave point without elastic displacement (its undeformed position,
+            rigidly placed by the body's motion), m.
         normal: (n, 3) outward unit normal of the master surface at the projected point.
         gap: (n,) normal gap, m (negative: penetration).
         pressure: (n,) contact pressure, Pa.
@@ -51,6 +54,7 @@ class PointTable:
     slaves: tuple[str, ...]
     pass_index: np.ndarray
     x: np.ndarray
+    x_reference: np.ndarray
     normal: np.ndarray
     gap: np.ndarray
     pressure: np.ndarray
@@ -73,19 +77,22 @@ def gather_points(problem: ContactProblem, interface: int = 0) -> PointTable:
     comm = problem.comm
     passes = problem.interfaces[interface].passes
     local = []
-    for k, pts in enumerate(problem.last_points[interface]):
-        local.append(np.column_stack([np.full(pts.num_points, float(k)), pts.x, pts.normal, pts.gap,
+    for k, (ps, pts) in enumerate(zip(passes, problem.last_points[interface])):
+        X = np.einsum("pk,pkd->pd", pts.Ns, ps.slave.local.X[pts.facet])
+        X = problem.motions[ps.slave.body].place(X)
+        local.append(np.column_stack([np.full(pts.num_points, float(k)), X, pts.x, pts.normal, pts.gap,
                                       pts.pressure, pts.traction, pts.dA]))
-    mine = np.concatenate(local) if local else np.zeros((0, 13))
+    mine = np.concatenate(local) if local else np.zeros((0, 16))
     rows = np.concatenate(comm.allgather(mine)) if comm.size > 1 else mine
     if len(rows):
-        x = rows[:, 1:4]
-        scale = max(float(np.ptp(x, axis=0).max()), 1e-300)
-        key = np.round(x / (1e-9 * scale))
+        X = rows[:, 1:4]
+        scale = max(float(np.ptp(X, axis=0).max()), 1e-300)
+        key = np.round(X / (1e-9 * scale))
         rows = rows[np.lexsort((key[:, 2], key[:, 1], key[:, 0], rows[:, 0]))]
     return PointTable(
-        slaves=tuple(ps.slave.name for ps in passes), pass_index=rows[:, 0].astype(np.int64), x=rows[:, 1:4],
-        normal=rows[:, 4:7], gap=rows[:, 7], pressure=rows[:, 8], traction=rows[:, 9:12], weight=rows[:, 12],
+        slaves=tuple(ps.slave.name for ps in passes), pass_index=rows[:, 0].astype(np.int64),
+        x_reference=rows[:, 1:4], x=rows[:, 4:7], normal=rows[:, 7:10], gap=rows[:, 10], pressure=rows[:, 11],
+        traction=rows[:, 12:15], weight=rows[:, 15],
     )
 
 
