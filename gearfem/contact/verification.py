@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import time
 
 import gmsh
 import numpy as np
@@ -213,6 +214,7 @@ class ContactCase:
     youngs_modulus_Pa: float
     poissons_ratio: float
     thickness_m: float = 1.0
+    timings_s: dict[str, float] = dataclasses.field(default_factory=dict)  # "mesh", "setup": wall times, s
 
     @property
     def comm(self) -> MPI.Comm:
@@ -267,7 +269,9 @@ def block_case(
     from gearfem.contact.problem import ContactProblem, fixed_mask
     from gearfem.contact.rigid import RigidMotion
 
+    t0 = time.perf_counter()
     md = two_blocks(comm, size_lower, size_upper, hexahedra=hexahedra)
+    t1 = time.perf_counter()
     V = fem.functionspace(md.mesh, ("Lagrange", md.mesh.geometry.cmaps[0].degree, (3,)))
     E, nu = youngs_modulus_Pa, poissons_ratio
     bcs = [_component_bc(V, md, "lower_zmin", 2, 0.0), _component_bc(V, md, "upper_zmax", 2, -compression_m)]
@@ -287,7 +291,7 @@ def block_case(
     }
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
     prob = ContactProblem(V, mu, lmbda, bcs, [itf], motions, options, petsc_options_prefix="gearfem_blocks_")
-    return ContactCase(prob, md, E, nu)
+    return ContactCase(prob, md, E, nu, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1})
 
 
 def hertz_case(
@@ -315,8 +319,10 @@ def hertz_case(
     from gearfem.contact.rigid import RigidMotion
 
     t = thickness_m if thickness_m is not None else 2.0 * contact_size
+    t0 = time.perf_counter()
     md = hertz_cylinders(comm, radius=radius, thickness=t, contact_size=contact_size, far_size=far_size,
                          refine_half_width=0.12 * radius, layers=layers)
+    t1 = time.perf_counter()
     V = fem.functionspace(md.mesh, ("Lagrange", 2, (3,)))
     E, nu = youngs_modulus_Pa, poissons_ratio
     bcs = []
@@ -330,7 +336,7 @@ def hertz_case(
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
     prob = ContactProblem(V, mu, lmbda, bcs, [itf], {"lower": RigidMotion(), "upper": RigidMotion()}, options,
                           petsc_options_prefix="gearfem_hertz_")
-    return ContactCase(prob, md, E, nu, thickness_m=t)
+    return ContactCase(prob, md, E, nu, thickness_m=t, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1})
 
 
 @dataclasses.dataclass(frozen=True)
