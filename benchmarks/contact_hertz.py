@@ -99,27 +99,31 @@ def run_case(comm: MPI.Comm, options: ContactOptions, contact_size: float, layer
 
 def format_timing(rows: list[dict]) -> str:
     head = (f"{'ranks':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'fact.':>5} {'solves':>6} {'mesh s':>7} "
-            f"{'setup s':>7} {'solve s':>7} {'CPU s':>6} {'RSS max MiB':>11} {'RSS sum MiB':>11} {'p0 err':>7} {'a err':>7}")
+            f"{'setup s':>7} {'solve s':>7} {'CPU s':>6} {'RSS max MiB':>11} {'RSS sum MiB':>11} "
+            f"{'p0 err':>7} {'a err':>7}")
     lines = [head, "-" * len(head)]
     for r in rows:
         lines.append(f"{r['ranks']:>5} {r['dofs']:>8} {r['newton']:>6} {r['uzawa']:>5} {r['factorizations']:>5} "
                      f"{r['linear_solves']:>6} {r['mesh_s']:>7.1f} {r['setup_s']:>7.1f} {r['solve_s']:>7.1f} "
-                     f"{r['solve_cpu_s']:>6.1f} {r['rss_max_MiB']:>11.0f} {r['rss_sum_MiB']:>11.0f} {100 * r['p0_error']:>+6.2f}% "
-                     f"{100 * r['a_error']:>+6.2f}%")
+                     f"{r['solve_cpu_s']:>6.1f} {r['rss_max_MiB']:>11.0f} {r['rss_sum_MiB']:>11.0f} "
+                     f"{100 * r['p0_error']:>+6.2f}% {100 * r['a_error']:>+6.2f}%")
     return "\n".join(lines)
 
 
 def format_refinement(rows: list[dict]) -> str:
-    head = (f"{'h mm':>6} {'a/h':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'p0 err':>8} {'order':>5} "
+    head = (f"{'ranks':>5} {'h mm':>6} {'a/h':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'p0 err':>8} {'order':>5} "
             f"{'a err':>8} {'order':>5} {'a fit':>8} {'a cur.':>8} {'solve s':>7}")
     lines = [head, "-" * len(head)]
     prev = None
     for r in rows:
+        if prev is not None and prev["ranks"] != r["ranks"]:
+            prev = None  # orders within one run only
+
         def order(key):
             if prev is None or r[key] == 0 or prev[key] == 0 or prev[key] * r[key] < 0:
                 return f"{'':>5}"
             return f"{math.log(abs(prev[key] / r[key])) / math.log(prev['contact_size_m'] / r['contact_size_m']):>5.2f}"
-        lines.append(f"{1e3 * r['contact_size_m']:>6.1f} {r['a_over_h']:>5.2f} {r['dofs']:>8} {r['newton']:>6} "
+        lines.append(f"{r['ranks']:>5} {1e3 * r['contact_size_m']:>6.1f} {r['a_over_h']:>5.2f} {r['dofs']:>8} {r['newton']:>6} "
                      f"{r['uzawa']:>5} {100 * r['p0_error']:>+7.2f}% {order('p0_error')} {100 * r['a_error']:>+7.2f}% "
                      f"{order('a_error')} {100 * r['a_fit_error']:>+7.2f}% {100 * r['a_current_error']:>+7.2f}% "
                      f"{r['solve_s']:>7.1f}")

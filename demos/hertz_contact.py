@@ -125,7 +125,8 @@ def plot_pressure(path: Path, table, cmp, info: dict) -> None:
     top.set_xlabel("x [mm]")
     right = ax.secondary_yaxis("right", functions=(lambda u: u * p0, lambda v: v / p0))
     right.set_ylabel("p [Pa]")
-    ax.set_title(f"Hertz line contact, {info['dofs']:,} DOFs on {info['ranks']} rank{'s' if info['ranks'] > 1 else ''}: "
+    ranks = f"{info['ranks']} rank{'s' if info['ranks'] > 1 else ''}"
+    ax.set_title(f"Hertz line contact, {info['dofs']:,} DOFs on {ranks}: "
                  f"$p_0$ {100 * cmp.p0_error:+.2f} %, $a$ {100 * cmp.a_error:+.2f} %", fontsize=10.5)
     txt = (f"R = {RADIUS_M:g} m (both), E = {info['youngs_modulus_Pa']:g} Pa, ν = {info['poissons_ratio']:g}\n"
            f"P' = {cmp.force_per_length_N_m:.4g} N/m → a = {a * 1e3:.3f} mm, $p_0$ = {p0:.4g} Pa\n"
@@ -238,7 +239,8 @@ def main(argv: list[str] | None = None) -> int:
         tmp.write_text(json.dumps(result, indent=2) + "\n")
         os.replace(tmp, out / "summary.json")  # last: marks a complete run
         print(f"Hertz line contact, {case.num_dofs()} DOFs on {comm.size} rank{'s' if comm.size > 1 else ''}: "
-              f"P' = {cmp.force_per_length_N_m:.5g} N/m, a = {cmp.a_analytic_m:.5g} m, p0 = {cmp.p0_analytic_Pa:.5g} Pa")
+              f"P' = {cmp.force_per_length_N_m:.5g} N/m, a = {cmp.a_analytic_m:.5g} m, "
+              f"p0 = {cmp.p0_analytic_Pa:.5g} Pa")
         print(f"  p0 error {100 * cmp.p0_error:+.2f} %, a error {100 * cmp.a_error:+.2f} % (moments), "
               f"{100 * (cmp.a_fit_m / cmp.a_analytic_m - 1):+.2f} % (ellipse fit)")
         print(f"  {report.newton_iterations} Newton, {report.uzawa_iterations} Uzawa iterations, "
