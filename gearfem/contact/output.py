@@ -29,6 +29,73 @@ class ContactSummary:
     num_points_in_contact: int
 
 
+@dataclasses.dataclass(frozen=True)
+class PointTable:
+    """The integration points of one interface from all ranks, in a partition-independent order.
+
+    Rows are sorted by pass, then by reference position (rounded to 1e-9 of the interface's
+    extent), so the table of a run on N ranks matches the serial one row by row (up to solver
+    round-off).
+
+    Attributes:
+        slaves: Name of the slave surface of each pass (index with ``pass_index``).
+        pass_index: (n,) pass of each point (0, 1).
+        x: (n, 3) current position of the slave point, m.
+        x_reference: (n, 3) the slave point without elastic displacement (its undeformed position,
+            rigidly placed by the body's motion), m.
+        normal: (n, 3) outward unit normal of the master surface at the projected point.
+        gap: (n,) normal gap, m (negative: penetration).
+        pressure: (n,) contact pressure, Pa.
+        traction: (n, 3) traction on the slave surface, Pa (t = p n + shear; :attr:`shear`).
+        weight: (n,) integration weight including the pass weight, m² (Σ weight·traction is the
+            force on the slave surfaces, both passes combined).
+    """
+
+    slaves: tuple[str, ...]
+    pass_index: np.ndarray
+    x: np.ndarray
+    x_reference: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+    pressure: np.ndarray
+    traction: np.ndarray
+    weight: np.ndarray
+
+    @property
+    def num_points(self) -> int:
+        return len(self.weight)
+
+    @property
+    def shear(self) -> np.ndarray:
+        """(n, 3) tangential part of the traction on the slave, t − p n, Pa."""
+        return self.traction - self.pressure[:, None] * self.normal
+
+
+def gather_points(problem: ContactProblem, interface: int = 0) -> PointTable:
+    """All ranks' integration points of the last solve on every rank (collective; for plots and
+    tables of a few thousand points — the arrays are replicated)."""
+    comm = problem.comm
+    passes = problem.interfaces[interface].passes
+    local = []
+    for k, (ps, pts) in enumerate(zip(passes, problem.last_points[interface])):
+        X = np.einsum("pk,pkd->pd", pts.Ns, ps.slave.local.X[pts.facet])
+        X = problem.motions[ps.slave.body].place(X)
+        local.append(np.column_stack([np.full(pts.num_points, float(k)), X, pts.x, pts.normal, pts.gap,
+                                      pts.pressure, pts.traction, pts.dA]))
+    mine = np.concatenate(local) if local else np.zeros((0, 16))
+    rows = np.concatenate(comm.allgather(mine)) if comm.size > 1 else mine
+    if len(rows):
+        X = rows[:, 1:4]
+        scale = max(float(np.ptp(X, axis=0).max()), 1e-300)
+        key = np.round(X / (1e-9 * scale))
+        rows = rows[np.lexsort((key[:, 2], key[:, 1], key[:, 0], rows[:, 0]))]
+    return PointTable(
+        slaves=tuple(ps.slave.name for ps in passes), pass_index=rows[:, 0].astype(np.int64),
+        x_reference=rows[:, 1:4], x=rows[:, 4:7], normal=rows[:, 7:10], gap=rows[:, 10], pressure=rows[:, 11],
+        traction=rows[:, 12:15], weight=rows[:, 15],
+    )
+
+
 def summary(problem: ContactProblem, interface: int = 0) -> ContactSummary:
     """Totals and penetration statistics of the last solve (collective)."""
     comm = problem.comm

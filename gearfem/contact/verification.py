@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import time
 
 import gmsh
 import numpy as np
@@ -192,6 +193,13 @@ def hertz_line_contact(force_per_length_N_m: float, radius1_m: float, radius2_m:
     return a, 2.0 * force_per_length_N_m / (math.pi * a)
 
 
+def hertz_pressure(x_m: np.ndarray, a_m: float, p0_Pa: float) -> np.ndarray:
+    """Hertz's elliptical pressure p0 sqrt(1 − x²/a²) at distances ``x_m`` from the contact line
+    (zero outside |x| < a), Pa. Its integral over x is the force per length π a p0 / 2."""
+    s = 1.0 - (np.asarray(x_m, dtype=np.float64) / a_m) ** 2
+    return p0_Pa * np.sqrt(np.maximum(s, 0.0))
+
+
 # ------------------------------------------------------------------------------------------------
 # ready-made problems (tests, demos/hertz_contact.py and benchmarks/contact_hertz.py share them)
 # ------------------------------------------------------------------------------------------------
@@ -206,6 +214,7 @@ class ContactCase:
     youngs_modulus_Pa: float
     poissons_ratio: float
     thickness_m: float = 1.0
+    timings_s: dict[str, float] = dataclasses.field(default_factory=dict)  # "mesh", "setup": wall times, s
 
     @property
     def comm(self) -> MPI.Comm:
@@ -260,7 +269,9 @@ def block_case(
     from gearfem.contact.problem import ContactProblem, fixed_mask
     from gearfem.contact.rigid import RigidMotion
 
+    t0 = time.perf_counter()
     md = two_blocks(comm, size_lower, size_upper, hexahedra=hexahedra)
+    t1 = time.perf_counter()
     V = fem.functionspace(md.mesh, ("Lagrange", md.mesh.geometry.cmaps[0].degree, (3,)))
     E, nu = youngs_modulus_Pa, poissons_ratio
     bcs = [_component_bc(V, md, "lower_zmin", 2, 0.0), _component_bc(V, md, "upper_zmax", 2, -compression_m)]
@@ -280,7 +291,7 @@ def block_case(
     }
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
     prob = ContactProblem(V, mu, lmbda, bcs, [itf], motions, options, petsc_options_prefix="gearfem_blocks_")
-    return ContactCase(prob, md, E, nu)
+    return ContactCase(prob, md, E, nu, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1})
 
 
 def hertz_case(
@@ -308,8 +319,10 @@ def hertz_case(
     from gearfem.contact.rigid import RigidMotion
 
     t = thickness_m if thickness_m is not None else 2.0 * contact_size
+    t0 = time.perf_counter()
     md = hertz_cylinders(comm, radius=radius, thickness=t, contact_size=contact_size, far_size=far_size,
                          refine_half_width=0.12 * radius, layers=layers)
+    t1 = time.perf_counter()
     V = fem.functionspace(md.mesh, ("Lagrange", 2, (3,)))
     E, nu = youngs_modulus_Pa, poissons_ratio
     bcs = []
@@ -323,12 +336,19 @@ def hertz_case(
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
     prob = ContactProblem(V, mu, lmbda, bcs, [itf], {"lower": RigidMotion(), "upper": RigidMotion()}, options,
                           petsc_options_prefix="gearfem_hertz_")
-    return ContactCase(prob, md, E, nu, thickness_m=t)
+    return ContactCase(prob, md, E, nu, thickness_m=t, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1})
 
 
 @dataclasses.dataclass(frozen=True)
 class HertzComparison:
-    """FE line-contact result against Hertz for the force the FE model carries."""
+    """FE line-contact result against Hertz for the force the FE model carries.
+
+    Positions across the contact are those of the slave points in the reference (undeformed)
+    configuration, where Hertz's small-strain theory measures the contact: in the current
+    configuration the surfaces have also moved tangentially, by u_x = −(1 − 2ν)(1 + ν) P'/(2E) at
+    the contact edges (Johnson eq. 2.25b; 0.7 % of a for ν = 0.3 and the default load), which would
+    bias a half-width read from current positions by that much.
+    """
 
     force_per_length_N_m: float
     a_analytic_m: float
@@ -336,8 +356,9 @@ class HertzComparison:
     a_fe_m: float  # from the pressure moments: a = 2 sqrt(∫x²p dA / ∫p dA) (exact for Hertz's ellipse)
     p0_fe_Pa: float  # largest pressure at a contact point
     a_fit_m: float  # from an elliptical fit p² = p0² (1 − x²/a²) of the pressures above 20 % of the peak
-    x_m: np.ndarray  # (rank 0: all points) position across the contact
+    x_m: np.ndarray  # (every rank: all points) reference position across the contact
     p_Pa: np.ndarray  # pressure at those points
+    a_current_m: float = float("nan")  # pressure moments over the current positions (for comparison)
 
     @property
     def a_error(self) -> float:
@@ -355,13 +376,19 @@ def compare_hertz(case: ContactCase, radius: float = 1.0) -> HertzComparison:
     P = abs(fn[1]) / case.thickness_m
     a, p0 = hertz_line_contact(P, radius, radius, case.youngs_modulus_Pa, case.poissons_ratio,
                                case.youngs_modulus_Pa, case.poissons_ratio)
-    pts = [p for p in prob.last_points[0] if p.num_points]
-    x = np.concatenate([p.x[:, 0] for p in pts]) if pts else np.zeros(0)
-    pr = np.concatenate([p.pressure for p in pts]) if pts else np.zeros(0)
-    dA = np.concatenate([p.dA for p in pts]) if pts else np.zeros(0)
+    x, xc, pr, dA = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
+    for ps, p in zip(prob.interfaces[0].passes, prob.last_points[0]):
+        X = np.einsum("pk,pkd->pd", p.Ns, ps.slave.local.X[p.facet])  # body frame, undeformed
+        x.append(prob.motions[ps.slave.body].place(X)[:, 0])
+        xc.append(p.x[:, 0])
+        pr.append(p.pressure)
+        dA.append(p.dA)
+    x, xc, pr, dA = (np.concatenate(v) for v in (x, xc, pr, dA))
     m0 = comm.allreduce(float(np.sum(dA * pr)), op=MPI.SUM)
     m2 = comm.allreduce(float(np.sum(dA * pr * x**2)), op=MPI.SUM)
+    m2c = comm.allreduce(float(np.sum(dA * pr * xc**2)), op=MPI.SUM)
     a_mom = 2.0 * float(np.sqrt(m2 / m0)) if m0 > 0 else float("nan")
+    a_cur = 2.0 * float(np.sqrt(m2c / m0)) if m0 > 0 else float("nan")
     x_all = np.concatenate(comm.allgather(x))
     p_all = np.concatenate(comm.allgather(pr))
     order = np.lexsort((p_all, x_all))  # deterministic order, independent of the partition
@@ -372,4 +399,4 @@ def compare_hertz(case: ContactCase, radius: float = 1.0) -> HertzComparison:
     A = np.column_stack([np.ones(sel.sum()), x_all[sel] ** 2])
     c0, c1 = np.linalg.lstsq(A, p_all[sel] ** 2, rcond=None)[0]
     a_fe = float(np.sqrt(-c0 / c1)) if c1 < 0 < c0 else float("nan")
-    return HertzComparison(P, a, p0, a_mom, p0_fe, a_fe, x_all, p_all)
+    return HertzComparison(P, a, p0, a_mom, p0_fe, a_fe, x_all, p_all, a_cur)
