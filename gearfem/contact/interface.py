@@ -308,6 +308,11 @@ class ContactInterface:
         if not (frozen and s_hat is not None):
             vt2 = np.einsum("pd,pd->p", vt, vt)
             s_hat = vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None] if n else np.zeros((0, 3))
+        else:  # frozen direction, kept in the current tangent plane with its magnitude
+            mag = np.linalg.norm(s_hat, axis=1)
+            st = s_hat - np.einsum("pd,pd->p", s_hat, normal)[:, None] * normal
+            nst = np.linalg.norm(st, axis=1)
+            s_hat = st * np.where(nst > 0.0, mag / np.where(nst > 0.0, nst, 1.0), 0.0)[:, None]
         traction = pressure[:, None] * (normal - mu * s_hat)
         return ContactPoints(ps.slave.name, ps.master.name, fs, fm, xi, zeta, ps.weight * wref * jac, x, normal,
                              gap, pressure, active, s_hat, vt, traction, eps, slope, Ns, Nm)
