@@ -27,30 +27,25 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from gearfem.materials import ZERO_CELSIUS_K, Material
-from gearfem.params import from_dict
-from gearfem.thermal import PrescribedSources, ThermalBoundary, ThermalDomain, ThermalOptions, ThermalProblem
-from gearfem.thermal.case import OperatingPoint, gear_radii, lumped_estimate, read_case
+from gearfem.materials import ZERO_CELSIUS_K
+from gearfem.thermal import ThermalBoundary, ThermalDomain, ThermalProblem
+from gearfem.thermal.case import gear_radii, lumped_estimate, read_case
 
 HERE = Path(__file__).resolve().parent
 KEYS = ("max_surface", "mean_bulk", "flank_mean", "root_mean")
 
 
 def build(case, comm, **thermal_overrides):
-    from gearfem.geometry import GearPairGeometry, MeshOptions, build_gear_mesh
+    from gearfem.geometry import build_gear_mesh
 
-    geometry = from_dict(GearPairGeometry, case.get("geometry", {}), "geometry")
-    mesh_opts = from_dict(MeshOptions, case.get("mesh", {}), "mesh")
-    material = from_dict(Material, case.get("material", {}), "material")
-    operating = from_dict(OperatingPoint, case.get("operating", {}), "operating")
-    options = from_dict(ThermalOptions, case.get("thermal", {}), "thermal")
-    options = dataclasses.replace(options, **thermal_overrides)
-    prescribed = from_dict(PrescribedSources, case.get("sources", {}), "sources")
-    gm = build_gear_mesh(geometry, dataclasses.replace(mesh_opts, bodies=(options.body,)), comm)
+    options = dataclasses.replace(case.thermal, **thermal_overrides)
+    prescribed = case.sources.prescribed()
+    material = case.material
+    gm = build_gear_mesh(case.geometry, dataclasses.replace(case.mesh, bodies=(options.body,)), comm)
     domain = ThermalDomain.from_gear_mesh(gm, options.body, flux_flanks=prescribed.flanks)
     profile = gm.pair.profile(options.body)
-    boundary = ThermalBoundary.from_options(options, material, operating.speed_rpm, gear_radii(profile))
-    sources = prescribed.build(domain, material, operating.speed_rpm, profile.teeth)
+    boundary = ThermalBoundary.from_options(options, material, case.operating.speed_rpm, gear_radii(profile))
+    sources = prescribed.build(domain, material, case.operating.speed_rpm, profile.teeth)
     tag = "_".join(f"{k}{v}" for k, v in sorted(thermal_overrides.items())).replace(".", "p")
     return ThermalProblem(domain, material, sources, boundary, options, petsc_options_prefix=f"bench_{tag}_"), gm
 

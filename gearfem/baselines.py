@@ -947,7 +947,8 @@ class BaselineOptions:
         air_density_kg_m3, air_specific_heat_J_kgK: Air of Mao's gear-pump model.
         rack_dedendum_coef: h_fP / m of the generating rack (ISO 6336-3).
         rack_fillet_coef: rho_fP / m of the generating rack; 0.38 is ISO 53 profile A (20 deg).
-            At most :func:`max_rack_fillet_coef` (0.110 for 30 deg with h_fP = 1.25 m).
+            At most :func:`max_rack_fillet_coef` (0.110 for 30 deg with h_fP = 1.25 m). None: the
+            full round that fits (the case runner passes the geometry's fillet when it fits).
         flash_points: Number of positions of the flash temperature curve.
     """
 
@@ -959,7 +960,7 @@ class BaselineOptions:
     air_density_kg_m3: float = AIR_DENSITY_25C_kg_m3
     air_specific_heat_J_kgK: float = AIR_SPECIFIC_HEAT_25C_J_kgK
     rack_dedendum_coef: float = 1.25
-    rack_fillet_coef: float = 0.38
+    rack_fillet_coef: float | None = None
     flash_points: int = 201
 
     def __post_init__(self) -> None:
@@ -975,7 +976,8 @@ class BaselineOptions:
         require_positive("baselines.air_density_kg_m3", self.air_density_kg_m3)
         require_positive("baselines.air_specific_heat_J_kgK", self.air_specific_heat_J_kgK)
         require_positive("baselines.rack_dedendum_coef", self.rack_dedendum_coef)
-        require_positive("baselines.rack_fillet_coef", self.rack_fillet_coef)
+        if self.rack_fillet_coef is not None:
+            require_positive("baselines.rack_fillet_coef", self.rack_fillet_coef)
         require_int("baselines.flash_points", self.flash_points, 3, 100_000)
 
 
@@ -1054,7 +1056,10 @@ def baseline_summary(
                                           reference_radius_m=r, air_density_kg_m3=opt.air_density_kg_m3,
                                           air_specific_heat_J_kgK=opt.air_specific_heat_J_kgK)
         out[f"mao_bulk_rise{i}_K"], out[f"mao_bulk{i}_C"] = mao, ambient_C + mao
-        kw = dict(rack_dedendum_coef=opt.rack_dedendum_coef, rack_fillet_coef=opt.rack_fillet_coef)
+        rho = opt.rack_fillet_coef if opt.rack_fillet_coef is not None else max_rack_fillet_coef(
+            pressure_angle_deg, opt.rack_dedendum_coef)
+        out["rack_fillet_coef"] = rho
+        kw = dict(rack_dedendum_coef=opt.rack_dedendum_coef, rack_fillet_coef=rho)
         fB = root_form_factors(z, p.m, pressure_angle_deg, x, ra, load_at="single_contact",
                                contact_ratio=p.eps_alpha, **kw)
         fC = root_form_factors(z, p.m, pressure_angle_deg, x, ra, load_at="tip", **kw)

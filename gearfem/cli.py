@@ -30,25 +30,15 @@ def _cmd_info(args: argparse.Namespace) -> int:
 def _cmd_mesh(args: argparse.Namespace) -> int:
     """Build (or load) the gear-pair mesh of a case; write mesh.msh, mesh.json and a picture."""
     import shutil
-    import tomllib
     from pathlib import Path
 
     from mpi4py import MPI
 
-    from gearfem.errors import ParameterError
-    from gearfem.geometry.gmsh_pair import MeshOptions
-    from gearfem.geometry.involute import GearPairGeometry
+    from gearfem.config import load_case
     from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair, write_json_atomic
-    from gearfem.params import from_dict
 
-    case: dict = {}
-    if args.case is not None:
-        try:
-            case = tomllib.loads(Path(args.case).read_text())
-        except (OSError, tomllib.TOMLDecodeError) as err:
-            raise ParameterError("CASE", str(args.case), "a readable TOML file", str(err)) from None
-    geometry = from_dict(GearPairGeometry, case.get("geometry", {}), "geometry")
-    options = from_dict(MeshOptions, case.get("mesh", {}), "mesh")
+    case = load_case(args.case)
+    geometry, options = case.geometry, case.mesh
     comm = MPI.COMM_WORLD
     gm = build_gear_mesh(geometry, options, comm, cache_dir=args.cache_dir, rebuild=args.rebuild)
     report = mesh_report(gm)
@@ -87,12 +77,73 @@ def _cmd_thermal(args: argparse.Namespace) -> int:
     from gearfem.thermal.case import read_case, run_thermal_case
 
     summary = run_thermal_case(read_case(args.case), args.out, cache_dir=args.cache_dir)
+    # (read_case: the one case schema of gearfem.config; None = the built-in thesis case)
     if MPI.COMM_WORLD.rank == 0:
         T = summary["final_temperatures_C"]
         print(f"thermal: t = {summary['time_s']:g} s, {summary['steps']} steps, {summary['dofs']} DOFs, "
               f"T max surface {T['max_surface']:.1f} C, mean bulk {T['mean_bulk']:.1f} C; "
               f"results in {args.out} (thermal_history.csv, temperature.bp, thermal_history.png, "
               f"thermal_summary.json)")
+    return 0
+
+
+def _say(*a, **k) -> None:
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.rank == 0:
+        print(*a, **k)
+
+
+def _cmd_cycle(args: argparse.Namespace) -> int:
+    """Sweep the mesh cycle of a case's torque (cached) and write histories and plots."""
+    from mpi4py import MPI
+
+    from gearfem import pipeline
+    from gearfem.config import load_case
+    from gearfem.cycle.report import cycle_summary_dict, write_cycle_outputs
+
+    case = load_case(args.case)
+    if args.torque_Nm is not None:
+        case = case.with_operating(torque_Nm=args.torque_Nm)
+    comm = MPI.COMM_WORLD
+    bar = pipeline._ProgressBar(comm)
+    res, directory, cached = pipeline.cycle(case, comm, rebuild=args.rebuild, progress=bar.update)
+    bar.close()
+    if comm.rank == 0:
+        write_cycle_outputs(res, args.out)
+        s = cycle_summary_dict(res)
+        _say(f"cycle at {case.operating.torque_Nm:g} N m ({'cached' if cached else 'computed'}, {directory}): "
+             f"{s['positions']} positions, effective contact ratio {s['effective_contact_ratio']:.3f} "
+             f"(theory {s['theoretical_contact_ratio']:.3f}), TE {s['transmission_error_um']['mean']:.1f} um, "
+             f"max pressure {s['max_contact_pressure_MPa']:.1f} MPa, friction power "
+             f"{s['mean_friction_power_W_per_rad_s']:.3f} W per rad/s; results in {args.out} "
+             "(cycle_history.csv, cycle_summary.json, load_sharing.png, transmission_error.png, "
+             "strain_energy_history.png, flank_maps.png)")
+    comm.barrier()
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    """The whole chain for one operating point: cycle (cached), thermal, baselines, summary."""
+    from mpi4py import MPI
+
+    from gearfem import pipeline
+    from gearfem.config import load_case
+
+    case = load_case(args.case)
+    case = case.with_operating(speed_rpm=args.speed_rpm, torque_Nm=args.torque_Nm)
+    if args.duration_s is not None:
+        import dataclasses
+
+        case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s))
+    summary = pipeline.run(case, args.out, MPI.COMM_WORLD, progress=not args.no_progress)
+    h = summary["headline"]
+    _say(f"{case.name}: {case.operating.speed_rpm:g} rpm, {case.operating.torque_Nm:g} N m, "
+         f"t = {h['time_s']:g} s: max surface {h['max_surface_temperature_C']:.1f} C "
+         f"(steady {h.get('steady_max_surface_temperature_C') or float('nan'):.1f} C), "
+         f"mean bulk {h['mean_bulk_temperature_C']:.1f} C; VDI 2736 flank {h.get('vdi2736_flank1_C', float('nan')):.1f} C, "
+         f"root {h.get('vdi2736_root1_C', float('nan')):.1f} C")
+    _say(f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/")
     return 0
 
 
@@ -121,11 +172,27 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--no-picture", action="store_true", help="skip the PNG")
     s.set_defaults(func=_cmd_mesh)
 
-    s = sub.add_parser("thermal", help="temperature history of one gear (prescribed sources until the cycle exists)")
-    s.add_argument("case", help="case TOML: [geometry] [mesh] [material] [operating] [thermal] [sources]")
+    s = sub.add_parser("thermal", help="temperature history of one gear from the stored cycle or prescribed sources")
+    s.add_argument("case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--cache-dir", default=None, help="mesh cache (default: $GEARFEM_MESH_CACHE or meshes/cache)")
     s.set_defaults(func=_cmd_thermal)
+
+    s = sub.add_parser("cycle", help="sweep the mesh cycle at the case torque: load sharing, TE, U_max, flank flux")
+    s.add_argument("case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)")
+    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument("--torque-Nm", dest="torque_Nm", type=float, default=None, help="override [operating] torque_Nm")
+    s.add_argument("--rebuild", action="store_true", help="recompute even if the cycle is cached")
+    s.set_defaults(func=_cmd_cycle)
+
+    s = sub.add_parser("run", help="the whole chain for one operating point (the README's main job)")
+    s.add_argument("case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)")
+    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument("--speed-rpm", dest="speed_rpm", type=float, default=None, help="override [operating] speed_rpm")
+    s.add_argument("--torque-Nm", dest="torque_Nm", type=float, default=None, help="override [operating] torque_Nm")
+    s.add_argument("--duration-s", dest="duration_s", type=float, default=None, help="override [thermal] duration_s")
+    s.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s.set_defaults(func=_cmd_run)
     return p
 
 

@@ -95,6 +95,7 @@ def test_cli_case_runs_and_writes(cache, tmp_out):
     output_times_s = [60.0]
     degree = 1
     [sources]
+    mode = "prescribed"
     flank_heat_per_gear_W = 40.0
     u_max_J_m3 = 2.0e4
     """

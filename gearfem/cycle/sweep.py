@@ -328,6 +328,18 @@ def run_cycle(model: GearContactModel, positions_per_pitch: int | None = None, p
                        "_w_shifted": w}
 
     fields = _sector_fields(model, se, np.array(w_cells), facet_heat, facet_press, heat_fraction, pitch)
+    # Each gear's flux distribution comes from the pass in which it is the slave; its magnitude is
+    # made to carry exactly its share of the cycle-averaged friction power (the raw mismatch, from
+    # the two passes' slightly different pressures and the periodic mapping, is reported).
+    mean_pf = float(np.mean(hist["pf"]))
+    balance = {}
+    for b in BODIES:
+        z = gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel
+        raw = z * float(np.sum(fields[b].flux_W_m2_per_rad_s * fields[b].facet_area_m2))
+        target = heat_fraction[b] * mean_pf
+        if raw > 0.0:
+            fields[b].flux_W_m2_per_rad_s *= target / raw
+        balance[f"{b}_flank_heat_raw_over_share"] = raw / target if target > 0 else float("nan")
     if periodicity is not None:
         periodicity.update(_periodicity_of_cells(model, se, np.array(w_cells[0]), periodicity.pop("_w_shifted"), pitch))
 
@@ -343,7 +355,9 @@ def run_cycle(model: GearContactModel, positions_per_pitch: int | None = None, p
         reference_tooth={b: gm.reference_tooth(b) for b in BODIES},
         theoretical_contact_ratio=pair.contact_ratio, base_pitch_m=pair.base_pitch_m, periodicity=periodicity,
         info={"dofs": model.V.dofmap.index_map.size_global * 3, "positions": n, "mpi_size": comm.size,
-              "factorizations": model.problem.factorizations, "linear_solves": model.problem.linear_solves},
+              "factorizations": model.problem.factorizations, "linear_solves": model.problem.linear_solves,
+              "creep_ratio": model.creep_ratio, "speed_ratio": model.ratio, "slip_regularization_m_s": model.contact.slip_regularization_m_s,
+              **balance},
     )
 
 
@@ -418,21 +432,28 @@ def _facet_kinds(model: GearContactModel, body: str) -> np.ndarray:
 
 
 def _periodicity_of_cells(model, se, w_first: np.ndarray, w_shifted: np.ndarray, pitch: float) -> dict:
-    """Strain energy at start + pitch against the start state mapped by one tooth, per body."""
+    """Strain energy per tooth sector at start + pitch against the start, one tooth over.
+
+    By periodicity the pinion's sector k at start + pitch holds what sector k + 1 held at the start
+    (the wheel's sector k what its sector k − 1 held). Interior sectors only (away from the cuts).
+    """
     gm, comm = model.gm, model.comm
     out = {}
     for b in BODIES:
         center = np.asarray(gm.center(b))
-        z = gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel
-        pitch_b = 2.0 * math.pi / z
+        angles = gm.tooth_angles(b)
+        pitch_b = (
+            2.0 * math.pi / (gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel))
         cells, xc, vol = _cell_data(model, se, b)
         W0, W1 = _gather(w_first[cells], comm), _gather(w_shifted[cells], comm)
-        tooth_angle = float(gm.tooth_angles(b)[gm.reference_tooth(b)])
-        sec = in_sector(xc, center, tooth_angle, pitch_b)
-        imap: ImageMap = image_map(xc[sec], xc, center, SHIFT_SIGN[b] * pitch_b, 2.0 * np.cbrt(vol[sec]), images=(1,))
-        ok = imap.valid[1]
-        e_shift = float(np.sum((W1[sec] * vol[sec])[ok]))  # energy in the sector at start + pitch
-        e_map = float(np.sum((W0[imap.index[1]] * vol[sec])[ok]))  # the start state one tooth ahead
-        out[f"{b}_sector_energy_shifted_J"] = e_shift
-        out[f"{b}_sector_energy_mapped_J"] = e_map
+        step = 1 if b == "pinion" else -1
+        pairs = []
+        for k in range(1, len(angles) - 1):
+            j = k + step
+            if not 1 <= j <= len(angles) - 2:
+                continue
+            sk = in_sector(xc, center, angles[k], pitch_b)
+            sj = in_sector(xc, center, angles[j], pitch_b)
+            pairs.append((k, float(np.sum(W1[sk] * vol[sk])), float(np.sum(W0[sj] * vol[sj]))))
+        out[f"{b}_sector_energy_J"] = [{"sector": k, "shifted": e1, "mapped": e0} for k, e1, e0 in pairs]
     return out

@@ -1,0 +1,110 @@
+"""The case: one validated configuration for the whole chain, read from and written to TOML.
+
+A case file has one table per stage, each a frozen dataclass of the module that owns it::
+
+    name = "thesis bench 1000 rpm 8 Nm"
+    [geometry]   # gearfem.geometry.involute.GearPairGeometry (mm, degrees)
+    [mesh]       # gearfem.geometry.gmsh_pair.MeshOptions
+    [material]   # gearfem.materials.Material (both gears; [material_wheel] overrides the wheel)
+    [contact]    # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5: thesis 5.1.2)
+    [cycle]      # gearfem.cycle.model.CycleOptions
+    [operating]  # OperatingPoint: speed_rpm (pinion), torque_Nm (resisting torque on the wheel)
+    [sources]    # gearfem.sources.SourceOptions
+    [thermal]    # gearfem.thermal.options.ThermalOptions (duration_s, convection, ...)
+    [baselines]  # gearfem.baselines.BaselineOptions
+
+Every table and key is optional; missing ones take the defaults, which are the thesis case
+(Doll 2015: PEEK 450G 30/30 teeth, m = 2 mm, 30°, bench point 1000 rpm / 8 N·m). Unknown keys and
+bad values raise :class:`~gearfem.errors.ParameterError` naming the key, value and allowed range.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from gearfem.baselines import BaselineOptions
+from gearfem.contact.options import ContactOptions
+from gearfem.cycle.model import CycleOptions
+from gearfem.errors import ParameterError
+from gearfem.geometry.gmsh_pair import MeshOptions
+from gearfem.geometry.involute import GearPairGeometry
+from gearfem.materials import Material, data_text
+from gearfem.params import from_dict, require_nonnegative, require_positive, to_dict
+from gearfem.sources import SourceOptions
+from gearfem.thermal.options import ThermalOptions
+
+
+@dataclasses.dataclass(frozen=True)
+class OperatingPoint:
+    """``[operating]``: pinion speed and the resisting torque on the wheel."""
+
+    speed_rpm: float = 1000.0
+    torque_Nm: float = 8.0
+
+    def __post_init__(self) -> None:
+        require_nonnegative("operating.speed_rpm", self.speed_rpm)
+        require_positive("operating.torque_Nm", self.torque_Nm)
+
+
+def _thesis_contact() -> ContactOptions:
+    return ContactOptions(friction_coefficient=0.5)
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """Everything one gearfem run needs (see the module docstring)."""
+
+    name: str = "thesis"
+    geometry: GearPairGeometry = dataclasses.field(default_factory=GearPairGeometry)
+    mesh: MeshOptions = dataclasses.field(default_factory=MeshOptions)
+    material: Material = dataclasses.field(default_factory=Material)
+    material_wheel: Material | None = None
+    contact: ContactOptions = dataclasses.field(default_factory=_thesis_contact)
+    cycle: CycleOptions = dataclasses.field(default_factory=CycleOptions)
+    operating: OperatingPoint = dataclasses.field(default_factory=OperatingPoint)
+    sources: SourceOptions = dataclasses.field(default_factory=SourceOptions)
+    thermal: ThermalOptions = dataclasses.field(default_factory=ThermalOptions)
+    baselines: BaselineOptions = dataclasses.field(default_factory=BaselineOptions)
+
+    @property
+    def materials(self) -> dict[str, Material]:
+        return {"pinion": self.material, "wheel": self.material_wheel or self.material}
+
+    def with_operating(self, speed_rpm: float | None = None, torque_Nm: float | None = None) -> Case:
+        op = dataclasses.replace(
+            self.operating, **{k: v for k, v in (("speed_rpm", speed_rpm), ("torque_Nm", torque_Nm)) if v is not None})
+        return dataclasses.replace(self, operating=op)
+
+
+def case_from_dict(data: dict[str, Any]) -> Case:
+    return from_dict(Case, data)
+
+
+def load_case(path: str | Path | None = None) -> Case:
+    """Read a case TOML (``None``: the built-in thesis case)."""
+    if path is None:
+        return case_from_dict(tomllib.loads(data_text("thesis_case.toml")))
+    path = Path(path)
+    if not path.is_file():
+        raise ParameterError("case file", str(path), "an existing TOML file")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise ParameterError("case file", str(path), "valid TOML", str(err)) from err
+    return case_from_dict(data)
+
+
+def case_to_dict(case: Case) -> dict[str, Any]:
+    return to_dict(case)
+
+
+def write_case(case: Case, path: str | Path) -> Path:
+    """Write the resolved case (every value, defaults included) as TOML."""
+    path = Path(path)
+    path.write_text(tomli_w.dumps(case_to_dict(case)))
+    return path

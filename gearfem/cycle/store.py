@@ -1,0 +1,135 @@
+"""Saving, loading and caching cycle results.
+
+A :class:`~gearfem.cycle.sweep.CycleResult` is stored as ``cycle.npz`` (arrays) plus
+``cycle.json`` (scalars and metadata), written to a temporary name and renamed, so an interrupted
+run never leaves a result that looks complete. Results are cached under
+``<cache>/cycles/<key>/`` with ``key`` a hash of everything that changes the structural answer:
+geometry, mesh options, materials, contact and cycle options, torque and the source of the
+contact/cycle code (speed does not enter: one sweep per torque serves every speed).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gearfem.cycle.sweep import BodyFields, CycleResult
+from gearfem.params import to_dict
+
+log = logging.getLogger(__name__)
+
+ENV_CACHE = "GEARFEM_CACHE"
+_SCALARS = ("torque_Nm", "friction_coefficient", "pitch_angle_rad", "theoretical_contact_ratio", "base_pitch_m")
+_ARRAYS = ("phi_rad", "te_m", "pinion_torque_Nm", "wheel_torque_Nm", "friction_power_W_per_rad_s", "p_max_Pa",
+           "p_max_mid_Pa", "newton_iterations", "uzawa_iterations", "wall_time_s")
+
+
+def cache_root() -> Path:
+    """``$GEARFEM_CACHE`` if set, else ``cache`` under the working directory."""
+    return Path(os.environ.get(ENV_CACHE, "cache"))
+
+
+def _code_hash() -> str:
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for sub in ("contact", "cycle"):
+        for f in sorted((root / sub).glob("*.py")):
+            if f.name != "store.py":
+                h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def cycle_key(geometry, mesh_options, materials: dict, contact, cycle_options, torque_Nm: float) -> str:
+    data = {"geometry": to_dict(geometry), "mesh": to_dict(mesh_options),
+            "materials": {b: to_dict(m) for b, m in materials.items()}, "contact": to_dict(contact),
+            "cycle": to_dict(cycle_options), "torque_Nm": float(torque_Nm), "code": _code_hash()}
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def save(result: CycleResult, directory: str | Path) -> Path:
+    """Write ``cycle.npz`` and ``cycle.json`` into ``directory`` atomically (call on one rank)."""
+    directory = Path(directory)
+    directory.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".tmp-cycle-", dir=directory.parent))
+    arrays: dict[str, np.ndarray] = {k: np.asarray(getattr(result, k)) for k in _ARRAYS}
+    for b, v in result.root_stress_Pa.items():
+        arrays[f"root_stress_Pa__{b}"] = v
+    for k, v in result.tooth_load_N.items():
+        arrays[f"tooth_load_N__{k}"] = v
+        arrays[f"tooth_S_m__{k}"] = result.tooth_S_m[k]
+    for b, f in result.fields.items():
+        for name in BodyFields.__dataclass_fields__:
+            val = getattr(f, name)
+            if isinstance(val, np.ndarray):
+                arrays[f"fields__{b}__{name}"] = val
+    np.savez_compressed(tmp / "cycle.npz", **arrays)
+    meta: dict[str, Any] = {k: getattr(result, k) for k in _SCALARS}
+    meta.update(heat_fraction=result.heat_fraction, reference_tooth=result.reference_tooth, info=result.info,
+                periodicity=_jsonable(result.periodicity),
+                fields={b: {"tooth_angle_rad": f.tooth_angle_rad, "pitch_angle_rad": f.pitch_angle_rad}
+                        for b, f in result.fields.items()})
+    (tmp / "cycle.json").write_text(json.dumps(meta, indent=2, default=_jsonable))
+    if directory.exists():
+        shutil.rmtree(directory)
+    os.replace(tmp, directory)
+    return directory
+
+
+def load(directory: str | Path) -> CycleResult:
+    directory = Path(directory)
+    meta = json.loads((directory / "cycle.json").read_text())
+    with np.load(directory / "cycle.npz") as z:
+        arr = {k: z[k] for k in z.files}
+    fields = {}
+    for b, fm in meta["fields"].items():
+        kw = {name: arr[f"fields__{b}__{name}"] for name in BodyFields.__dataclass_fields__
+              if f"fields__{b}__{name}" in arr}
+        fields[b] = BodyFields(tooth_angle_rad=fm["tooth_angle_rad"], pitch_angle_rad=fm["pitch_angle_rad"], **kw)
+    teeth = sorted(int(k.split("__")[1]) for k in arr if k.startswith("tooth_load_N__"))
+    return CycleResult(
+        **{k: meta[k] for k in _SCALARS}, **{k: arr[k] for k in _ARRAYS},
+        heat_fraction=meta["heat_fraction"],
+        root_stress_Pa={k.split("__")[1]: v for k, v in arr.items() if k.startswith("root_stress_Pa__")},
+        tooth_load_N={k: arr[f"tooth_load_N__{k}"] for k in teeth},
+        tooth_S_m={k: arr[f"tooth_S_m__{k}"] for k in teeth}, fields=fields,
+        reference_tooth=meta["reference_tooth"], periodicity=meta.get("periodicity"), info=meta.get("info", {}),
+    )
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def cached_cycle(model_factory, key: str, comm, cache_dir: Path | None = None, rebuild: bool = False,
+                 **run_kwargs) -> tuple[CycleResult, Path, bool]:
+    """The cycle result for ``key`` from the cache, or computed (``model_factory()`` then
+    :func:`~gearfem.cycle.sweep.run_cycle`) and stored. Collective. Returns (result, dir, from_cache)."""
+    from gearfem.cycle.sweep import run_cycle
+
+    directory = (cache_dir or cache_root()) / "cycles" / key
+    done = (directory / "cycle.json").exists() and (directory / "cycle.npz").exists()
+    done = comm.bcast(done, root=0)
+    if done and not rebuild:
+        log.info("cycle %s from the cache (%s)", key, directory)
+        return load(directory), directory, True
+    result = run_cycle(model_factory(), **run_kwargs)
+    if comm.rank == 0:
+        save(result, directory)
+    comm.barrier()
+    return result, directory, False

@@ -1,0 +1,197 @@
+"""Heat sources from the contact cycle, placed on the thermal mesh of one gear.
+
+The cycle (:mod:`gearfem.cycle`) gives, for the reference tooth of each gear, the maximum strain
+energy density U_max of every cell of the tooth's sector and the revolution-averaged friction flux
+of every contact facet, per unit pinion speed. With rotation-averaged sources every tooth sees
+the same heating (thesis 5.2), so each thermal cell and flank facet takes the value of its
+congruent place in the reference sector: its centroid is rotated by whole pitches into that
+sector and the nearest reference entity is taken (identical meshes of the teeth make this exact;
+otherwise it is nearest-neighbour sampling). The flank heat of every tooth is then rescaled to
+exactly the reference tooth's heat, so the heat put into the thermal model equals the gear's share
+of the friction loss to round-off.
+
+* hysteresis: q_h = H(T) U_max f with f the rotational frequency of the gear (thesis eq. 2.15) or
+  the tooth-pass frequency (``loading_frequency``);
+* friction: q = flux per unit ω₁ × ω₁, into the drive flanks, tips and roots that touched.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from mpi4py import MPI
+from scipy.spatial import cKDTree
+
+from gearfem.errors import ParameterError
+from gearfem.materials import Material
+from gearfem.params import require_choice, require_nonnegative, require_range
+from gearfem.thermal.sources import LOADING_FREQUENCIES, HeatSources, PrescribedSources, loading_frequency_Hz
+
+
+@dataclasses.dataclass(frozen=True)
+class SourceOptions:
+    """``[sources]``: where the heat sources come from and how they are applied.
+
+    Attributes:
+        mode: ``"cycle"`` (from the contact cycle, the default) or ``"prescribed"`` (the fields
+            below, for studies without the structural stage).
+        hysteresis, friction: Include each source.
+        loading_frequency: f of q_h = H U_max f: ``"rotation"`` (n/60, as the thesis) or
+            ``"tooth_pass"`` (z n/60).
+        heat_fraction_pinion: Share of the friction heat into the pinion (None: by thermal
+            effusivity, ½ for equal materials, thesis 5.2.3).
+        hysteresis_scale, flux_scale: Multipliers (model-discrepancy hooks).
+        flank_heat_per_gear_W, u_max_J_m3, flanks: Prescribed mode only (see
+            :class:`gearfem.thermal.sources.PrescribedSources`).
+    """
+
+    mode: str = "cycle"
+    hysteresis: bool = True
+    friction: bool = True
+    loading_frequency: str = "rotation"
+    heat_fraction_pinion: float | None = None
+    hysteresis_scale: float = 1.0
+    flux_scale: float = 1.0
+    flank_heat_per_gear_W: float = 0.0
+    u_max_J_m3: float = 0.0
+    flanks: str = "drive"
+
+    def __post_init__(self) -> None:
+        require_choice("sources.mode", self.mode, ("cycle", "prescribed"))
+        require_choice("sources.loading_frequency", self.loading_frequency, LOADING_FREQUENCIES)
+        if self.heat_fraction_pinion is not None:
+            require_range("sources.heat_fraction_pinion", self.heat_fraction_pinion, 0.0, 1.0)
+        require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
+        require_nonnegative("sources.flux_scale", self.flux_scale)
+        self.prescribed()  # validates the prescribed fields
+
+    def prescribed(self) -> PrescribedSources:
+        return PrescribedSources(
+            flank_heat_per_gear_W=self.flank_heat_per_gear_W if self.friction else 0.0, flanks=self.flanks,
+            u_max_J_m3=self.u_max_J_m3 if self.hysteresis else 0.0, loading_frequency=self.loading_frequency,
+            hysteresis_scale=self.hysteresis_scale, flux_scale=self.flux_scale)
+
+    def heat_fraction(self, materials: dict[str, Material]) -> dict[str, float] | None:
+        if self.heat_fraction_pinion is None:
+            return None
+        return {"pinion": self.heat_fraction_pinion, "wheel": 1.0 - self.heat_fraction_pinion}
+
+
+# ------------------------------------------------------------------------------------------------
+
+
+def _tooth_local(points: np.ndarray, center: np.ndarray, tooth_angles: np.ndarray, pitch: float,
+                 ref_angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate points into the reference tooth's sector: (rotated points, index of their tooth)."""
+    p = np.asarray(points) - center
+    theta = np.arctan2(p[:, 1], p[:, 0])
+    d = np.angle(np.exp(1j * (theta[:, None] - np.asarray(tooth_angles)[None, :])))
+    k = np.argmin(np.abs(d), axis=1)
+    rot = ref_angle - np.asarray(tooth_angles)[k]
+    c, s = np.cos(rot), np.sin(rot)
+    out = np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]])
+    return out, k
+
+
+def _cell_centroids(mesh, n: int) -> np.ndarray:
+    return mesh.geometry.x[mesh.geometry.dofmaps[0][:n]].mean(axis=1)
+
+
+def u_max_function(domain, gear_mesh, body: str, fields):
+    """DG0 U_max (J/m³) on the thermal mesh from the cycle's reference sector (collective-free)."""
+    from dolfinx import fem
+
+    mesh = domain.mesh
+    Q = fem.functionspace(mesh, ("DG", 0))
+    f = fem.Function(Q, name="U_max")
+    n = mesh.topology.index_map(3).size_local + mesh.topology.index_map(3).num_ghosts
+    x = _cell_centroids(mesh, n)
+    angles = gear_mesh.tooth_angles(body)
+    center = np.asarray(gear_mesh.center(body))
+    xl, _ = _tooth_local(x, center, angles, fields.pitch_angle_rad, fields.tooth_angle_rad)
+    ref = fields.cell_points_m - fields.center_m
+    _, j = cKDTree(ref).query(xl)
+    f.x.array[Q.dofmap.list[:n, 0]] = fields.u_max_J_m3[j]
+    f.x.scatter_forward()
+    return f
+
+
+def friction_flux_function(domain, gear_mesh, body: str, fields, omega1_rad_s: float,
+                           kinds: tuple[str, ...] = ("drive_flank", "tip", "root")):
+    """DG0 flank flux (W/m²) on the cells next to the contact surfaces, and those surfaces' names.
+
+    Each facet of the drive flanks, tips and roots takes the reference facet nearest to its
+    congruent place; every tooth's total is then scaled to the reference tooth's heat. (A cell
+    touching two such facets carries their area-weighted mean.) Collective (totals are reduced).
+    """
+    from dolfinx import fem
+
+    from gearfem.contact.kinematics import evaluate
+    from gearfem.contact.reference import FacetReference
+    from gearfem.geometry.mesh import parse_group_name
+
+    mesh = domain.mesh
+    tdim = mesh.topology.dim
+    names = tuple(n for n in domain.groups if parse_group_name(n)[0] == body and parse_group_name(n)[2] in kinds
+                  and parse_group_name(n)[1] is not None)
+    if not names:
+        raise ParameterError("sources.friction surfaces", kinds, f"facet groups of {body!r} in the thermal mesh")
+    facets = domain.facets(names)
+    n_owned_f = mesh.topology.index_map(tdim - 1).size_local
+    facets = facets[facets < n_owned_f]
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    cf = np.asarray(fem.compute_integration_domains(fem.IntegralType.exterior_facet, mesh.topology,
+                                                    facets)).reshape(-1, 2)
+    import basix
+
+    cell_type = {"tetrahedron": basix.CellType.tetrahedron, "hexahedron": basix.CellType.hexahedron}[
+        mesh.topology.cell_name()]
+    ref = FacetReference.create(cell_type, mesh.geometry.cmaps[0].degree)
+    X = mesh.geometry.x[np.take_along_axis(mesh.geometry.dofmaps[0][cf[:, 0]], ref.facet_nodes[cf[:, 1]], axis=1)]
+    xc = X[:, : ref.num_vertices].mean(axis=1)
+    qp, qw = ref.quadrature(2)
+    area = np.zeros(len(facets))
+    for p_, w_ in zip(qp, qw):
+        _, a1, a2, _ = evaluate(ref, X, np.tile(p_, (len(facets), 1)))
+        area += w_ * np.linalg.norm(np.cross(a1, a2), axis=1)
+    angles = gear_mesh.tooth_angles(body)
+    center = np.asarray(gear_mesh.center(body))
+    xl, tooth = _tooth_local(xc, center, angles, fields.pitch_angle_rad, fields.tooth_angle_rad)
+    _, j = cKDTree(fields.facet_points_m - fields.center_m).query(xl)
+    q = fields.flux_W_m2_per_rad_s[j] * omega1_rad_s
+    # per-tooth conservation: each tooth carries exactly the reference tooth's heat
+    ntooth = len(angles)
+    tooth_heat = mesh.comm.allreduce(np.bincount(tooth, weights=q * area, minlength=ntooth), op=MPI.SUM)
+    target = float(np.sum(fields.flux_W_m2_per_rad_s * fields.facet_area_m2)) * omega1_rad_s
+    scale = np.where(tooth_heat > 0, target / np.where(tooth_heat > 0, tooth_heat, 1.0), 0.0)
+    q = q * scale[tooth]
+    Q = fem.functionspace(mesh, ("DG", 0))
+    fn = fem.Function(Q, name="flank_flux")
+    n_cells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
+    num = np.bincount(cf[:, 0], weights=q * area, minlength=n_cells)
+    den = np.bincount(cf[:, 0], weights=area, minlength=n_cells)
+    vals = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    fn.x.array[Q.dofmap.list[:n_cells, 0]] = vals
+    fn.x.scatter_forward()
+    return fn, names
+
+
+def cycle_heat_sources(domain, gear_mesh, body: str, cycle, options: SourceOptions, material: Material,
+                       speed_rpm: float) -> HeatSources:
+    """:class:`HeatSources` of one gear from a cycle result at pinion speed ``speed_rpm``."""
+    fields = cycle.fields[body]
+    z1 = gear_mesh.geometry.teeth_pinion
+    z = z1 if body == "pinion" else gear_mesh.geometry.teeth_wheel
+    speed_body = speed_rpm if body == "pinion" else speed_rpm * z1 / z
+    omega1 = 2.0 * math.pi * speed_rpm / 60.0
+    kw = {}
+    if options.hysteresis:
+        kw.update(u_max=u_max_function(domain, gear_mesh, body, fields),
+                  loading_frequency_Hz=loading_frequency_Hz(options.loading_frequency, speed_body, z),
+                  hysteresis=material.hysteresis_table(), hysteresis_scale=options.hysteresis_scale)
+    if options.friction and cycle.friction_coefficient > 0.0:
+        flux, names = friction_flux_function(domain, gear_mesh, body, fields, omega1)
+        kw.update(flank_flux_W_m2=flux, flux_surfaces=names, flux_scale=options.flux_scale)
+    return HeatSources(**kw)
