@@ -164,11 +164,28 @@ def test_p2_nodes_lie_on_the_exact_tooth_outline(default_mesh):
             for side in ("drive", "coast"):
                 xy = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_{side}_flank"]))
                 assert prof.distance_to_flank(xy, side).max() < 1e-9  # metres
-            tip = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_tip"]))
-            assert np.allclose(np.hypot(*tip.T), prof.tip_radius_m, rtol=1e-12)
+                assert np.hypot(*xy.T).max() <= prof.tip_form_radius_m * (1 + 1e-12)  # the involute ends there
+            _check_tip_nodes(prof, gm, _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_tip"])))
             root = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_root"]))
             d = np.min(np.linalg.norm(root[:, None, :] - root_exact[None, ::4, :], axis=2), axis=1)
             assert d.max() < 2e-7  # dense polyline (1e-7 m spacing) vs spline
+
+
+def _check_tip_nodes(prof, gm, xy: np.ndarray) -> None:
+    """Tip nodes (tooth frame) lie on the tip circle over the land (|theta| <= theta_C) and on the
+    round circles (centre C, radius rho) between the land and the end of the involute; every round
+    is spanned by at least two P2 edges (>= 4 nodes besides its land end on each node plane)."""
+    r, th = np.hypot(*xy.T), np.arctan2(xy[:, 1], xy[:, 0])
+    land = np.abs(th) <= prof.tip_land_half_angle_rad * (1 + 1e-9)
+    assert np.allclose(r[land], prof.tip_radius_m, rtol=1e-12, atol=0.0)
+    planes = gm.options.order * gm.options.layers + 1
+    psi_end = prof.half_thickness_angle(prof.tip_form_radius_m)  # polar angle of the involute's end
+    for side, sign in (("drive", 1.0), ("coast", -1.0)):
+        on = ~land & (sign * th > 0)
+        d = np.linalg.norm(xy[on] - prof.tip_round_center(side), axis=1)
+        assert np.allclose(d, prof.tip_round_radius_m, rtol=0.0, atol=1e-12)  # ~1e-17 m measured
+        assert np.all(sign * th[on] <= psi_end + 1e-12)
+        assert np.count_nonzero(on) >= 4 * planes
 
 
 def _drive_contact_check(gm, pinion_angle_rad: float) -> None:
@@ -180,7 +197,7 @@ def _drive_contact_check(gm, pinion_angle_rad: float) -> None:
     xy = _to_tooth_frame(gm, "pinion", kp, W)
     r = np.hypot(*xy.T)
     prof = pair.pinion
-    inside = (r > prof.base_radius_m) & (r < prof.tip_radius_m)
+    inside = (r > prof.base_radius_m) & (r < prof.tip_form_radius_m)
     theta = np.arctan2(xy[:, 1], xy[:, 0])
     dist = prof.distance_to_flank(xy, "drive")
     penetrating = inside & (theta < prof.half_thickness_angle(np.maximum(r, prof.base_radius_m)))
@@ -320,7 +337,11 @@ def test_hex_variant(cache):
     assert dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False).shape[1] == 9  # 9-node curved quads
     xy = _to_tooth_frame(gm, "pinion", 4, _global_nodes(gm, ["pinion_tooth4_drive_flank"]))
     assert pair.pinion.distance_to_flank(xy, "drive").max() < 1e-9
-    assert gm.build_info["quality"]["min_scaled_jacobian"] > 0.0
+    for k in (0, 4):
+        _check_tip_nodes(pair.pinion, gm, _to_tooth_frame(gm, "pinion", k, _global_nodes(gm, [f"pinion_tooth{k}_tip"])))
+    # no quadrilateral corner on a tangent curve junction (tip round / land / flank): such a corner
+    # is 180 degrees once curved and its scaled Jacobian ~ 1e-4 (what blossom recombination gave)
+    assert gm.build_info["quality"]["min_scaled_jacobian"] > 0.2
 
 
 def test_full_gear_is_closed(cache):
@@ -381,6 +402,15 @@ def test_first_order_meshes(element, cache):
         L, h, R = 3 * prof.pitch_angle_rad * prof.bore_radius_m, 3e-3, prof.bore_radius_m
         bound = 2 * L * h**2 / (12 * R) / prof.body_area_m2(3)
         assert abs(v - exact) / exact < bound
+
+
+def test_cache_key_depends_on_the_tip_rounds():
+    from gearfem.geometry.mesh import cache_key
+
+    sharp = dataclasses.replace(THESIS, tip_round_coefficient=0.0)
+    small = dataclasses.replace(THESIS, tip_round_coefficient=0.05)
+    keys = {cache_key(g, MeshOptions()) for g in (THESIS, sharp, small)}
+    assert len(keys) == 3
 
 
 def test_cache_hit_and_interrupted_build(tmp_path, monkeypatch):

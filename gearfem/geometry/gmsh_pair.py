@@ -2,7 +2,8 @@
 
 The model is built with gmsh's built-in kernel in millimetres: each body's section at ``z = 0``
 is bounded by spline curves through exact points of the tooth outline
-(:meth:`gearfem.geometry.involute.ToothProfile.outline`), tip and bore circle arcs and, for
+(:meth:`gearfem.geometry.involute.ToothProfile.outline`), circle arcs for the tip land, the
+tip-edge rounds (about their own centres) and the bore and, for
 fractional models, two radial cut lines at mid-gap. The section is meshed in 2D (triangles, or
 all-quadrilaterals for ``element="hex"``) with a graded size field and swept over the face width
 with ``layers`` element layers (as the thesis did), giving tetrahedra (each prism split into three)
@@ -21,9 +22,9 @@ N = 8) of each sector. The sector of tooth k spans ``[theta_k - pi/z, theta_k + 
 Physical groups (each mesh entity in exactly one group; names are the API, tags are not):
 volumes ``pinion``, ``wheel``; facets ``{body}_tooth{k}_{drive_flank|coast_flank|tip|root}``
 (root = both fillets and root-circle lands of the tooth's own sector, i.e. half a gap on each
-side), ``{body}_side_front`` (z = 0), ``{body}_side_back`` (z = b), ``{body}_bore``, and for
-fractional models ``{body}_cut_start`` (at ``theta_0 - pi/z``) and ``{body}_cut_end`` (at
-``theta_{N-1} + pi/z``).
+side; tip = the tip land and both tip-edge rounds), ``{body}_side_front`` (z = 0),
+``{body}_side_back`` (z = b), ``{body}_bore``, and for fractional models ``{body}_cut_start``
+(at ``theta_0 - pi/z``) and ``{body}_cut_end`` (at ``theta_{N-1} + pi/z``).
 """
 
 from __future__ import annotations
@@ -45,8 +46,8 @@ from gearfem.params import require_choice, require_int, require_positive, requir
 
 log = logging.getLogger(__name__)
 
-#: Bump when a code change alters the generated meshes (part of the cache key).
-GEOMETRY_CODE_VERSION = "1"
+#: Bump when a code change alters the generated meshes (part of the cache key). 2: tip rounds.
+GEOMETRY_CODE_VERSION = "2"
 
 BODIES = ("pinion", "wheel")
 TOOTH_KINDS = ("drive_flank", "coast_flank", "tip", "root")
@@ -61,9 +62,9 @@ class MeshOptions:
         teeth_in_model: N consecutive teeth of each gear (fractional model, thesis: 8);
             equal to the number of teeth for a full 360-degree gear. Checked against the gear's
             teeth when the model is built.
-        element: ``"tet"`` (swept prisms split into tetrahedra) or ``"hex"`` (recombined sweep of an
-            all-quadrilateral section: hexahedra only, because DOLFINx 0.11 cannot tag facets of
-            mixed hex/prism meshes).
+        element: ``"tet"`` (swept prisms split into tetrahedra) or ``"hex"`` (sweep of an
+            all-quadrilateral section, every triangle split into three quadrilaterals: hexahedra
+            only, because DOLFINx 0.11 cannot tag facets of mixed hex/prism meshes).
         order: Geometry/element order (2: 10-node tets or 27-node hexes, curved on the boundary).
         layers: Element layers across the face width (thesis: 3).
         size_flank_mm: Element size on the drive flanks of the refined teeth (profile direction;
@@ -216,6 +217,10 @@ def gmsh_session(name: str = "gearfem"):
 N_FLANK_POINTS = 121
 N_FILLET_POINTS = 61
 N_LAND_POINTS = 6
+# Largest arc of a tip round spanned by one element edge: a P2 edge over 30 deg of a circle
+# deviates from it by < 1.3e-4 rho (< 1e-4 in length); one edge over the whole round (about 55 deg
+# on the thesis teeth) would deviate by 1.6e-3 rho. Caps the size on the rounds of every tooth.
+ROUND_MAX_ARC_RAD = math.pi / 6
 
 
 @dataclass
@@ -223,6 +228,8 @@ class _BodyCurves:
     """2D curve tags of one body's section, by (kind, tooth) and for the body boundaries."""
 
     tooth: dict[tuple[str, int], list[int]] = dataclasses.field(default_factory=dict)
+    rounds: set[int] = dataclasses.field(default_factory=set)  # the tip-round curves (part of "tip")
+    round_radius_mm: float = 0.0
     bore: list[int] = dataclasses.field(default_factory=list)
     cut_start: list[int] = dataclasses.field(default_factory=list)
     cut_end: list[int] = dataclasses.field(default_factory=list)
@@ -241,6 +248,10 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
     cx, cy = place.center_m[0] * mm, place.center_m[1] * mm
     center_pt = geo.addPoint(cx, cy, 0.0)
     outline = prof.outline(n_flank=N_FLANK_POINTS, n_fillet=N_FILLET_POINTS, n_land=N_LAND_POINTS, n_tip=2)
+    rounded = prof.tip_round_radius_m > 0.0
+    if rounded:  # tip: round (about its centre), land (about the gear centre), round
+        tip_pieces = prof.tip_pieces(2)
+        round_centers = {side: prof.tip_round_center(side)[None, :] for side in ("coast", "drive")}
     out = _BodyCurves()
     n = len(place.tooth_angles_rad)
     loop: list[int] = []
@@ -269,7 +280,18 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
         p_cf = pts_of(pieces["coast_flank"], p[-1], None)
         coast = geo.addSpline(p_cf)
         tip_end = geo.addPoint(*pieces["tip"][-1], 0.0)
-        tip = geo.addCircleArc(p_cf[-1], center_pt, tip_end)
+        if rounded:
+            land = _to_global(tip_pieces["land"], ang, place.center_m) * mm
+            land_start, land_end = geo.addPoint(*land[0], 0.0), geo.addPoint(*land[-1], 0.0)
+            rc = {side: geo.addPoint(*(_to_global(xy, ang, place.center_m) * mm)[0], 0.0)
+                  for side, xy in round_centers.items()}
+            tip = [geo.addCircleArc(p_cf[-1], rc["coast"], land_start),
+                   geo.addCircleArc(land_start, center_pt, land_end),
+                   geo.addCircleArc(land_end, rc["drive"], tip_end)]
+            out.rounds |= {tip[0], tip[2]}
+            out.round_radius_mm = prof.tip_round_radius_m * mm
+        else:
+            tip = [geo.addCircleArc(p_cf[-1], center_pt, tip_end)]
         p_df = pts_of(pieces["drive_flank"], tip_end, None)
         drive = geo.addSpline(p_df)
         p_rd = pts_of(pieces["root_drive"], p_df[-1], first_pt if last_tooth_full else None)
@@ -277,9 +299,9 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
         prev_end = p_rd[-1]
         out.tooth[("root", k)] = [root_c, root_d]
         out.tooth[("coast_flank", k)] = [coast]
-        out.tooth[("tip", k)] = [tip]
+        out.tooth[("tip", k)] = tip  # the rounds belong to the tip
         out.tooth[("drive_flank", k)] = [drive]
-        loop += [root_c, coast, tip, drive, root_d]
+        loop += [root_c, coast, *tip, drive, root_d]
 
     rb = prof.bore_radius_m * mm
 
@@ -311,22 +333,29 @@ def _size_field(
     gmsh, sections: dict[str, _BodyCurves], options: MeshOptions, refined: list[int], scale: float = 1.0
 ) -> None:
     """Background size field: graded thresholds around fine curves, size_body elsewhere (all
-    sizes times ``scale``)."""
+    sizes times ``scale``). Tip rounds get the size of their tooth's tip, at most
+    ``ROUND_MAX_ARC_RAD`` times their radius."""
     f = gmsh.model.mesh.field
     o = options
     groups: dict[float, list[int]] = {}
 
     def add(size: float, curves: list[int]) -> None:
-        groups.setdefault(size, []).extend(curves)
+        if curves:
+            groups.setdefault(size, []).extend(curves)
 
     for sec in sections.values():
+        round_cap = ROUND_MAX_ARC_RAD * sec.round_radius_mm
         for (kind, k), curves in sec.tooth.items():
             if k in refined:
                 size = {"drive_flank": o.size_flank_mm, "tip": o.size_tip_mm, "root": o.size_root_mm,
                         "coast_flank": o.size_tooth_mm}[kind]
             else:
                 size = o.size_tooth_mm
-            add(min(size, o.size_body_mm), curves)
+            size = min(size, o.size_body_mm)
+            add(size, [c for c in curves if c not in sec.rounds])
+            rounds = [c for c in curves if c in sec.rounds]
+            if rounds:
+                add(min(size, round_cap), rounds)
     fields = []
     for size, curves in sorted(groups.items()):
         d = f.add("Distance")
@@ -400,11 +429,13 @@ def mesh_sections(
     opt("Mesh.MeshSizeFromPoints", 0)
     opt("Mesh.MeshSizeFromCurvature", 0)
     opt("Mesh.LcIntegrationPrecision", 1e-4)  # default 1e-9 makes 1D meshing with the size field take seconds
-    opt("Mesh.Algorithm", 5 if hex_ else 6)  # Delaunay (recombines into the best quads here) / Frontal-Delaunay
-    # hex: blossom recombination, then every 2D cell split into quadrilaterals, so that no triangle
-    # (hence no prism) survives; the split halves the sizes, so the size field is doubled.
-    opt("Mesh.RecombineAll", 1 if hex_ else 0)
-    opt("Mesh.RecombinationAlgorithm", 1)
+    opt("Mesh.Algorithm", 5 if hex_ else 6)  # Delaunay (the best split quads here) / Frontal-Delaunay
+    # hex: every triangle split into three quadrilaterals, so that no triangle (hence no prism)
+    # survives; the split halves the sizes, so the size field is doubled. No blossom recombination
+    # before the split: it merges the two triangles at a tangent curve junction (tip round / land,
+    # tip round / flank) into one quadrilateral with both boundary edges there, whose corner becomes
+    # 180 degrees once curved (scaled Jacobian ~ 0).
+    opt("Mesh.RecombineAll", 0)
     opt("Mesh.SubdivisionAlgorithm", 1 if hex_ else 0)
     opt("Mesh.SecondOrderIncomplete", 0)  # quad9 -> 27-node hexes (DOLFINx has no serendipity cells)
     opt("Mesh.SecondOrderLinear", 0)  # high-order nodes on the curved geometry
