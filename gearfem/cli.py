@@ -147,6 +147,38 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    """A speed x torque study: one cycle per torque, every operating point, a table and plots."""
+    from mpi4py import MPI
+
+    from gearfem.sweep import load_study, run_study
+
+    study = load_study(args.study)
+    if args.list:
+        for i, (label, c) in enumerate(study.cases()):
+            _say(f"{i:4d}  {label}  ({c.operating.speed_rpm:g} rpm, {c.operating.torque_Nm:g} N m)")
+        return 0
+    res = run_study(study, args.out, MPI.COMM_WORLD, index=args.index, collect_only=args.collect)
+    if args.index is not None:
+        _say(f"study {study.name}: task {args.index} {'ran' if res['ran'] else 'was already finished'}; "
+             f"collect with: gearfem sweep {args.study} --out {args.out} --collect")
+        return 0
+    _say(f"study {study.name}: {len(res['results'])} operating points, {len(res['ran'])} computed now, "
+         f"{len(res['missing'])} missing")
+    _say(f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T max end C':>11} {'T max steady C':>14} "
+         f"{'VDI flank C':>11}")
+    for r in res["results"]:
+        if r["status"] != "done":
+            _say(f"{r['speed_rpm']:10g} {r['torque_Nm']:10g}  (missing)")
+            continue
+        steady = r.get("max_surface_steady_C")
+        _say(f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} {r['max_surface_end_C']:11.1f} "
+             f"{steady if steady is not None else float('nan'):14.1f} {r.get('vdi2736_flank_C') or float('nan'):11.1f}")
+    _say(f"results in {args.out}: results.csv, study.json, temperature_histories.png, steady_temperature.png, "
+         "cases/<label>/")
+    return 0 if res["complete"] else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="gearfem",
@@ -193,6 +225,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--duration-s", dest="duration_s", type=float, default=None, help="override [thermal] duration_s")
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_run)
+
+    s = sub.add_parser("sweep", help="speed x torque study (resumable): one cycle per torque, table and plots")
+    s.add_argument("study", help="study TOML: a case file with a [study] table (see gearfem/sweep.py)")
+    s.add_argument("--out", required=True, help="output directory (re-running resumes it)")
+    s.add_argument("--index", type=int, default=None, help="run only this operating point (cluster array task)")
+    s.add_argument("--collect", action="store_true", help="only collect the table and plots of finished cases")
+    s.add_argument("--list", action="store_true", help="list the operating points with their indices")
+    s.set_defaults(func=_cmd_sweep)
     return p
 
 

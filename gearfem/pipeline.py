@@ -152,8 +152,10 @@ def _default(obj):
 
 
 def run(case: Case, out_dir: str | Path, comm: MPI.Comm | None = None, mesh_cache: Path | None = None,
-        cache_dir: Path | None = None, progress: bool = True) -> dict[str, Any]:
-    """The whole chain for one operating point; returns the summary (collective)."""
+        cache_dir: Path | None = None, progress: bool = True, write_fields: bool = True) -> dict[str, Any]:
+    """The whole chain for one operating point; returns the summary (collective).
+
+    ``write_fields``: write the VTX temperature fields (studies switch them off)."""
     from gearfem.cycle.report import write_cycle_outputs
     from gearfem.provenance import versions
 
@@ -179,7 +181,7 @@ def run(case: Case, out_dir: str | Path, comm: MPI.Comm | None = None, mesh_cach
             write_cycle_outputs(cyc, out / "cycle")
         comm.barrier()
     t1 = time.perf_counter()
-    th = thermal(case, out / "thermal", comm, cyc, mesh_cache)
+    th = thermal(case, out / "thermal", comm, cyc, mesh_cache, write_fields=write_fields)
     times["thermal_s"] = time.perf_counter() - t1
     base = baselines(case)
     times["total_s"] = time.perf_counter() - t0
