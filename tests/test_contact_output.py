@@ -57,5 +57,7 @@ def test_gathered_points_carry_the_contact_force_and_agree_on_1_and_2_ranks(comm
     assert world.num_points == serial.num_points
     np.testing.assert_array_equal(world.pass_index, serial.pass_index)
     np.testing.assert_allclose(world.x, serial.x, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(world.weight, serial.weight, rtol=1e-12)
+    # weights are areas of the deformed facets: they carry the displacement gradients, which agree
+    # between rank counts to the Newton tolerance (1e-10 measured), not to round-off
+    np.testing.assert_allclose(world.weight, serial.weight, rtol=1e-9)
     np.testing.assert_allclose(world.pressure, serial.pressure, rtol=1e-8, atol=1e-14)
