@@ -79,9 +79,11 @@ class SolveReport:
     newton_iterations: int
     uzawa_iterations: int
     residual_norm: float
-    max_penetration_m: float
+    max_penetration_m: float  # at the integration points, after the last solve
     wall_time_s: float
     linear_solves: int
+    constraint_penetration_m: float = 0.0  # at the multiplier points, where the AL enforces the limit
+    stalled: int = 0  # Newton passes accepted at a stall (ContactOptions.newton_stall_rtol)
 
 
 class ContactProblem:
@@ -156,6 +158,7 @@ class ContactProblem:
         self._refactor = False
         self.factorizations = 0
         self.linear_solves = 0
+        self.stalled = 0  # Newton solves accepted at a stall (see ContactOptions.newton_stall_rtol)
         self.last_points: list[list[ContactPoints]] = []
 
     # -------------------------------------------------------------------------------------------
@@ -352,6 +355,20 @@ class ContactProblem:
                 st_new.destroy()
                 alpha *= 0.5
             if r_new > (1.0 - 1e-4 * alpha) * rnorm and r_new > tol:
+                if rnorm <= o.newton_stall_rtol * scale:
+                    # stalled below the stall tolerance: keep the best state and accept it
+                    u0.copy(u_vec)
+                    self.u.x.scatter_forward()
+                    if ctl is not None:
+                        self._set_controlled_angle(psi0)
+                    st_new.destroy()
+                    u0.destroy()
+                    self.stalled += 1
+                    log.warning("%s: Newton stalled at |R| = %.3e N (%.1e of the force scale; tolerance %.3e N, "
+                                "stall tolerance %.1e): accepted", label, rnorm, rnorm / scale, tol,
+                                o.newton_stall_rtol)
+                    self.last_points, self.last_state = st.pts, st
+                    return it, rnorm
                 log.debug("%s Newton %d: line search did not decrease |R| (alpha=%g)", label, it, alpha)
             elif alpha < 1.0:
                 log.debug("%s Newton %d: line search step %g", label, it, alpha)
@@ -371,8 +388,8 @@ class ContactProblem:
     def solve(self, label: str = "") -> SolveReport:
         """Solve the contact problem at the current BC values and rigid motions (collective)."""
         t0 = time.perf_counter()
-        ls0 = self.linear_solves
-        total_it, uz, pen, rnorm = 0, 0, 0.0, 0.0
+        ls0, st0 = self.linear_solves, self.stalled
+        total_it, uz, pen, rnorm, constraint_pen = 0, 0, 0.0, 0.0, 0.0
         o = self.options
         al = o.method == "augmented_lagrangian"
         friction = o.friction_coefficient > 0.0
@@ -385,26 +402,27 @@ class ContactProblem:
         for uz in range(1, o.max_uzawa + 1):
             its, rnorm = self.newton(f"{label} (outer {uz})", rtol=loose)
             total_it += its
-            pen = self.max_penetration() if self.interfaces else 0.0
+            # penetration where the multipliers live (the fixed points; measured before updating them)
+            pen = max((itf.update_multipliers(self.u.x.array, self.motions) for itf in self.interfaces),
+                      default=0.0) if al else 0.0
             dslip = max((itf.update_slip(self.u.x.array, self.motions) for itf in self.interfaces), default=0.0) \
                 if friction else 0.0
-            log.debug("%s outer %d: max penetration %.3e m (tol %.3e m), slip direction change %.2e (tol %.2e)",
-                      label, uz, pen, tol, dslip, o.slip_tolerance)
+            log.debug("%s outer %d: max penetration at the multiplier points %.3e m (tol %.3e m), slip direction "
+                      "change %.2e (tol %.2e)", label, uz, pen, tol, dslip, o.slip_tolerance)
             if pen <= tol and dslip <= o.slip_tolerance:
+                constraint_pen = pen
                 break
-            if al and pen > tol:
-                for itf in self.interfaces:
-                    itf.update_multipliers(self.u.x.array, self.motions)
         else:
             raise ConvergenceError("contact outer iteration (Uzawa / slip directions)",
                                    f"max penetration {pen:.3e} m (tolerance {tol:.3e} m), slip direction change "
                                    f"{dslip:.2e} (tolerance {o.slip_tolerance:.2e}) after {uz} passes",
                                    step=label, iteration=uz)
-        if loose > o.newton_rtol:  # tighten the last pass to the final tolerance
+        if loose > o.newton_rtol or al:  # the last pass: final multipliers, final tolerance
             its, rnorm = self.newton(f"{label} (final)")
             total_it += its
-            pen = self.max_penetration()
-        rep = SolveReport(label, total_it, uz, rnorm, pen, time.perf_counter() - t0, self.linear_solves - ls0)
+        pen = self.max_penetration() if self.interfaces else 0.0  # at the integration points
+        rep = SolveReport(label, total_it, uz, rnorm, pen, time.perf_counter() - t0, self.linear_solves - ls0,
+                          constraint_pen, self.stalled - st0)
         log.info("%s: %d Newton iterations, %d Uzawa, max penetration %.3e m, %.2f s", label, total_it, uz, pen,
                  rep.wall_time_s)
         return rep
