@@ -216,7 +216,8 @@ def cycle_summary(cyc, speed_rpm: float) -> dict[str, Any]:
                                   "peak_to_peak": float(np.ptp(cyc.te_m)) * 1e6},
         "friction_power_W": cyc.mean_friction_power_W_per_rad_s() * omega,
         "pinion_torque_mean_Nm": float(np.mean(cyc.pinion_torque_Nm)),
-        "positions": int(len(cyc.phi_rad)), "info": cyc.info,
+        "positions": int(len(cyc.phi_rad)), "newton_iterations": int(np.sum(cyc.newton_iterations)),
+        "sweep_wall_time_s": float(np.sum(cyc.wall_time_s)), "info": cyc.info,
     }
 
 
