@@ -16,8 +16,8 @@ from mpi4py import MPI
 from gearfem.config import Case
 from gearfem.diagnose.candidates import LIBRARY, by_name
 from gearfem.diagnose.data import QUANTITIES, Dataset, Measurement
-from gearfem.diagnose.forward import FullModel, Surrogate, confirm
-from gearfem.diagnose.select import diagnose
+from gearfem.diagnose.forward import FullModel, Surrogate
+from gearfem.diagnose.select import diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
 
 
@@ -68,12 +68,8 @@ def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
     result = diagnose(sur.predict, data, max_size=max_size, probes=probes)
-    # confirmation of the chosen model on the full model
-    conf = None
-    if result["chosen"]:
-        chosen = next(m for m in result["models"] if m["candidates"] == result["chosen"])
-        conf = confirm(full, sur, data, chosen["params"])
-        conf["rmse_full_K"] = float(np.sqrt(np.mean((np.array(conf["full_C"]) - D) ** 2)))
+    # confirmation of the chosen model on the full model (and removal of the surrogate's bias there)
+    refine(full.predict, sur.predict, data, result, iterations=1, final_check=True)
     base_sur = sur.predict(data, {})
     result.update({
         "data": {"source": data.source, "measurements": [dataclasses.asdict(m) for m in data.measurements]},
@@ -82,7 +78,6 @@ def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm
                  "u_num_method": num_note, "u_input_parts_K": {k: v.tolist() for k, v in parts.items()}},
         "surrogate": {"full_model_solves": full.solves, "baseline_max_abs_difference_K":
                       float(np.max(np.abs(base_sur - S)))},
-        "confirmation": conf,
         "candidates": {c.name: {"parameter": c.parameter.name, "unit": c.parameter.unit, "null": c.parameter.null,
                                 "prior": [c.parameter.lo, c.parameter.hi], "doc": " ".join((c.__doc__ or "").split())}
                        for c in LIBRARY},
@@ -188,10 +183,14 @@ def markdown(result: dict, data: Dataset) -> str:
     lines += ["", "## Gain", "", f"Held-out (leave one operating point out) RMS error: {fmt(g['loo_rmse_before_K'])} "
               f"before, {fmt(g['loo_rmse_after_K'])} after; in-sample RMS {fmt(g['rmse_before_K'])} before, "
               f"{fmt(g['rmse_after_K'])} after."]
-    if result.get("confirmation"):
-        c = result["confirmation"]
-        lines += ["", f"Full-model confirmation of the chosen parameters: RMS error {c['rmse_full_K']:.1f} K, "
-                  f"surrogate vs full model max difference {c['max_abs_difference_K']:.2f} K."]
+    if result.get("refined"):
+        c = result["refined"]
+        ps = ", ".join(f"{n} = {c['params'][n]:.4g} [{c['intervals'][n][0]:.4g}, {c['intervals'][n][1]:.4g}]"
+                       for n in c["params"])
+        lines += ["", f"Full-model confirmation of the chosen model (surrogate corrected by the full model at the "
+                  f"optimum, refitted): {ps}; full-model RMS error {c['full_rmse_K']:.2f} K; correction applied "
+                  f"{c['max_correction_K'][0]:.2f} K, remaining full-vs-corrected difference "
+                  f"{c['full_vs_corrected_max_K']:.2f} K."]
     if v.get("separate_by"):
         lines += ["", "## Measurements that would separate the rivals (predicted differences)", ""]
         lines += [f"- {s['measurement']}: {'+'.join(s['rival'])} differs by {s['difference_K']:.1f} K"

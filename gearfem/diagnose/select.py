@@ -264,3 +264,45 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
 
 
 __all__ = ["diagnose", "fit", "profile_interval", "leave_one_point_out", "chi2", "math"]
+
+
+def refine(full_predict: Predict, surrogate_predict: Predict, data: Dataset, result: dict, iterations: int = 1,
+           final_check: bool = True, u_model_K: float | None = None,
+           library: tuple[Candidate, ...] = LIBRARY) -> dict | None:
+    """Confirm the chosen model on the full model and remove the surrogate's bias at the optimum.
+
+    Output space mapping: with delta = S_full(p*) - S_surrogate(p*) per measurement, the corrected
+    surrogate S_surrogate(p) + delta equals the full model at p* and keeps the surrogate's
+    derivatives; it is refitted (``iterations`` times, each costing one full-model run per
+    operating point) and its profile intervals replace the surrogate's. ``final_check`` runs the
+    full model once more at the refined parameters. Adds ``result["refined"]`` and returns it.
+    """
+    if not result["chosen"]:
+        return None
+    u_model_K = result["u_model_K"] if u_model_K is None else u_model_K
+    names = tuple(result["chosen"])
+    chosen = next(m for m in result["models"] if m["candidates"] == list(names))
+    params = dict(chosen["params"])
+    corrections = []
+    corrected = surrogate_predict
+    for _ in range(iterations):
+        delta = full_predict(data, params) - surrogate_predict(data, params)
+        corrections.append(float(np.max(np.abs(delta))))
+
+        def corrected(d, m, _delta=delta):  # noqa: E306 - valid for `data` only
+            return surrogate_predict(d, m) + _delta
+
+        params, c2 = fit(corrected, data, names, u_model_K, library)
+    ivs = {}
+    for name in names:
+        lo, hi, _ = profile_interval(corrected, data, names, name, c2, u_model_K, library)
+        ivs[name] = [lo, hi]
+    out = {"params": params, "intervals": ivs, "chi2": c2, "max_correction_K": corrections}
+    D = np.array([m.value_C for m in data.measurements])
+    if final_check:
+        F = full_predict(data, params)
+        out["full_rmse_K"] = float(np.sqrt(np.mean((F - D) ** 2)))
+        out["full_vs_corrected_max_K"] = float(np.max(np.abs(F - corrected(data, params))))
+        out["full_C"] = F.tolist()
+    result["refined"] = out
+    return out
