@@ -157,7 +157,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     data = read_csv(args.data)
     case = load_case(args.case)
-    r = run_diagnosis(data, case, args.out, MPI.COMM_WORLD, max_size=1 if args.singles else 2)
+    r = run_diagnosis(data, case, args.out, MPI.COMM_WORLD, max_size=1 if args.singles else 2,
+                      u_model_K=args.u_model_K)
     for row in r["vv20"]["rows"]:
         _say(f"  {row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = {row['E_K']:+.1f} K, "
              f"u_val = {row['u_val_K']:.1f} K{' (resolved)' if row['resolved'] else ''}")
@@ -221,6 +222,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--case", default=None, help="case TOML (default: the built-in thesis case)")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--singles", action="store_true", help="single candidates only (no pairs)")
+    s.add_argument("--u-model-K", dest="u_model_K", type=float, default=1.0,
+                   help="model (surrogate, discretisation) standard uncertainty added to u_D in the fits, K")
     s.set_defaults(func=_cmd_diagnose)
     return p
 

@@ -172,3 +172,42 @@ def test_pair_found_and_confirmed_on_full_model(models):
     # noise over n samples lies below 1 + 3/sqrt(2n) K with probability > 99.8 %
     n = len(data)
     assert r["refined"]["full_rmse_K"] < 1.0 + 3.0 / math.sqrt(2 * n)
+
+
+# ---------------------------------------------------------------- mu(T) on the friction flux
+
+def test_friction_temperature_options():
+    from gearfem.sources import SourceOptions
+
+    assert SourceOptions().friction_temperature_factor() is None
+    with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):
+        SourceOptions(friction_temperature_coefficient_per_K=-0.001)
+    with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):
+        SourceOptions(mode="prescribed", friction_temperature_coefficient_per_K=0.001)
+
+
+@pytest.mark.slow
+def test_friction_temperature_reduces_friction_heat_within_bounds(models, tmp_path):
+    """mu(T) = mu_ref exp(-beta (T - T_ref)) on the flux: the friction heat F must lie between
+    F0 exp(-beta (T_max - T_ref)) and F0 exp(-beta (T_amb - T_ref)) (every flank point is between
+    the ambient, by the maximum principle, and the maximum surface temperature); the heat balance
+    still closes."""
+    from gearfem import pipeline
+
+    full, _ = models
+    beta = 0.004
+    runs = {}
+    for b in (0.0, beta):
+        case = full.point_case(1000.0, 8.0, 23.0, {"friction_temperature": b} if b else {})
+        case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=()))
+        runs[b] = pipeline.thermal(case, tmp_path / f"b{b}", MPI.COMM_SELF, cycle_result=full.cycle(8.0),
+                                   write_fields=False, write_plot=False)
+    f0 = runs[0.0]["final_balance_W"]["friction_W"]
+    s = runs[beta]
+    f = s["final_balance_W"]["friction_W"]
+    t_ref = 25.0
+    lo = f0 * math.exp(-beta * (s["final_temperatures_C"]["max_surface"] - t_ref))
+    hi = f0 * math.exp(-beta * (23.0 - t_ref))
+    assert lo < f < hi
+    bal = s["final_balance_W"]
+    assert abs(bal["imbalance_W"]) < 1e-8 * bal["generated_W"]

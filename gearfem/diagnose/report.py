@@ -30,7 +30,7 @@ def _replace_material(**kw):
 
 
 def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm | None = None,
-                  max_size: int = 2, cache_dir: str | Path | None = None) -> dict[str, Any]:
+                  max_size: int = 2, cache_dir: str | Path | None = None, u_model_K: float = 1.0) -> dict[str, Any]:
     """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns the result."""
     from gearfem.cycle.store import cache_root
 
@@ -67,7 +67,7 @@ def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm
     u_in, parts = input_uncertainty(lambda tr: full.predict(data, {}, transform=tr), S, pert)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
-    result = diagnose(sur.predict, data, max_size=max_size, probes=probes)
+    result = diagnose(sur.predict, data, max_size=max_size, probes=probes, u_model_K=u_model_K)
     # confirmation of the chosen model on the full model (and removal of the surrogate's bias there)
     refine(full.predict, sur.predict, data, result, iterations=1, final_check=True)
     base_sur = sur.predict(data, {})

@@ -15,7 +15,8 @@ with k >= n cannot be tested and are left out). Verdict:
   "not identifiable" when a non-nested model lies within ``tie`` of it, or when a parameter's
   profile-likelihood interval spans its whole prior; the report then names the measurement (among
   ``probes``) where the rival fits differ most;
-* "unexplained": the best model still fails a chi-square goodness-of-fit test at 1 %.
+* "partial": the best model beats the baseline but still fails a chi-square goodness-of-fit test
+  at 1 %; "unexplained": no model beats the baseline, which fails that test.
 
 Intervals: 95 % profile likelihood (chi2 within 3.84 of the minimum, other parameter re-fitted).
 Held-out error: leave one operating point out, refit, predict it (RMS over its measurements, K).
@@ -177,6 +178,8 @@ def diagnose(predict: Predict, data: Dataset, library: tuple[Candidate, ...] = L
         verdict["chi2_p_value"] = gof
         if rivals:
             verdict["kind"] = "not identifiable"
+        elif gof < 0.01:
+            verdict["kind"] = "partial"
     # intervals and held-out errors for the models that matter
     rivals_all = [r for r in results if any(r["candidates"] == c for c in verdict.get("competitors", []))]
     top = []
@@ -252,6 +255,10 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
                 f"{verdict['chi2_p_value']:.2g}) and no candidate in the library explains it")
     if kind == "identified":
         return fmt(chosen)
+    if kind == "partial":
+        return (f"no candidate explains the data: the best, {fmt(chosen)}, still fails the chi-square test "
+                f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}); the cause is outside the library "
+                "or needs more candidates at once than these data can test")
     rivals = " vs ".join("+".join(c) for c in [chosen["candidates"], *verdict["competitors"]])
     text = f"not identifiable with these data: {rivals}"
     if verdict.get("unconstrained"):
