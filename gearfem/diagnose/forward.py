@@ -27,7 +27,6 @@ import json
 import logging
 import os
 import pickle
-import math
 import tempfile
 from pathlib import Path
 
@@ -268,4 +267,4 @@ def numerical_uncertainty_K(data: Dataset, coarse: np.ndarray, fine: np.ndarray,
     return safety * np.abs(np.asarray(fine) - np.asarray(coarse)) / (ratio ** order - 1.0)
 
 
-__all__ = ["FullModel", "Surrogate", "confirm", "numerical_uncertainty_K", "Request", "math"]
+__all__ = ["FullModel", "Surrogate", "confirm", "numerical_uncertainty_K", "Request"]

@@ -14,7 +14,7 @@ import numpy as np
 from mpi4py import MPI
 
 from gearfem.config import Case
-from gearfem.diagnose.candidates import LIBRARY, by_name
+from gearfem.diagnose.candidates import LIBRARY
 from gearfem.diagnose.data import QUANTITIES, Dataset, Measurement
 from gearfem.diagnose.forward import FullModel, Surrogate
 from gearfem.diagnose.select import diagnose, refine
@@ -177,7 +177,8 @@ def markdown(result: dict, data: Dataset) -> str:
         ps = ", ".join(f"{n} = {m['params'][n]:.4g}" + (f" [{m['intervals'][n][0]:.3g}, {m['intervals'][n][1]:.3g}]"
                                                         if n in m["intervals"] else "") for n in m["candidates"])
         loo = "" if m["loo_rmse_K"] is None else f"{m['loo_rmse_K']:.1f}"
-        lines.append(f"| {'+'.join(m['candidates']) or 'baseline'} | {ps} | {m['chi2']:.1f} | {m['delta']:.1f} | {loo} |")
+        name = "+".join(m["candidates"]) or "baseline"
+        lines.append(f"| {name} | {ps} | {m['chi2']:.1f} | {m['delta']:.1f} | {loo} |")
     g = result["gain"]
     fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"  # noqa: E731
     lines += ["", "## Gain", "", f"Held-out (leave one operating point out) RMS error: {fmt(g['loo_rmse_before_K'])} "
@@ -199,4 +200,4 @@ def markdown(result: dict, data: Dataset) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["run_diagnosis", "markdown", "by_name"]
+__all__ = ["run_diagnosis", "markdown"]

@@ -25,7 +25,6 @@ Held-out error: leave one operating point out, refit, predict it (RMS over its m
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -55,7 +54,8 @@ def _residuals(predict, data, model, u_model_K):
 
 
 def fit(predict: Predict, data: Dataset, names: tuple[str, ...], u_model_K: float = 1.0,
-        library: tuple[Candidate, ...] = LIBRARY, fixed: dict[str, float] | None = None) -> tuple[dict[str, float], float]:
+        library: tuple[Candidate, ...] = LIBRARY, fixed: dict[str, float] | None = None
+        ) -> tuple[dict[str, float], float]:
     """Least-squares fit of the candidates ``names`` (others in ``fixed`` held): (params, chi2)."""
     fixed = dict(fixed or {})
     free = [n for n in names if n not in fixed]
@@ -270,7 +270,7 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
     return text
 
 
-__all__ = ["diagnose", "fit", "profile_interval", "leave_one_point_out", "chi2", "math"]
+__all__ = ["diagnose", "fit", "profile_interval", "leave_one_point_out", "chi2", "refine"]
 
 
 def refine(full_predict: Predict, surrogate_predict: Predict, data: Dataset, result: dict, iterations: int = 1,
