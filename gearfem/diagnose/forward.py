@@ -259,12 +259,4 @@ def confirm(full: FullModel, surrogate: Surrogate, data: Dataset, model: dict[st
             "model": dict(model)}
 
 
-def numerical_uncertainty_K(data: Dataset, coarse: np.ndarray, fine: np.ndarray, order: float = 2.0,
-                            ratio: float = 2.0, safety: float = 1.25) -> np.ndarray:
-    """Richardson/GCI-type numerical uncertainty from two discretisations (per measurement, K):
-    u_num = safety |fine - coarse| / (ratio^order - 1)."""
-    del data
-    return safety * np.abs(np.asarray(fine) - np.asarray(coarse)) / (ratio ** order - 1.0)
-
-
-__all__ = ["FullModel", "Surrogate", "confirm", "numerical_uncertainty_K", "Request"]
+__all__ = ["FullModel", "Surrogate", "confirm", "Request"]

@@ -1,8 +1,8 @@
 """ASME V&V 20 comparison: E = S - D per measurement, u_val = sqrt(u_num^2 + u_input^2 + u_D^2).
 
 * u_D: the measurement's standard uncertainty (data file);
-* u_num: numerical (mesh/time step) uncertainty of S, from two discretisations (GCI-type, see
-  :func:`gearfem.diagnose.forward.numerical_uncertainty_K`) or a stated floor;
+* u_num: numerical (discretisation) uncertainty of S, from two discretisations (P1 and P2 on the
+  case mesh in :func:`gearfem.diagnose.report.run_diagnosis`);
 * u_input: propagated input uncertainty, sqrt(sum_i (dS/dx_i u_x_i)^2) by one-sided finite
   differences of the forward model in each uncertain input (material ranges of the shared data).
 
