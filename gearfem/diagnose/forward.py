@@ -27,6 +27,7 @@ import json
 import logging
 import os
 import pickle
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -105,6 +106,8 @@ class FullModel:
         summ = pipeline.thermal(case, out, self.comm, cycle_result=self.cycle(torque_Nm), write_fields=False,
                                 steady=True, write_plot=False)
         self.solves += 1
+        if self.comm.rank == 0:  # only the numbers are kept
+            shutil.rmtree(out, ignore_errors=True)
         res: dict[Request, float] = {}
         end = summ["steady_state_C"] if case.thermal.mode == "transient" else summ["final_temperatures_C"]
         for q in QUANTITIES:
