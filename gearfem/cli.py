@@ -179,6 +179,29 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 0 if res["complete"] else 1
 
 
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    """Confront a case with measured data: V&V 20, candidate extensions ranked, verdict, gain."""
+    from mpi4py import MPI
+
+    from gearfem.config import load_case
+    from gearfem.diagnose.data import read_csv
+    from gearfem.diagnose.report import run_diagnosis
+
+    data = read_csv(args.data)
+    case = load_case(args.case)
+    r = run_diagnosis(data, case, args.out, MPI.COMM_WORLD, max_size=1 if args.singles else 2,
+                      u_model_K=args.u_model_K)
+    for row in r["vv20"]["rows"]:
+        _say(f"  {row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = {row['E_K']:+.1f} K, "
+             f"u_val = {row['u_val_K']:.1f} K{' (resolved)' if row['resolved'] else ''}")
+    g = r["gain"]
+    _say(f"verdict: {r['verdict']['text']}")
+    if g["loo_rmse_before_K"] is not None and g["loo_rmse_after_K"] is not None:
+        _say(f"held-out RMS error: {g['loo_rmse_before_K']:.1f} K before, {g['loo_rmse_after_K']:.1f} K after")
+    _say(f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, ranking.png")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="gearfem",
@@ -233,6 +256,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--collect", action="store_true", help="only collect the table and plots of finished cases")
     s.add_argument("--list", action="store_true", help="list the operating points with their indices")
     s.set_defaults(func=_cmd_sweep)
+
+    s = sub.add_parser("diagnose", help="confront the model with measured data, name the cause, measure the gain")
+    s.add_argument("data", help="measured-data CSV (gearfem.diagnose.data format, or the thesis bench file)")
+    s.add_argument("--case", default=None, help="case TOML (default: the built-in thesis case)")
+    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument("--singles", action="store_true", help="single candidates only (no pairs)")
+    s.add_argument("--u-model-K", dest="u_model_K", type=float, default=1.0,
+                   help="model (surrogate, discretisation) standard uncertainty added to u_D in the fits, K")
+    s.set_defaults(func=_cmd_diagnose)
     return p
 
 

@@ -57,7 +57,8 @@ def cycle(case: Case, comm: MPI.Comm, mesh_cache: Path | None = None, cache_dir:
 
 
 def thermal(case: Case, out_dir: str | Path, comm: MPI.Comm, cycle_result=None, mesh_cache: Path | None = None,
-            write_fields: bool = True, extra: dict[str, Any] | None = None, steady: bool = True) -> dict[str, Any]:
+            write_fields: bool = True, extra: dict[str, Any] | None = None, steady: bool = True,
+            write_plot: bool = True) -> dict[str, Any]:
     """Thermal run of ``case.thermal.body`` with sources from ``cycle_result`` (mode "cycle") or
     prescribed ([sources] mode "prescribed"); writes the thermal outputs to ``out_dir``."""
     from gearfem.geometry.mesh import build_gear_mesh
@@ -107,7 +108,8 @@ def thermal(case: Case, out_dir: str | Path, comm: MPI.Comm, cycle_result=None, 
         return out
 
     with problem:  # frees the solvers collectively, also on failure
-        _, summary = run_and_write(problem, out_dir, extra=info, more=more, write_fields=write_fields)
+        _, summary = run_and_write(problem, out_dir, extra=info, more=more, write_fields=write_fields,
+                                   write_plot=write_plot)
     return summary
 
 

@@ -25,7 +25,7 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from gearfem.errors import ParameterError
-from gearfem.materials import Material
+from gearfem.materials import ZERO_CELSIUS_K, Material
 from gearfem.params import require_choice, require_nonnegative, require_range
 from gearfem.thermal.sources import LOADING_FREQUENCIES, HeatSources, PrescribedSources, loading_frequency_Hz
 
@@ -43,6 +43,12 @@ class SourceOptions:
         heat_fraction_pinion: Share of the friction heat into the pinion (None: by thermal
             effusivity, ½ for equal materials, thesis 5.2.3).
         hysteresis_scale, flux_scale: Multipliers (model-discrepancy hooks).
+        friction_temperature_coefficient_per_K: beta of a friction coefficient that falls with the
+            local flank temperature, mu(T) = mu_ref exp(-beta (T - friction_reference_C)) (thesis
+            4.3.5: PEEK-PEEK mu fell from 0.55 to 0.40 between 50 and 75 C, about 0.013 /K at its
+            steepest). Applied to the friction flux at the temperature of each flank point, at
+            every step and Newton iteration (mode "cycle" only). 0 (default): mu independent of T.
+        friction_reference_C: Temperature at which mu = mu_ref (the cycle's friction coefficient).
         flank_heat_per_gear_W, u_max_J_m3, flanks: Prescribed mode only (see
             :class:`gearfem.thermal.sources.PrescribedSources`).
     """
@@ -54,6 +60,8 @@ class SourceOptions:
     heat_fraction_pinion: float | None = None
     hysteresis_scale: float = 1.0
     flux_scale: float = 1.0
+    friction_temperature_coefficient_per_K: float = 0.0
+    friction_reference_C: float = 25.0
     flank_heat_per_gear_W: float = 0.0
     u_max_J_m3: float = 0.0
     flanks: str = "drive"
@@ -65,6 +73,14 @@ class SourceOptions:
             require_range("sources.heat_fraction_pinion", self.heat_fraction_pinion, 0.0, 1.0)
         require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
         require_nonnegative("sources.flux_scale", self.flux_scale)
+        require_range("sources.friction_temperature_coefficient_per_K", self.friction_temperature_coefficient_per_K,
+                      0.0, 0.1, unit="1/K")
+        require_range("sources.friction_reference_C", self.friction_reference_C, -273.15, 1000.0, lo_open=True,
+                      unit="C")
+        if self.mode == "prescribed" and self.friction_temperature_coefficient_per_K > 0.0:
+            raise ParameterError("sources.friction_temperature_coefficient_per_K",
+                                 self.friction_temperature_coefficient_per_K, "0 in mode 'prescribed'",
+                                 "mu(T) acts on the friction flux of the contact cycle (mode 'cycle')")
         self.prescribed()  # validates the prescribed fields
 
     def prescribed(self) -> PrescribedSources:
@@ -72,6 +88,20 @@ class SourceOptions:
             flank_heat_per_gear_W=self.flank_heat_per_gear_W if self.friction else 0.0, flanks=self.flanks,
             u_max_J_m3=self.u_max_J_m3 if self.hysteresis else 0.0, loading_frequency=self.loading_frequency,
             hysteresis_scale=self.hysteresis_scale, flux_scale=self.flux_scale)
+
+    def friction_temperature_factor(self):
+        """T (kelvin, UFL) -> mu(T)/mu_ref, or None when mu does not depend on temperature."""
+        beta = self.friction_temperature_coefficient_per_K
+        if beta == 0.0:
+            return None
+        t_ref = self.friction_reference_C + ZERO_CELSIUS_K
+
+        def factor(T):
+            import ufl
+
+            return ufl.exp(-beta * (T - t_ref))
+
+        return factor
 
     def heat_fraction(self, materials: dict[str, Material]) -> dict[str, float] | None:
         if self.heat_fraction_pinion is None:
@@ -193,5 +223,6 @@ def cycle_heat_sources(domain, gear_mesh, body: str, cycle, options: SourceOptio
                   hysteresis=material.hysteresis_table(), hysteresis_scale=options.hysteresis_scale)
     if options.friction and cycle.friction_coefficient > 0.0:
         flux, names = friction_flux_function(domain, gear_mesh, body, fields, omega1)
-        kw.update(flank_flux_W_m2=flux, flux_surfaces=names, flux_scale=options.flux_scale)
+        kw.update(flank_flux_W_m2=flux, flux_surfaces=names, flux_scale=options.flux_scale,
+                  flux_temperature_factor=options.friction_temperature_factor())
     return HeatSources(**kw)

@@ -34,7 +34,8 @@ class ThermalWriter:
     Use as a context manager; :meth:`finish` writes the plot and the summary (the completion marker).
     """
 
-    def __init__(self, out_dir: str | Path, problem, write_fields: bool = True) -> None:
+    def __init__(self, out_dir: str | Path, problem, write_fields: bool = True, write_plot: bool = True) -> None:
+        self.write_plot = write_plot
         from dolfinx import fem
 
         self.out = Path(out_dir)
@@ -90,7 +91,8 @@ class ThermalWriter:
             partial = self.out / (CSV_NAME + ".partial")
             if partial.exists():
                 os.replace(partial, self.out / CSV_NAME)
-            plot_history(self._rows, self.out / PLOT_NAME, title=summary.get("title", ""))
+            if self.write_plot:
+                plot_history(self._rows, self.out / PLOT_NAME, title=summary.get("title", ""))
             tmp = self.out / (SUMMARY_NAME + ".partial")
             tmp.write_text(json.dumps(_jsonable(summary), indent=2))
             os.replace(tmp, self.out / SUMMARY_NAME)

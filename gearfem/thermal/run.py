@@ -18,14 +18,14 @@ log = logging.getLogger(__name__)
 def run_and_write(problem: ThermalProblem, out_dir: str | Path, extra: dict[str, Any] | None = None,
                   write_fields: bool = True,
                   more: Callable[[list[StepRecord]], dict[str, Any]] | None = None,
-                  ) -> tuple[list[StepRecord], dict[str, Any]]:
+                  write_plot: bool = True) -> tuple[list[StepRecord], dict[str, Any]]:
     """Solve (transient or steady, as ``problem.options.mode`` says) and write CSV, VTX, plot, summary.
 
     ``extra`` and ``more(records)`` (computed after the run, collectively) are added to the
     summary. The summary (``thermal_summary.json``) is written last: a run that fails leaves none.
     """
     t0 = time.perf_counter()
-    with ThermalWriter(out_dir, problem, write_fields=write_fields) as writer:
+    with ThermalWriter(out_dir, problem, write_fields=write_fields, write_plot=write_plot) as writer:
         if problem.options.mode == "steady":
             rec = problem.solve_steady()
             writer.on_step(problem, rec, write_field=True)
