@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # gearfem developer/user entry point. From a fresh clone:
 #
-#   ./dev.sh run [CASE.toml] [gearfem run options]   set up .venv, run the main job (default: thesis case)
+#   ./dev.sh run [CASE.toml] [gearfem run options]   set up .venv, run the main job (default: thesis case,
+#                                                    results/thesis, on GEARFEM_NP ranks, default 2)
 #   ./dev.sh test [pytest options]                   set up .venv, run the tests serially, then under mpirun -n 2
 #   ./dev.sh setup                                   only set up .venv
 #   ./dev.sh gearfem ARGS...                         any gearfem command inside the environment
@@ -93,7 +94,9 @@ case "$cmd" in
     if [[ ${#args[@]} -eq 0 || "${args[0]}" == -* ]]; then out_given=0; for a in "${args[@]}"; do [[ "$a" == "--out" ]] && out_given=1; done
       [[ $out_given -eq 1 ]] || args+=(--out results/thesis)
     fi
-    exec "$VENV/bin/gearfem" run "${args[@]}"
+    np="${GEARFEM_NP:-$( (( $(nproc 2>/dev/null || echo 1) >= 2 )) && echo 2 || echo 1)}"
+    say "gearfem run ${args[*]} on $np MPI rank(s) (GEARFEM_NP)"
+    exec "$(mpirun_cmd)" -n "$np" "$VENV/bin/gearfem" run "${args[@]}"
     ;;
   test)
     setup
@@ -107,5 +110,5 @@ case "$cmd" in
     say "mpirun -n $MPI_NP tests passed in $((SECONDS - t1)) s; all tests passed in $((SECONDS - t0)) s"
     ;;
   gearfem) setup; exec "$VENV/bin/gearfem" "$@" ;;
-  *) sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; exit 2 ;;
+  *) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 2 ;;
 esac
