@@ -230,6 +230,7 @@ def main(argv: list[str] | None = None) -> int:
             "solver": {"newton_iterations": report.newton_iterations, "uzawa_iterations": report.uzawa_iterations,
                        "linear_solves": report.linear_solves, "factorizations": problem.factorizations,
                        "residual_norm_N": report.residual_norm, "max_penetration_m": report.max_penetration_m,
+                       "constraint_penetration_m": report.constraint_penetration_m,
                        "penetration_tolerance_m": pen_tol},
             "contact": dataclasses.asdict(totals),
             "wall_time_s": {"build": t_build, "solve": t_solve, "total": time.perf_counter() - t0},
