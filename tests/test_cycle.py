@@ -156,7 +156,10 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     dom = ThermalDomain.from_gear_mesh(gm, "pinion")
     speed = 1000.0
     src = cycle_heat_sources(dom, gm, "pinion", back, SourceOptions(), case.material, speed)
-    ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.facet_tags)(dom.tags(src.flux_surfaces))
+    from gearfem.sources import AREA_QUADRATURE_DEGREE
+
+    ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.facet_tags,
+                     metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE})(dom.tags(src.flux_surfaces))
     heat = comm.allreduce(fem.assemble_scalar(fem.form(src.flank_flux_W_m2 * ds)), op=MPI.SUM)
     omega = 2 * math.pi * speed / 60
     assert heat == pytest.approx(4 * back.tooth_heat_W_per_rad_s("pinion") * omega, rel=1e-10)
