@@ -89,14 +89,18 @@ def load_case(path: str | Path | None = None) -> Case:
     """Read a case TOML (``None``: the built-in thesis case)."""
     if path is None:
         return case_from_dict(tomllib.loads(data_text("thesis_case.toml")))
+    return case_from_dict(read_toml(path, "case file"))
+
+
+def read_toml(path: str | Path, what: str) -> dict[str, Any]:
+    """The table of a TOML file; a missing or malformed file raises ParameterError naming ``what``."""
     path = Path(path)
     if not path.is_file():
-        raise ParameterError("case file", str(path), "an existing TOML file")
+        raise ParameterError(what, str(path), "an existing TOML file")
     try:
-        data = tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as err:
-        raise ParameterError("case file", str(path), "valid TOML", str(err)) from err
-    return case_from_dict(data)
+        raise ParameterError(what, str(path), "valid TOML", str(err)) from err
 
 
 def case_to_dict(case: Case) -> dict[str, Any]:

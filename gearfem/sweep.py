@@ -47,7 +47,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from gearfem.config import Case, case_from_dict, case_to_dict
+from gearfem.config import Case, case_from_dict, case_to_dict, read_toml
 from gearfem.errors import ParameterError
 from gearfem.params import from_dict, require_choice, require_nonnegative, require_positive, to_dict
 
@@ -133,14 +133,7 @@ def study_from_dict(data: dict[str, Any]) -> Study:
 
 
 def load_study(path: str | Path) -> Study:
-    path = Path(path)
-    if not path.is_file():
-        raise ParameterError("study file", str(path), "an existing TOML file")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as err:
-        raise ParameterError("study file", str(path), "valid TOML", str(err)) from err
-    return study_from_dict(data)
+    return study_from_dict(read_toml(path, "study file"))
 
 
 # ------------------------------------------------------------------------------------------------
