@@ -135,6 +135,17 @@ def baselines(case: Case) -> dict[str, Any]:
         material1=case.materials["pinion"], material2=case.materials["wheel"], options=opts)
 
 
+def prepare_output(out_dir: str | Path, marker: str, comm: MPI.Comm) -> Path:
+    """Create ``out_dir`` and remove its completion marker (collective): a run that fails now must
+    not leave an old marker looking current. The marker is written last by the run."""
+    out = Path(out_dir)
+    if comm.rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / marker).unlink(missing_ok=True)
+    comm.barrier()
+    return out
+
+
 def _write_json(path: Path, data: dict[str, Any]) -> None:
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     tmp.write_text(json.dumps(data, indent=2, default=_default))
@@ -162,13 +173,7 @@ def run(case: Case, out_dir: str | Path, comm: MPI.Comm | None = None, mesh_cach
     from gearfem.provenance import versions
 
     comm = comm or MPI.COMM_WORLD
-    out = Path(out_dir)
-    if comm.rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
-        stale = out / "summary.json"
-        if stale.exists():
-            stale.unlink()  # a run that fails now must not leave an old summary looking current
-    comm.barrier()
+    out = prepare_output(out_dir, "summary.json", comm)
     times: dict[str, float] = {}
     t0 = time.perf_counter()
     bar = _ProgressBar(comm) if progress else None

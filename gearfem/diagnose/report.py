@@ -34,13 +34,10 @@ def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm
     """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns the result."""
     from gearfem.cycle.store import cache_root
 
+    from gearfem.pipeline import prepare_output
+
     comm = comm or MPI.COMM_WORLD
-    out = Path(out_dir)
-    if comm.rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
-        stale = out / "diagnosis.json"
-        if stale.exists():
-            stale.unlink()
+    out = prepare_output(out_dir, "diagnosis.json", comm)
     full = FullModel(case, comm, times_s=data.times, work_dir=None)
     pts = tuple(dict.fromkeys((m.speed_rpm, m.torque_Nm) for m in data.measurements))
     sur = Surrogate(full, pts, cache_dir=cache_dir if cache_dir is not None else cache_root())
