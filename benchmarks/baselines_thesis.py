@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import gearfem  # noqa: F401  (import order)
 from gearfem import baselines as B
-from gearfem.materials import Material, read_csv, read_toml
+from gearfem.core.materials import Material, read_csv, read_toml
 
 
 def main() -> None:

@@ -26,8 +26,6 @@ machine are only as good as the load allows.
 
 from __future__ import annotations
 
-import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-
 import argparse
 import json
 import math
@@ -42,6 +40,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.contact import ContactOptions
 from gearfem.contact.verification import compare_hertz, hertz_case
 

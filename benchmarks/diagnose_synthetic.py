@@ -17,17 +17,17 @@ import sys
 import time
 from pathlib import Path
 
-import gearfem  # noqa: F401
-
 import numpy as np
 from mpi4py import MPI
+
+import gearfem  # noqa: F401
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 import diagnose_generator as G  # noqa: E402
 
 from gearfem.config import load_case  # noqa: E402
-from gearfem.cycle.store import cache_root  # noqa: E402
+from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY  # noqa: E402
 from gearfem.diagnose.forward import FullModel, Surrogate  # noqa: E402
 from gearfem.diagnose.select import diagnose, refine  # noqa: E402

@@ -18,8 +18,6 @@ timings are only as good as the load allows.
 
 from __future__ import annotations
 
-import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-
 import argparse
 import os
 import resource
@@ -30,6 +28,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
 
@@ -66,7 +65,7 @@ def main(argv=None) -> int:
         cyc = rows[0][1].get("cycle", {})
         if cyc:
             print(f"cycle: {cyc['positions']} positions, {cyc['info'].get('dofs', '?')} displacement DOFs, "
-                  f"{cyc['newton_iterations']} Newton iterations, sweep {cyc['sweep_wall_time_s']:.0f} s, "
+                  f"{cyc['newton_iterations']} Newton iterations, cycle {cyc['cycle_wall_time_s']:.0f} s, "
                   f"effective contact ratio {cyc['effective_contact_ratio']:.3f}, "
                   f"max pressure {cyc['max_contact_pressure_MPa']:.1f} MPa")
         print(f"load average (1 min): {load0:.2f} before, {os.getloadavg()[0]:.2f} after. Targets: first point "

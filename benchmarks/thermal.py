@@ -15,8 +15,6 @@ Target (issue 6): under 60 s on 2 cores for the default mesh, step-size error be
 
 from __future__ import annotations
 
-import gearfem  # noqa: F401  (orders dolfinx_solver first)
-
 import argparse
 import dataclasses
 import math
@@ -27,9 +25,11 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from gearfem.materials import ZERO_CELSIUS_K
+import gearfem  # noqa: F401  (orders dolfinx_solver first)
+from gearfem.core.materials import ZERO_CELSIUS_K
+from gearfem.pipeline import read_case
 from gearfem.thermal import ThermalBoundary, ThermalDomain, ThermalProblem
-from gearfem.thermal.case import gear_radii, lumped_estimate, read_case
+from gearfem.thermal.lumped import gear_radii, lumped_estimate
 
 HERE = Path(__file__).resolve().parent
 KEYS = ("max_surface", "mean_bulk", "flank_mean", "root_mean")
@@ -56,7 +56,7 @@ def timed_run(case, comm, **over):
     problem, gm = build(case, comm, **over)
     comm.barrier()
     t1 = time.perf_counter()
-    records = problem.run()
+    records = problem.integrate()
     comm.barrier()
     t2 = time.perf_counter()
     stats = {"pc_builds": problem._transient_solver.pc_builds,

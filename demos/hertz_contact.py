@@ -44,8 +44,6 @@ Run:
 
 from __future__ import annotations
 
-import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-
 import argparse
 import csv
 import dataclasses
@@ -59,10 +57,11 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.contact import ContactOptions, RigidMotion
 from gearfem.contact.output import gather_points, summary, write_vtx
 from gearfem.contact.verification import compare_hertz, hertz_case, hertz_pressure
-from gearfem.provenance import versions
+from gearfem.core.provenance import versions
 
 RADIUS_M = 1.0  # both cylinders (hertz_case geometry)
 _METHOD_NAMES = {"penalty": "penalty", "augmented_lagrangian": "augmented Lagrangian"}

@@ -15,7 +15,7 @@ f = rotational frequency):
     bench_4Nm          2000    4       900 s     on          ~57 C (h lowered)         49 C
 
 One structural cycle per torque (cached), then every thermal run; cycles and thermal runs are
-dealt to the ranks (``gearfem.sweep``'s dispatch). The mesh is a parameter: ``case`` (the built-in
+dealt to the ranks (``gearfem.study``'s dispatch). The mesh is a parameter: ``case`` (the built-in
 thesis case's: 8 teeth, 2 layers, 0.3 mm flank elements, 12 positions per pitch — the main job's
 resolution), ``coarse`` (6 teeth, 8 positions per pitch; the test case) or ``fine`` (the
 MeshOptions default, 171k DOFs, 24 positions per pitch; hours on 2 cores for the five cycles).
@@ -36,8 +36,6 @@ Run:
 
 from __future__ import annotations
 
-import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-
 import argparse
 import dataclasses
 import json
@@ -47,10 +45,11 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
-from gearfem.geometry.gmsh_pair import MeshOptions
-from gearfem.sweep import _dispatch, _is_done, _mode
+from gearfem.geometry.options import MeshOptions
+from gearfem.study import _mode, dispatch, is_done
 
 COARSE = MeshOptions(teeth_in_model=6, refined_teeth=4, layers=2, size_flank_mm=0.3, size_tip_mm=0.3,
                      size_root_mm=0.4, size_tooth_mm=1.2, size_body_mm=4.0)
@@ -159,9 +158,9 @@ def main(argv=None) -> int:
     reps = {}
     for _, c, _ in todo:
         reps.setdefault(c.operating.torque_Nm, c)
-    _dispatch(comm, _mode("auto", len(reps), comm.size), list(reps.values()), lambda c, sub: pipeline.cycle(c, sub))
-    pending = [(lab, c) for lab, c, _ in todo if not _is_done(c, out / "cases" / lab)]
-    _dispatch(comm, _mode("auto", len(pending), comm.size), pending,
+    dispatch(comm, _mode("auto", len(reps), comm.size), list(reps.values()), lambda c, sub: pipeline.cycle(c, sub))
+    pending = [(lab, c) for lab, c, _ in todo if not is_done(c, out / "cases" / lab)]
+    dispatch(comm, _mode("auto", len(pending), comm.size), pending,
               lambda item, sub: pipeline.run(item[1], out / "cases" / item[0], sub, progress=False,
                                              write_fields=False))
     if comm.rank == 0:

@@ -13,7 +13,7 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _dist_version
 
-from gearfem.errors import MissingDependencyError
+from gearfem.core.errors import MissingDependencyError
 
 try:
     __version__ = _dist_version("gearfem")

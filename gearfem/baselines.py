@@ -62,9 +62,15 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from gearfem.errors import ConvergenceError, ParameterError
-from gearfem.materials import Material
-from gearfem.params import require_choice, require_int, require_nonnegative, require_positive, require_range
+from gearfem.core.errors import ConvergenceError, ParameterError
+from gearfem.core.materials import Material
+from gearfem.core.params import (
+    require_choice,
+    require_int,
+    require_nonnegative,
+    require_positive,
+    require_range,
+)
 
 log = logging.getLogger(__name__)
 

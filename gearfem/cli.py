@@ -13,12 +13,23 @@ import os
 import sys
 from collections.abc import Sequence
 
+from gearfem import pipeline
+from gearfem.config import load_case
+from gearfem.core.errors import GearfemError
+from gearfem.core.io import write_json_atomic
+from gearfem.core.log import ProgressBar, setup_logging
+from gearfem.core.provenance import format_versions, versions
+from gearfem.cycle.report import cycle_summary_dict, write_cycle_outputs
+from gearfem.diagnose.data import read_csv
+from gearfem.diagnose.report import run_diagnosis
+from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair
+from gearfem.pipeline import read_case, run_thermal_case
+from gearfem.study import load_study, run_study
+
 log = logging.getLogger("gearfem.cli")
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    from gearfem.provenance import format_versions, versions
-
     info = versions()
     from mpi4py import MPI
 
@@ -33,9 +44,6 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from mpi4py import MPI
-
-    from gearfem.config import load_case
-    from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair, write_json_atomic
 
     case = load_case(args.case)
     geometry, options = case.geometry, case.mesh
@@ -74,8 +82,6 @@ def _cmd_thermal(args: argparse.Namespace) -> int:
     """Transient (or steady) temperature of one gear from prescribed sources."""
     from mpi4py import MPI
 
-    from gearfem.thermal.case import read_case, run_thermal_case
-
     summary = run_thermal_case(read_case(args.case), args.out, cache_dir=args.cache_dir)
     # (read_case: the one case schema of gearfem.config; None = the built-in thesis case)
     if MPI.COMM_WORLD.rank == 0:
@@ -95,20 +101,15 @@ def _say(*a, **k) -> None:
 
 
 def _cmd_cycle(args: argparse.Namespace) -> int:
-    """Sweep the mesh cycle of a case's torque (cached) and write histories and plots."""
+    """Solve the mesh cycle of a case's torque (cached) and write histories and plots."""
     from mpi4py import MPI
-
-    from gearfem import pipeline
-    from gearfem.config import load_case
-    from gearfem.cycle.report import cycle_summary_dict, write_cycle_outputs
 
     case = load_case(args.case)
     if args.torque_Nm is not None:
         case = case.with_operating(torque_Nm=args.torque_Nm)
     comm = MPI.COMM_WORLD
-    bar = pipeline._ProgressBar(comm)
-    res, directory, cached = pipeline.cycle(case, comm, rebuild=args.rebuild, progress=bar.update)
-    bar.close()
+    with ProgressBar(comm) as bar:
+        res, directory, cached = pipeline.cycle(case, comm, rebuild=args.rebuild, progress=bar.update)
     if comm.rank == 0:
         write_cycle_outputs(res, args.out)
         s = cycle_summary_dict(res)
@@ -127,9 +128,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     """The whole chain for one operating point: cycle (cached), thermal, baselines, summary."""
     from mpi4py import MPI
 
-    from gearfem import pipeline
-    from gearfem.config import load_case
-
     case = load_case(args.case)
     case = case.with_operating(speed_rpm=args.speed_rpm, torque_Nm=args.torque_Nm)
     if args.duration_s is not None:
@@ -147,11 +145,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_sweep(args: argparse.Namespace) -> int:
+def _cmd_study(args: argparse.Namespace) -> int:
     """A speed x torque study: one cycle per torque, every operating point, a table and plots."""
     from mpi4py import MPI
-
-    from gearfem.sweep import load_study, run_study
 
     study = load_study(args.study)
     if args.list:
@@ -161,7 +157,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     res = run_study(study, args.out, MPI.COMM_WORLD, index=args.index, collect_only=args.collect)
     if args.index is not None:
         _say(f"study {study.name}: task {args.index} {'ran' if res['ran'] else 'was already finished'}; "
-             f"collect with: gearfem sweep {args.study} --out {args.out} --collect")
+             f"collect with: gearfem study {args.study} --out {args.out} --collect")
         return 0
     _say(f"study {study.name}: {len(res['results'])} operating points, {len(res['ran'])} computed now, "
          f"{len(res['missing'])} missing")
@@ -182,10 +178,6 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     """Confront a case with measured data: V&V 20, candidate extensions ranked, verdict, gain."""
     from mpi4py import MPI
-
-    from gearfem.config import load_case
-    from gearfem.diagnose.data import read_csv
-    from gearfem.diagnose.report import run_diagnosis
 
     data = read_csv(args.data)
     case = load_case(args.case)
@@ -233,7 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--cache-dir", default=None, help="mesh cache (default: $GEARFEM_MESH_CACHE or meshes/cache)")
     s.set_defaults(func=_cmd_thermal)
 
-    s = sub.add_parser("cycle", help="sweep the mesh cycle at the case torque: load sharing, TE, U_max, flank flux")
+    s = sub.add_parser("cycle", help="solve the mesh cycle at the case torque: load sharing, TE, U_max, flank flux")
     s.add_argument("case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--torque-Nm", dest="torque_Nm", type=float, default=None, help="override [operating] torque_Nm")
@@ -249,13 +241,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_run)
 
-    s = sub.add_parser("sweep", help="speed x torque study (resumable): one cycle per torque, table and plots")
-    s.add_argument("study", help="study TOML: a case file with a [study] table (see gearfem/sweep.py)")
+    s = sub.add_parser("study", help="speed x torque study (resumable): one cycle per torque, table and plots")
+    s.add_argument("study", help="study TOML: a case file with a [study] table (see gearfem/study.py)")
     s.add_argument("--out", required=True, help="output directory (re-running resumes it)")
     s.add_argument("--index", type=int, default=None, help="run only this operating point (cluster array task)")
     s.add_argument("--collect", action="store_true", help="only collect the table and plots of finished cases")
     s.add_argument("--list", action="store_true", help="list the operating points with their indices")
-    s.set_defaults(func=_cmd_sweep)
+    s.set_defaults(func=_cmd_study)
 
     s = sub.add_parser("diagnose", help="confront the model with measured data, name the cause, measure the gain")
     s.add_argument("data", help="measured-data CSV (gearfem.diagnose.data format, or the thesis bench file)")
@@ -271,8 +263,6 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from gearfem.errors import GearfemError
-    from gearfem.log import setup_logging
 
     try:
         setup_logging(args.log_level)

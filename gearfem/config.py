@@ -5,17 +5,17 @@ A case file has one table per stage, each a frozen dataclass of the module that 
     name = "thesis bench 1000 rpm 8 Nm"
     [geometry]   # gearfem.geometry.involute.GearPairGeometry (mm, degrees)
     [mesh]       # gearfem.geometry.gmsh_pair.MeshOptions
-    [material]   # gearfem.materials.Material (both gears; [material_wheel] overrides the wheel)
+    [material]   # gearfem.core.materials.Material (both gears; [material_wheel] overrides the wheel)
     [contact]    # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5: thesis 5.1.2)
     [cycle]      # gearfem.cycle.model.CycleOptions
     [operating]  # OperatingPoint: speed_rpm (pinion), torque_Nm (resisting torque on the wheel)
-    [sources]    # gearfem.sources.SourceOptions
+    [sources]    # gearfem.coupling.heat_sources.SourceOptions
     [thermal]    # gearfem.thermal.options.ThermalOptions (duration_s, convection, ...)
     [baselines]  # gearfem.baselines.BaselineOptions
 
 Every table and key is optional; missing ones take the defaults, which are the thesis case
 (Doll 2015: PEEK 450G 30/30 teeth, m = 2 mm, 30°, bench point 1000 rpm / 8 N·m). Unknown keys and
-bad values raise :class:`~gearfem.errors.ParameterError` naming the key, value and allowed range.
+bad values raise :class:`~gearfem.core.errors.ParameterError` naming the key, value and allowed range.
 """
 
 from __future__ import annotations
@@ -29,13 +29,13 @@ import tomli_w
 
 from gearfem.baselines import BaselineOptions
 from gearfem.contact.options import ContactOptions
-from gearfem.cycle.model import CycleOptions
-from gearfem.errors import ParameterError
-from gearfem.geometry.gmsh_pair import MeshOptions
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import Material, data_text
+from gearfem.core.params import from_dict, require_nonnegative, require_positive, to_dict
+from gearfem.coupling.options import SourceOptions
+from gearfem.cycle.options import CycleOptions
 from gearfem.geometry.involute import GearPairGeometry
-from gearfem.materials import Material, data_text
-from gearfem.params import from_dict, require_nonnegative, require_positive, to_dict
-from gearfem.sources import SourceOptions
+from gearfem.geometry.options import MeshOptions
 from gearfem.thermal.options import ThermalOptions
 
 

@@ -11,27 +11,39 @@ fields.
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 import math
-import os
 import time
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
-from gearfem.config import Case, write_case
-from gearfem.cycle.store import cached_cycle, cycle_key
-from gearfem.errors import ParameterError
-from gearfem.materials import ZERO_CELSIUS_K
+from gearfem.baselines import baseline_summary, max_rack_fillet_coef
+from gearfem.config import Case, load_case, write_case
+from gearfem.core.errors import ParameterError
+from gearfem.core.io import prepare_output, write_json
+from gearfem.core.log import ProgressBar
+from gearfem.core.materials import ZERO_CELSIUS_K
+from gearfem.core.provenance import versions
+from gearfem.coupling.heat_sources import cycle_heat_sources
+from gearfem.cycle.cache import cache_root, cached_cycle, cycle_key
+from gearfem.cycle.cache import load as load_cycle
+from gearfem.cycle.model import GearContactModel
+from gearfem.cycle.report import write_cycle_outputs
+from gearfem.geometry.involute import GearPair
+from gearfem.geometry.mesh import build_gear_mesh
+from gearfem.thermal.boundary import ThermalBoundary
+from gearfem.thermal.domain import ThermalDomain
+from gearfem.thermal.lumped import gear_radii, lumped_estimate
+from gearfem.thermal.outputs import solve_and_write
+from gearfem.thermal.problem import ThermalProblem
+from gearfem.thermal.source_terms import prescribed_heat_sources
 
 log = logging.getLogger(__name__)
 
 
 def pair_mesh(case: Case, comm: MPI.Comm, cache_dir: Path | None = None):
-    from gearfem.geometry.mesh import build_gear_mesh
-
     return build_gear_mesh(case.geometry, dataclasses.replace(case.mesh, bodies=("pinion", "wheel")), comm,
                            cache_dir=cache_dir)
 
@@ -44,7 +56,6 @@ def case_cycle_key(case: Case) -> str:
 def cycle(case: Case, comm: MPI.Comm, mesh_cache: Path | None = None, cache_dir: Path | None = None,
           rebuild: bool = False, progress=None):
     """The structural cycle of the case's torque (cached). Returns (CycleResult, directory, from_cache)."""
-    from gearfem.cycle.model import GearContactModel
 
     heat_fraction = case.sources.heat_fraction(case.materials)
 
@@ -61,13 +72,6 @@ def thermal(case: Case, out_dir: str | Path, comm: MPI.Comm, cycle_result=None, 
             write_plot: bool = True) -> dict[str, Any]:
     """Thermal run of ``case.thermal.body`` with sources from ``cycle_result`` (mode "cycle") or
     prescribed ([sources] mode "prescribed"); writes the thermal outputs to ``out_dir``."""
-    from gearfem.geometry.mesh import build_gear_mesh
-    from gearfem.sources import cycle_heat_sources
-    from gearfem.thermal.boundary import ThermalBoundary
-    from gearfem.thermal.case import gear_radii, lumped_estimate
-    from gearfem.thermal.domain import ThermalDomain
-    from gearfem.thermal.problem import ThermalProblem
-    from gearfem.thermal.run import run_and_write
 
     body = case.thermal.body
     if body not in ("pinion", "wheel"):
@@ -82,7 +86,7 @@ def thermal(case: Case, out_dir: str | Path, comm: MPI.Comm, cycle_result=None, 
     speed = n1 if body == "pinion" else n1 * case.geometry.teeth_pinion / profile.teeth
     boundary = ThermalBoundary.from_options(case.thermal, material, speed, gear_radii(profile))
     if src.mode == "prescribed":
-        sources = src.prescribed().build(domain, material, speed, profile.teeth)
+        sources = prescribed_heat_sources(src.prescribed(), domain, material, speed, profile.teeth)
         title = f"{body}, {speed:g} rpm, {src.flank_heat_per_gear_W:g} W prescribed flank heat per gear"
     else:
         if cycle_result is None:
@@ -108,17 +112,13 @@ def thermal(case: Case, out_dir: str | Path, comm: MPI.Comm, cycle_result=None, 
         return out
 
     with problem:  # frees the solvers collectively, also on failure
-        _, summary = run_and_write(problem, out_dir, extra=info, more=more, write_fields=write_fields,
+        _, summary = solve_and_write(problem, out_dir, extra=info, more=more, write_fields=write_fields,
                                    write_plot=write_plot)
     return summary
 
 
 def baselines(case: Case) -> dict[str, Any]:
     """VDI 2736, Mao, Blok and Hertz/ISO numbers for the case's operating point."""
-    from gearfem.baselines import baseline_summary
-    from gearfem.geometry.involute import GearPair
-
-    from gearfem.baselines import max_rack_fillet_coef
 
     g = case.geometry
     pair = GearPair(g)
@@ -135,54 +135,20 @@ def baselines(case: Case) -> dict[str, Any]:
         material1=case.materials["pinion"], material2=case.materials["wheel"], options=opts)
 
 
-def prepare_output(out_dir: str | Path, marker: str, comm: MPI.Comm) -> Path:
-    """Create ``out_dir`` and remove its completion marker (collective): a run that fails now must
-    not leave an old marker looking current. The marker is written last by the run."""
-    out = Path(out_dir)
-    if comm.rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / marker).unlink(missing_ok=True)
-    comm.barrier()
-    return out
-
-
-def _write_json(path: Path, data: dict[str, Any]) -> None:
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(data, indent=2, default=_default))
-    os.replace(tmp, path)
-
-
-def _default(obj):
-    import numpy as np
-
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(type(obj))
-
-
 def run(case: Case, out_dir: str | Path, comm: MPI.Comm | None = None, mesh_cache: Path | None = None,
         cache_dir: Path | None = None, progress: bool = True, write_fields: bool = True) -> dict[str, Any]:
     """The whole chain for one operating point; returns the summary (collective).
 
     ``write_fields``: write the VTX temperature fields (studies switch them off)."""
-    from gearfem.cycle.report import write_cycle_outputs
-    from gearfem.provenance import versions
-
     comm = comm or MPI.COMM_WORLD
     out = prepare_output(out_dir, "summary.json", comm)
     times: dict[str, float] = {}
     t0 = time.perf_counter()
-    bar = _ProgressBar(comm) if progress else None
     cyc = None
     if case.sources.mode == "cycle":
-        cyc, cdir, cached = cycle(case, comm, mesh_cache, cache_dir,
-                                  progress=bar.update if bar is not None else None)
-        if bar is not None:
-            bar.close()
+        with ProgressBar(comm) as bar:
+            cyc, cdir, cached = cycle(case, comm, mesh_cache, cache_dir,
+                                      progress=bar.update if progress else None)
         times["cycle_s"] = time.perf_counter() - t0
         if comm.rank == 0:
             write_cycle_outputs(cyc, out / "cycle")
@@ -203,8 +169,8 @@ def run(case: Case, out_dir: str | Path, comm: MPI.Comm | None = None, mesh_cach
     vers = versions(comm)
     if comm.rank == 0:
         write_case(case, out / "case.toml")
-        _write_json(out / "versions.json", vers)
-        _write_json(out / "summary.json", summary)  # last: marks a complete run
+        write_json(out / "versions.json", vers)
+        write_json(out / "summary.json", summary)  # last: marks a complete run
     comm.barrier()
     return summary
 
@@ -224,7 +190,7 @@ def cycle_summary(cyc, speed_rpm: float) -> dict[str, Any]:
         "friction_power_W": cyc.mean_friction_power_W_per_rad_s() * omega,
         "pinion_torque_mean_Nm": float(np.mean(cyc.pinion_torque_Nm)),
         "positions": int(len(cyc.phi_rad)), "newton_iterations": int(np.sum(cyc.newton_iterations)),
-        "sweep_wall_time_s": float(np.sum(cyc.wall_time_s)), "info": cyc.info,
+        "cycle_wall_time_s": float(np.sum(cyc.wall_time_s)), "info": cyc.info,
     }
 
 
@@ -245,23 +211,19 @@ def headline(summary: dict[str, Any]) -> dict[str, Any]:
     return h
 
 
-class _ProgressBar:
-    """A one-line progress bar printed by rank 0 only (no collective calls)."""
+def read_case(path: str | Path | None):
+    """The :class:`gearfem.config.Case` of a TOML file (``None``: the built-in thesis case)."""
+    return load_case(path)
 
-    def __init__(self, comm: MPI.Comm) -> None:
-        self.rank = comm.rank
-        self.t0 = time.perf_counter()
 
-    def update(self, i: int, n: int, label: str = "") -> None:
-        if self.rank != 0:
-            return
-        width = 30
-        done = int(width * i / max(n, 1))
-        el = time.perf_counter() - self.t0
-        eta = el / max(i, 1) * (n - i)
-        print(f"\r  cycle [{'#' * done}{'.' * (width - done)}] {i}/{n} {label:>10}  {el:6.0f} s, ~{eta:4.0f} s left",
-              end="", flush=True)
-
-    def close(self) -> None:
-        if self.rank == 0:
-            print(flush=True)
+def run_thermal_case(case, out_dir: str | Path, cache_dir: str | Path | None = None, comm=None) -> dict[str, Any]:
+    """Run the thermal stage of a :class:`gearfem.config.Case` and write its outputs; return the summary."""
+    comm = comm or MPI.COMM_WORLD
+    cyc = None
+    if case.sources.mode == "cycle":
+        directory = cache_root() / "cycles" / case_cycle_key(case)
+        if not comm.bcast((directory / "cycle.json").exists(), root=0):
+            raise ParameterError("sources.mode", "cycle", f"a stored cycle for this case ({directory}); run "
+                                 "`gearfem cycle CASE.toml` or `gearfem run` first, or set mode = 'prescribed'")
+        cyc = load_cycle(directory)
+    return thermal(case, out_dir, comm, cyc, mesh_cache=Path(cache_dir) if cache_dir else None)

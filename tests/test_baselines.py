@@ -24,8 +24,8 @@ import pytest
 from scipy import integrate, optimize
 
 from gearfem import baselines as B
-from gearfem.errors import ParameterError
-from gearfem.materials import Material
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import Material
 
 # the S30 pair of [Fer2018] (SI)
 S30 = dict(z1=30, z2=30, module_m=2e-3, pressure_angle_deg=20.0, tip_radius1_m=32e-3,

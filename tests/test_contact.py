@@ -18,9 +18,9 @@ from mpi4py import MPI
 from gearfem.contact import ContactInterface, ContactOptions
 from gearfem.contact.kinematics import evaluate, project, segment
 from gearfem.contact.output import summary, write_vtx
-from gearfem.contact.reference import FacetReference
 from gearfem.contact.verification import block_case, compare_hertz, hertz_case
-from gearfem.errors import ConvergenceError, GearfemError, ParameterError
+from gearfem.core.errors import ConvergenceError, GearfemError, ParameterError
+from gearfem.core.facets import FacetReference
 
 # ------------------------------------------------------------------------------------------------
 # building blocks

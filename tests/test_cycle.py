@@ -1,6 +1,6 @@
 """The gear meshing cycle, checked against conservation laws, geometry and Hertz.
 
-A small model of the thesis pair (4 of 30 teeth per gear, coarse mesh) keeps the sweeps short;
+A small model of the thesis pair (4 of 30 teeth per gear, coarse mesh) keeps the cycle solves short;
 the checks are independent of the mesh size: torque balance (frictionless: pinion torque = wheel
 torque for the 1:1 pair), energy balance with friction (input − output power = friction power,
 over the cycle), effective contact ratio against the rigid-tooth value at low torque, rotational
@@ -20,10 +20,10 @@ from mpi4py import MPI
 from gearfem import pipeline
 from gearfem.config import Case
 from gearfem.contact import ContactOptions
-from gearfem.cycle import CycleOptions, GearContactModel, run_cycle
-from gearfem.cycle.store import load, save
-from gearfem.errors import ParameterError
-from gearfem.geometry.gmsh_pair import MeshOptions
+from gearfem.core.errors import ParameterError
+from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
+from gearfem.cycle.cache import load, save
+from gearfem.geometry.options import MeshOptions
 
 TINY = MeshOptions(teeth_in_model=4, refined_teeth=3, layers=2, size_flank_mm=0.35, size_tip_mm=0.35,
                    size_root_mm=0.45, size_tooth_mm=1.5, size_body_mm=5.0)
@@ -43,12 +43,12 @@ def _model(case: Case, comm=MPI.COMM_WORLD) -> GearContactModel:
 
 @pytest.fixture(scope="module")
 def low_torque():
-    return run_cycle(_model(_case(0.2, 0.0)))
+    return solve_cycle(_model(_case(0.2, 0.0)))
 
 
 @pytest.fixture(scope="module")
 def loaded():
-    return run_cycle(_model(_case(8.0, 0.5)))
+    return solve_cycle(_model(_case(8.0, 0.5)))
 
 
 def _check_periodic(r):
@@ -137,8 +137,9 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     import ufl
     from dolfinx import fem
 
+    from gearfem.coupling.heat_sources import cycle_heat_sources
+    from gearfem.coupling.options import SourceOptions
     from gearfem.geometry.mesh import build_gear_mesh
-    from gearfem.sources import SourceOptions, cycle_heat_sources
     from gearfem.thermal.domain import ThermalDomain
 
     comm = MPI.COMM_WORLD
@@ -156,7 +157,7 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     dom = ThermalDomain.from_gear_mesh(gm, "pinion")
     speed = 1000.0
     src = cycle_heat_sources(dom, gm, "pinion", back, SourceOptions(), case.material, speed)
-    from gearfem.sources import AREA_QUADRATURE_DEGREE
+    from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE
 
     ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.facet_tags,
                      metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE})(dom.tags(src.flux_surfaces))
@@ -174,7 +175,7 @@ def test_cycle_one_and_two_ranks_agree(comms):
     for comm in comms:
         case = dataclasses.replace(_case(2.0, 0.5), cycle=CycleOptions(positions_per_pitch=POSITIONS,
                                                                        pitches=2.0 / POSITIONS))
-        r = run_cycle(_model(case, comm))
+        r = solve_cycle(_model(case, comm))
         out.append(r)
     a, b = out
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=1e-6)

@@ -18,13 +18,15 @@ import pytest
 from mpi4py import MPI
 
 import gearfem  # noqa: F401
+from gearfem.core.errors import ParameterError
 from gearfem.diagnose import data as ddata
 from gearfem.diagnose import vv20
 from gearfem.diagnose.candidates import LIBRARY, by_name
-from gearfem.errors import ParameterError
 
 sys.path.insert(0, str(Path(__file__).parent))
 import diagnose_generator as G  # noqa: E402
+
+from gearfem.coupling.heat_sources import friction_temperature_factor
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -98,8 +100,8 @@ def test_candidate_priors_and_nodes():
 @pytest.fixture(scope="session")
 def models():
     from gearfem.config import load_case
+    from gearfem.cycle.cache import cache_root
     from gearfem.diagnose.forward import FullModel, Surrogate
-    from gearfem.cycle.store import cache_root
 
     case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
     case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, time_error_K=0.25))
@@ -177,9 +179,9 @@ def test_pair_found_and_confirmed_on_full_model(models):
 # ---------------------------------------------------------------- mu(T) on the friction flux
 
 def test_friction_temperature_options():
-    from gearfem.sources import SourceOptions
+    from gearfem.coupling.options import SourceOptions
 
-    assert SourceOptions().friction_temperature_factor() is None
+    assert friction_temperature_factor(SourceOptions()) is None
     with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):
         SourceOptions(friction_temperature_coefficient_per_K=-0.001)
     with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):

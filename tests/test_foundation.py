@@ -14,8 +14,8 @@ import pytest
 from mpi4py import MPI
 
 import gearfem
-from gearfem.errors import ConvergenceError, ParameterError
-from gearfem.params import from_dict, require_range, to_dict
+from gearfem.core.errors import ConvergenceError, ParameterError
+from gearfem.core.params import from_dict, require_range, to_dict
 
 
 def _run_python(code: str, tmp_path) -> subprocess.CompletedProcess:
@@ -102,7 +102,7 @@ def test_convergence_error_carries_reason_and_step():
 
 
 def test_log_level_from_environment(monkeypatch):
-    from gearfem.log import resolve_level, setup_logging
+    from gearfem.core.log import resolve_level, setup_logging
 
     monkeypatch.setenv("GEARFEM_LOG_LEVEL", "debug")
     assert resolve_level() == logging.DEBUG

@@ -8,16 +8,18 @@ import json
 import math
 from pathlib import Path
 
+import dolfinx
 import numpy as np
 import pytest
+import ufl
 from mpi4py import MPI
 
-import dolfinx
-import ufl
-from gearfem.errors import ParameterError
-from gearfem.geometry.gmsh_pair import GMSH_REF, TOOTH_KINDS, MeshOptions, gmsh_session
+from gearfem.core.errors import ParameterError
+from gearfem.geometry.extrude import GMSH_REF
+from gearfem.geometry.gmsh_pair import gmsh_session
 from gearfem.geometry.involute import GearPair, GearPairGeometry
 from gearfem.geometry.mesh import analytic_areas_mm2, body_volumes_m3, build_gear_mesh, mesh_report
+from gearfem.geometry.options import TOOTH_KINDS, MeshOptions
 
 THESIS = GearPairGeometry()
 COARSE = MeshOptions(size_flank_mm=0.3, size_tip_mm=0.3, size_root_mm=0.3, size_tooth_mm=0.8, size_body_mm=3.0,

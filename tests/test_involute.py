@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from gearfem.errors import ParameterError
+from gearfem.core.errors import ParameterError
 from gearfem.geometry.involute import GearPair, GearPairGeometry, inv, inv_inverse
 
 THESIS = GearPairGeometry()
@@ -22,7 +22,7 @@ def pair() -> GearPair:
 
 
 def test_defaults_are_the_thesis_pair():
-    from gearfem.materials import read_toml
+    from gearfem.core.materials import read_toml
 
     ref = read_toml("thesis_gear_reference.toml")  # shipped copy of shared/data/thesis_gear.toml
     known, assumed = ref["known"]["geometry"], ref["assumed"]["geometry"]

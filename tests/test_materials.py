@@ -8,15 +8,16 @@ import math
 import numpy as np
 import pytest
 
-from gearfem.errors import ParameterError
-from gearfem.materials import (
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import (
+    ZERO_CELSIUS_K,
     Material,
     ShiftFactor,
     TemperatureTable,
-    ZERO_CELSIUS_K,
     input_ranges,
     peek450g_hysteresis,
 )
+from gearfem.thermal.properties import table_ufl
 
 
 def test_package_data_equals_shared_originals(shared_data):
@@ -58,7 +59,7 @@ def test_table_ufl_matches_numpy():
     mesh = dolfinx.mesh.create_interval(MPI.COMM_SELF, 97, [250.0, 500.0])
     x = ufl.SpatialCoordinate(mesh)
     ref = np.linspace(0.0, 1.0, 7)[:, None]
-    expr = fem.Expression(H.ufl(x[0]), ref)
+    expr = fem.Expression(table_ufl(H, x[0]), ref)
     xexpr = fem.Expression(x[0], ref)
     cells = np.arange(mesh.topology.index_map(1).size_local, dtype=np.int32)
     vals, pts = expr.eval(mesh, cells).ravel(), xexpr.eval(mesh, cells).ravel()

@@ -7,9 +7,15 @@ import math
 
 import pytest
 
-from gearfem.errors import ParameterError
-from gearfem.materials import ZERO_CELSIUS_K, Material
-from gearfem.thermal import AirProperties, GearRadii, ThermalBoundary, ThermalOptions, thesis_convection
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import ZERO_CELSIUS_K, Material
+from gearfem.thermal import (
+    AirProperties,
+    GearRadii,
+    ThermalBoundary,
+    ThermalOptions,
+    thesis_convection,
+)
 from gearfem.thermal import convection as conv
 
 

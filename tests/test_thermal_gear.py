@@ -8,11 +8,19 @@ from pathlib import Path
 import pytest
 from mpi4py import MPI
 
+from gearfem.core.materials import Material
 from gearfem.geometry import GearPairGeometry, MeshOptions, build_gear_mesh
 from gearfem.geometry.mesh import analytic_areas_mm2
-from gearfem.materials import Material
-from gearfem.thermal import PrescribedSources, ThermalBoundary, ThermalDomain, ThermalOptions, ThermalProblem
-from gearfem.thermal.case import gear_radii, read_case, run_thermal_case
+from gearfem.pipeline import read_case, run_thermal_case
+from gearfem.thermal import (
+    PrescribedSources,
+    ThermalBoundary,
+    ThermalDomain,
+    ThermalOptions,
+    ThermalProblem,
+)
+from gearfem.thermal.lumped import gear_radii
+from gearfem.thermal.source_terms import prescribed_heat_sources
 
 COARSE = MeshOptions(size_flank_mm=0.3, size_tip_mm=0.3, size_root_mm=0.3, size_tooth_mm=0.8, size_body_mm=3.0,
                      layers=2, teeth_in_model=2)
@@ -31,7 +39,7 @@ def _problem(gm, flanks="drive", degree=2, prefix="gear_", **opts):
     o = ThermalOptions(degree=degree, **opts)
     prof = gm.pair.profile("pinion")
     bnd = ThermalBoundary.from_options(o, mat, 1000.0, gear_radii(prof))
-    src = PrescribedSources(flank_heat_per_gear_W=40.0, flanks=flanks).build(dom, mat, 1000.0, prof.teeth)
+    src = prescribed_heat_sources(PrescribedSources(flank_heat_per_gear_W=40.0, flanks=flanks), dom, mat, 1000.0, prof.teeth)
     return ThermalProblem(dom, mat, src, bnd, o, petsc_options_prefix=prefix)
 
 
@@ -118,7 +126,8 @@ def test_cell_field_transfer_from_the_pair_mesh(cache):
     """A DG0 field on the pair mesh (U_max of the cycle) arrives cell by cell on the pinion submesh:
     a field equal to each cell's centroid x-coordinate stays equal to it."""
     import numpy as np
-    from dolfinx import fem, mesh as dmesh
+    from dolfinx import fem
+    from dolfinx import mesh as dmesh
 
     gm = build_gear_mesh(GearPairGeometry(), COARSE, MPI.COMM_WORLD, cache_dir=cache)
     dom = ThermalDomain.from_gear_mesh(gm, "pinion")

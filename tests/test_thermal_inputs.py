@@ -10,10 +10,11 @@ from dolfinx import fem
 from mpi4py import MPI
 from thermal_meshes import annular_sector, box_domain, sector_domain
 
-from gearfem.errors import ParameterError
-from gearfem.materials import Material
-from gearfem.params import from_dict, to_dict
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import Material
+from gearfem.core.params import from_dict, to_dict
 from gearfem.thermal import HeatSources, PrescribedSources, ThermalDomain, ThermalOptions
+from gearfem.thermal.source_terms import prescribed_heat_sources
 
 
 @pytest.mark.parametrize("kw, name", [
@@ -110,12 +111,12 @@ def test_domain_checks():
 def test_prescribed_flank_heat_is_scaled_to_the_sector():
     """40 W per gear on a 2-of-30-tooth sector: the drive flanks of the sector receive 40 * 2/30 W."""
     dom = sector_domain(MPI.COMM_SELF, teeth=2, total_teeth=30)
-    src = PrescribedSources(flank_heat_per_gear_W=40.0).build(dom, Material(), 1000.0, 30)
+    src = prescribed_heat_sources(PrescribedSources(flank_heat_per_gear_W=40.0), dom, Material(), 1000.0, 30)
     import ufl
 
     ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.facet_tags)
     area = fem.assemble_scalar(fem.form(1.0 * ds(dom.tags(dom.flux_surfaces))))
     assert src.flank_flux_W_m2 * area == pytest.approx(40.0 * 2 / 30)
     assert src.u_max is None
-    src = PrescribedSources(u_max_J_m3=1e4, loading_frequency="tooth_pass").build(dom, Material(), 1200.0, 30)
+    src = prescribed_heat_sources(PrescribedSources(u_max_J_m3=1e4, loading_frequency="tooth_pass"), dom, Material(), 1200.0, 30)
     assert src.loading_frequency_Hz == pytest.approx(600.0) and np.all(src.u_max.x.array == 1e4)

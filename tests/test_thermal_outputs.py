@@ -9,17 +9,24 @@ import pytest
 from mpi4py import MPI
 from thermal_meshes import sector_domain
 
-from gearfem.errors import ConvergenceError
-from gearfem.materials import Material
-from gearfem.thermal import GearRadii, PrescribedSources, ThermalBoundary, ThermalOptions, ThermalProblem
-from gearfem.thermal.run import run_and_write
+from gearfem.core.errors import ConvergenceError
+from gearfem.core.materials import Material
+from gearfem.thermal import (
+    GearRadii,
+    PrescribedSources,
+    ThermalBoundary,
+    ThermalOptions,
+    ThermalProblem,
+)
+from gearfem.thermal.outputs import solve_and_write
+from gearfem.thermal.source_terms import prescribed_heat_sources
 
 
 def _problem(comm, **kw):
     dom = sector_domain(comm, teeth=2)
     mat = Material()
     opts = ThermalOptions(**({"duration_s": 60.0, "output_times_s": (30.0,), "dt_initial_s": 0.5} | kw))
-    src = PrescribedSources(flank_heat_per_gear_W=40.0, u_max_J_m3=1e5).build(dom, mat, 1000.0, 30)
+    src = prescribed_heat_sources(PrescribedSources(flank_heat_per_gear_W=40.0, u_max_J_m3=1e5), dom, mat, 1000.0, 30)
     bnd = ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear())
     return ThermalProblem(dom, mat, src, bnd, opts, petsc_options_prefix="out_")
 
@@ -27,7 +34,7 @@ def _problem(comm, **kw):
 @pytest.mark.mpi
 def test_run_writes_complete_outputs(tmp_out):
     with _problem(MPI.COMM_WORLD) as prob:
-        records, summ = run_and_write(prob, tmp_out / "run")
+        records, summ = solve_and_write(prob, tmp_out / "run")
     out = tmp_out / "run"
     if MPI.COMM_WORLD.rank == 0:
         with open(out / "thermal_history.csv") as fh:
@@ -62,14 +69,14 @@ def test_failed_run_leaves_no_summary(tmp_path, monkeypatch):
 
     monkeypatch.setattr(prob, "try_step", failing)
     with pytest.raises(ConvergenceError):
-        run_and_write(prob, tmp_path / "run")
+        solve_and_write(prob, tmp_path / "run")
     assert not (tmp_path / "run" / "thermal_summary.json").exists()
     assert not (tmp_path / "run" / "thermal_history.csv").exists()
 
 
 def test_steady_mode_writes_one_row(tmp_path):
     prob = _problem(MPI.COMM_SELF, mode="steady")
-    records, summ = run_and_write(prob, tmp_path / "steady", write_fields=False)
+    records, summ = solve_and_write(prob, tmp_path / "steady", write_fields=False)
     assert len(records) == 1 and records[0].balance.stored_W == 0.0
     assert records[0].balance.relative_imbalance < 1e-9
     assert (tmp_path / "steady" / "thermal_summary.json").exists()

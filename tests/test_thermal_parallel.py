@@ -6,7 +6,7 @@ import pytest
 from dolfinx import fem
 from thermal_meshes import sector_domain
 
-from gearfem.materials import Material
+from gearfem.core.materials import Material
 from gearfem.thermal import GearRadii, HeatSources, ThermalBoundary, ThermalOptions, ThermalProblem
 
 
@@ -21,7 +21,7 @@ def _run(comm, linear_solver):
                       flank_flux_W_m2=4.0e4, flux_surfaces=dom.flux_surfaces)
     with ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear()),
                         opts, petsc_options_prefix=f"par_{comm.size}_{linear_solver}_") as prob:
-        return prob.run(), prob.num_dofs
+        return prob.integrate(), prob.num_dofs
 
 
 @pytest.mark.mpi

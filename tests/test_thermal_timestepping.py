@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gearfem.errors import ParameterError
+from gearfem.core.errors import ParameterError
 from gearfem.thermal.timestepping import (
     StepController,
     bdf2_coefficients,

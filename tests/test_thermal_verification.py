@@ -20,8 +20,8 @@ from mpi4py import MPI
 from scipy.optimize import brentq
 from thermal_meshes import box_domain, sector_domain, square_domain
 
-from gearfem.materials import STEFAN_BOLTZMANN_W_m2K4 as SIGMA
-from gearfem.materials import ZERO_CELSIUS_K, Material, TemperatureTable
+from gearfem.core.materials import ZERO_CELSIUS_K, Material, TemperatureTable
+from gearfem.core.materials import STEFAN_BOLTZMANN_W_m2K4 as SIGMA
 from gearfem.thermal import (
     GearRadii,
     HeatSources,
@@ -30,6 +30,7 @@ from gearfem.thermal import (
     ThermalOptions,
     ThermalProblem,
 )
+from gearfem.thermal.properties import table_ufl
 
 TA = 296.15  # 23 C
 H_TEETH, H_SIDES, EPS = 10.0, 5.0, 0.9
@@ -49,15 +50,15 @@ def _mms_sources(dom, mat, T_exact, dT_dt=None):
 
     def q(x, t):
         T = T_exact(x, t)
-        out = -ufl.div(k.ufl(T) * ufl.grad(T))
+        out = -ufl.div(table_ufl(k, T) * ufl.grad(T))
         if dT_dt is not None:
-            out = out + mat.density_kg_m3 * cp.ufl(T) * dT_dt(x, t)
+            out = out + mat.density_kg_m3 * table_ufl(cp, T) * dT_dt(x, t)
         return out
 
     def g(x, t):
         T = T_exact(x, t)
         h = ufl.conditional(ufl.gt(abs(n[0]), 0.5), H_TEETH, H_SIDES)
-        return h * (T - TA) + EPS * SIGMA * (T**4 - TA**4) + k.ufl(T) * ufl.dot(ufl.grad(T), n)
+        return h * (T - TA) + EPS * SIGMA * (T**4 - TA**4) + table_ufl(k, T) * ufl.dot(ufl.grad(T), n)
 
     return HeatSources(volumetric_W_m3=q, flank_flux_W_m2=g, flux_surfaces=ALL_EDGES)
 
@@ -113,7 +114,7 @@ def test_mms_temporal_order(cp_of_T):
                             initial_C=300.0 - ZERO_CELSIUS_K)
         prob = ThermalProblem(dom, mat, _mms_sources(dom, mat, T_exact, dT_dt),
                               ThermalBoundary.from_options(opts, mat, 0.0, None), opts, petsc_options_prefix="mms_t_")
-        recs = prob.run()
+        recs = prob.integrate()
         assert len(recs) == round(1.0 / dt) + 1 and recs[-1].time_s == 1.0
         assert max(r.balance.relative_imbalance for r in recs[1:]) < 1e-9
         errors.append(_l2(dom.comm, prob.T - T_exact(ufl.SpatialCoordinate(dom.mesh), 1.0)))
@@ -139,7 +140,7 @@ def test_lumped_limit_exponential():
     src = HeatSources(volumetric_W_m3=P / vol)
     prob = ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
                           petsc_options_prefix="lumped_")
-    recs = prob.run()
+    recs = prob.integrate()
     theta_ss = P / (h * area)
     tau = mat.density_kg_m3 * mat.specific_heat_J_kgK * vol / (h * area)
     t = np.array([r.time_s for r in recs])
@@ -160,7 +161,7 @@ def test_radiation_only_cooling_matches_ode():
                           dt_initial_s=0.5, time_error_K=0.01)
     prob = ThermalProblem(dom, mat, HeatSources(), ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
                           petsc_options_prefix="radiation_")
-    recs = prob.run()
+    recs = prob.integrate()
     a = TA
     C = mat.density_kg_m3 * mat.specific_heat_J_kgK * vol
     K = C / (0.9 * SIGMA * area)
@@ -198,7 +199,7 @@ def test_heat_balance_closes_every_step():
                       flux_temperature_factor=lambda T: 1.0 - 0.002 * (T - TA))
     with ThermalProblem(dom, mat, src, boundary, opts, petsc_options_prefix="balance_") as prob:
         E0 = prob.heat_content_J()
-        recs = prob.run()
+        recs = prob.integrate()
         E1 = prob.heat_content_J()
     b = recs[-1].balance
     assert b.hysteresis_W > 0 and b.friction_W > 0 and b.convected_W > 0 and b.radiated_W > 0 and b.bore_W > 0
@@ -254,7 +255,7 @@ def test_hysteresis_source_uses_local_temperature():
 def test_lumped_estimate_equals_high_conductivity_steady_state():
     """With k -> large the steady FE solution is uniform and solves the same scalar balance as the
     one-node estimate used for plausibility checks (convection + radiation)."""
-    from gearfem.thermal.case import lumped_estimate
+    from gearfem.thermal.lumped import lumped_estimate
 
     dom, mat, vol, area = _lumped_box()
     P = 2.0
@@ -270,7 +271,7 @@ def test_lumped_estimate_equals_high_conductivity_steady_state():
 
 def test_newton_failure_raises_convergence_error():
     """A Newton budget too small for the radiation nonlinearity fails with the reason and the time."""
-    from gearfem.errors import ConvergenceError
+    from gearfem.core.errors import ConvergenceError
 
     dom, mat, vol, area = _lumped_box()
     opts = ThermalOptions(convection="none", emissivity=0.9, initial_C=500.0, duration_s=10.0,
@@ -279,7 +280,7 @@ def test_newton_failure_raises_convergence_error():
     prob = ThermalProblem(dom, mat, HeatSources(), ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
                           petsc_options_prefix="fail_")
     with pytest.raises(ConvergenceError) as err:
-        prob.run()
+        prob.integrate()
     assert "DIVERGED_MAX_IT" in err.value.reason and "t = 5 s" in err.value.step
 
 

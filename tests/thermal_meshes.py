@@ -5,10 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-import gearfem  # noqa: F401
 from dolfinx import mesh as dmesh
 
+import gearfem  # noqa: F401
 from gearfem.thermal.domain import ThermalDomain
 
 

@@ -34,6 +34,7 @@ from gearfem.contact.kinematics import _affine_coords, evaluate, project, segmen
 from gearfem.contact.options import ContactOptions
 from gearfem.contact.rigid import RigidMotion
 from gearfem.contact.surface import ContactSurface
+from gearfem.core.errors import GearfemError
 
 
 @dataclasses.dataclass
@@ -96,8 +97,6 @@ class ContactInterface:
         self.a, self.b, self.options = a, b, options
         shared = np.intersect1d(a.gathered().blocks, b.gathered().blocks)
         if len(shared):
-            from gearfem.errors import GearfemError
-
             raise GearfemError(
                 f"contact surfaces {a.name!r} and {b.name!r} share {len(shared)} mesh node(s): the bodies are "
                 "joined in the mesh (coincident vertices fused by the mesher); mesh them as separate volumes"

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gearfem.contact.reference import FacetReference
+from gearfem.core.facets import FacetReference
 
 
 def evaluate(ref: FacetReference, nodes: np.ndarray, xi: np.ndarray, derivatives: int = 1):

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 
-from gearfem.params import require_choice, require_int, require_nonnegative, require_positive, require_range
+from gearfem.core.params import (
+    require_choice,
+    require_int,
+    require_nonnegative,
+    require_positive,
+    require_range,
+)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,7 +24,7 @@ from petsc4py import PETSc
 from gearfem.contact.interface import ContactInterface, ContactPoints
 from gearfem.contact.options import ContactOptions
 from gearfem.contact.rigid import RigidMotion
-from gearfem.errors import ConvergenceError
+from gearfem.core.errors import ConvergenceError
 
 log = logging.getLogger(__name__)
 

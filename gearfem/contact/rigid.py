@@ -13,7 +13,8 @@ import dataclasses
 
 import numpy as np
 
-from gearfem.params import require_finite
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_finite
 
 
 def rotation_matrix(axis: np.ndarray, angle_rad: float) -> np.ndarray:
@@ -48,8 +49,6 @@ class RigidMotion:
     def __post_init__(self) -> None:
         require_finite("rigid motion angle_rad", self.angle_rad)
         if np.linalg.norm(self.axis) == 0.0:
-            from gearfem.errors import ParameterError
-
             raise ParameterError("rigid motion axis", self.axis, "a non-zero vector")
 
     @property

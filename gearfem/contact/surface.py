@@ -14,8 +14,8 @@ import numpy as np
 from mpi4py import MPI
 
 from gearfem.contact.kinematics import evaluate
-from gearfem.contact.reference import FacetReference
-from gearfem.errors import ParameterError
+from gearfem.core.errors import ParameterError
+from gearfem.core.facets import FacetReference
 
 
 @dataclasses.dataclass(frozen=True)

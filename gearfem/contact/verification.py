@@ -16,8 +16,11 @@ import gmsh
 import numpy as np
 from mpi4py import MPI
 
-from gearfem.params import require_int, require_positive
-
+from gearfem.contact.interface import ContactInterface
+from gearfem.contact.problem import ContactProblem, fixed_mask
+from gearfem.contact.rigid import RigidMotion
+from gearfem.contact.surface import ContactSurface
+from gearfem.core.params import require_int, require_positive
 
 INITIAL_GAP = 1e-6  # relative to the radius, see hertz_cylinders
 
@@ -235,8 +238,6 @@ def _component_bc(V, md, name: str, comp: int, value: float):
 
 
 def _surface(V, md, name: str, body: str, mask):
-    from gearfem.contact.surface import ContactSurface
-
     return ContactSurface(V, md.facet_tags.find(md.physical_groups[name].tag), body, mask, name=name)
 
 
@@ -264,10 +265,6 @@ def block_case(
     contact state must not change).
     """
     from dolfinx import fem
-
-    from gearfem.contact.interface import ContactInterface
-    from gearfem.contact.problem import ContactProblem, fixed_mask
-    from gearfem.contact.rigid import RigidMotion
 
     t0 = time.perf_counter()
     md = two_blocks(comm, size_lower, size_upper, hexahedra=hexahedra)
@@ -313,10 +310,6 @@ def hertz_case(
     near the contact (default a/3), ``thickness_m`` the slab thickness (default 2 contact sizes).
     """
     from dolfinx import fem
-
-    from gearfem.contact.interface import ContactInterface
-    from gearfem.contact.problem import ContactProblem, fixed_mask
-    from gearfem.contact.rigid import RigidMotion
 
     t = thickness_m if thickness_m is not None else 2.0 * contact_size
     t0 = time.perf_counter()

@@ -1,6 +1,8 @@
-"""Gear meshing cycle: torque-controlled contact sweep, load sharing, U_max and friction flux."""
+"""Gear meshing cycle: torque-controlled contact solve over the mesh cycle, load sharing, U_max and friction flux."""
 
-from gearfem.cycle.model import CycleOptions, GearContactModel
-from gearfem.cycle.sweep import CycleResult, run_cycle
+from gearfem.cycle.model import GearContactModel
+from gearfem.cycle.options import CycleOptions
+from gearfem.cycle.result import CycleResult
+from gearfem.cycle.solve import solve_cycle
 
-__all__ = ["CycleOptions", "CycleResult", "GearContactModel", "run_cycle"]
+__all__ = ["CycleOptions", "CycleResult", "GearContactModel", "solve_cycle"]

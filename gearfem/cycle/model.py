@@ -17,74 +17,24 @@ import numpy as np
 from dolfinx import fem
 from mpi4py import MPI
 
-from gearfem.contact import ContactInterface, ContactOptions, ContactProblem, ContactSurface, RigidMotion
+from gearfem.contact import (
+    ContactInterface,
+    ContactOptions,
+    ContactProblem,
+    ContactSurface,
+    RigidMotion,
+)
 from gearfem.contact.problem import ControlledRotation, fixed_mask
-from gearfem.errors import ParameterError
-from gearfem.geometry.gmsh_pair import TOOTH_KINDS
+from gearfem.contact.verification import hertz_line_contact
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import Material
+from gearfem.core.params import require_positive
+from gearfem.cycle.options import CycleOptions
 from gearfem.geometry.mesh import GearMesh, parse_group_name
-from gearfem.materials import Material
-from gearfem.params import require_int, require_positive, require_range
 
 log = logging.getLogger(__name__)
 
 BODIES = ("pinion", "wheel")
-
-
-@dataclasses.dataclass(frozen=True)
-class CycleOptions:
-    """How the mesh cycle is swept (the ``[cycle]`` table).
-
-    Attributes:
-        positions_per_pitch: Pinion positions per tooth pitch (one pitch is 12° for 30 teeth).
-        pitches: Length of the sweep in pitches. 1 uses the rotational periodicity of the
-            state (every pitch repeats with the tooth numbers shifted by one) to get each tooth's
-            whole engagement; 3 sweeps 36° as the thesis did.
-        start_angle_deg: Pinion angle of the first position relative to the mesh as built (where
-            the reference teeth touch at the pitch point).
-        check_periodicity: Also solve the position one pitch after the start and report how far it
-            is from the first position mapped by one tooth (costs one position).
-        contact_kinds: Tooth surfaces that may touch the other gear.
-        mesh_stiffness_guess_N_mm_um: Only for the first predictor of the wind-up (a gear pair's
-            mesh stiffness per unit face width, scaled from PEEK with the Young's modulus).
-        initial_interference_m: Rigid pre-rotation of the wheel (along the line of action) that gives
-            the first Newton iteration contact stiffness before the torque is balanced.
-        creep_ratio: Slip (relative to the rolling speed) at which friction approaches μ p. Near the
-            pitch point the flanks roll with little sliding and the contact is in micro-slip (Carter;
-            Johnson, Contact Mechanics §8.2: full slip of a rolling line contact needs a creep of
-            about μ a / R). The gross-sliding law is regularised there with
-            v_ε = creep_ratio · v_roll (v_roll: rolling speed of the flanks at the pitch point);
-            None: Carter's estimate μ a / (2 R) from the Hertz half-width at the nominal load.
-            This sets ``ContactOptions.slip_regularization_m_s`` for the gear cycle.
-        pressure_smoothing_fraction: δ of the C1 pressure ramp (``ContactOptions.pressure_smoothing_Pa``)
-            as a fraction of the nominal Hertz pressure at the pitch point, used when the contact
-            options leave it 0. With friction, the exact ramp's kink at the edge of the contact zone
-            (rounded tips entering and leaving contact) can make Newton cycle at a residual just
-            above tolerance (measured on the 4-tooth test mesh at 8 N m, μ = 0.5: 40 iterations
-            stuck at 7e-5 relative; with δ = 0.4 % of p0: 13-18 iterations). 0 keeps the exact ramp.
-    """
-
-    positions_per_pitch: int = 24
-    pitches: float = 1.0
-    start_angle_deg: float = 0.0
-    check_periodicity: bool = False
-    contact_kinds: tuple[str, ...] = ("drive_flank", "tip", "root")
-    mesh_stiffness_guess_N_mm_um: float = 0.3
-    initial_interference_m: float = 2e-6
-    creep_ratio: float | None = None
-    pressure_smoothing_fraction: float = 0.005
-
-    def __post_init__(self) -> None:
-        require_int("cycle.positions_per_pitch", self.positions_per_pitch, 2, 2000)
-        require_range("cycle.pitches", self.pitches, 0.0, 30.0, lo_open=True)
-        require_range("cycle.start_angle_deg", self.start_angle_deg, -360.0, 360.0)
-        for k in self.contact_kinds:
-            if k not in TOOTH_KINDS:
-                raise ParameterError("cycle.contact_kinds", k, "one of " + ", ".join(TOOTH_KINDS))
-        require_positive("cycle.mesh_stiffness_guess_N_mm_um", self.mesh_stiffness_guess_N_mm_um)
-        require_positive("cycle.initial_interference_m", self.initial_interference_m)
-        if self.creep_ratio is not None:
-            require_range("cycle.creep_ratio", self.creep_ratio, 0.0, 1.0, lo_open=True)
-        require_range("cycle.pressure_smoothing_fraction", self.pressure_smoothing_fraction, 0.0, 0.1)
 
 
 class GearContactModel:
@@ -187,7 +137,6 @@ class GearContactModel:
     def nominal_hertz(self) -> tuple[float, float]:
         """(half-width a, peak pressure p0) of the Hertz line contact at the pitch point under the
         nominal load (the whole normal load on one pair, equal per unit face width)."""
-        from gearfem.contact.verification import hertz_line_contact
 
         pair = self.pair
         s = math.sin(pair.operating_pressure_angle_rad)

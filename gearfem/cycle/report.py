@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gearfem.cycle.sweep import CycleResult
+from gearfem.cycle.result import CycleResult
 
 
 def _atomic(path: Path, writer) -> None:

@@ -25,7 +25,7 @@ import math
 from typing import ClassVar
 
 from gearfem.config import Case
-from gearfem.errors import ParameterError
+from gearfem.core.errors import ParameterError
 
 
 @dataclasses.dataclass(frozen=True)

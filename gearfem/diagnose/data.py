@@ -29,8 +29,8 @@ import math
 from collections.abc import Iterable
 from pathlib import Path
 
-from gearfem.errors import ParameterError
-from gearfem.params import require_positive, require_range
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_positive, require_range
 
 QUANTITIES = ("max_surface", "mean_bulk", "flank_mean", "flank_max", "coast_flank_mean", "coast_flank_max",
               "tip_mean", "tip_max", "root_mean", "root_max")

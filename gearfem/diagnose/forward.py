@@ -2,7 +2,7 @@
 
 :class:`FullModel` runs, for an operating point and a set of candidate extensions, the gearfem
 thermal model of one gear with heat sources from the cached structural cycle of the torque
-(:func:`gearfem.pipeline.cycle`, one sweep per torque, speed-independent) and returns the requested
+(:func:`gearfem.pipeline.cycle`, one cycle solve per torque, speed-independent) and returns the requested
 temperatures: end values from the steady state, time samples from a transient run from ambient.
 
 :class:`Surrogate` is for screening: per (speed, torque) it tabulates the full model's rises
@@ -34,7 +34,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from gearfem.config import Case
+from gearfem import pipeline
+from gearfem.config import Case, case_to_dict
 from gearfem.diagnose.candidates import LIBRARY, AmbientOffset, Candidate, apply_all, by_name
 from gearfem.diagnose.data import QUANTITIES, Dataset
 
@@ -71,8 +72,6 @@ class FullModel:
 
     def cycle(self, torque_Nm: float):
         if torque_Nm not in self._cycles:
-            from gearfem import pipeline
-
             cyc, _, _ = pipeline.cycle(self.case.with_operating(torque_Nm=torque_Nm), self.comm)
             self._cycles[torque_Nm] = cyc
         return self._cycles[torque_Nm]
@@ -97,7 +96,6 @@ class FullModel:
 
         ``transform(case) -> case`` changes the thermal run only (input-uncertainty studies); the
         structural cycle stays that of the unchanged case."""
-        from gearfem import pipeline
 
         case = self.point_case(speed_rpm, torque_Nm, ambient_C, model or {})
         if transform is not None:
@@ -182,7 +180,6 @@ class Surrogate:
 
     def _key(self, points) -> str:
         """Hash of everything the tables depend on: case, points, times, candidates' nodes, code."""
-        from gearfem.config import case_to_dict
 
         root = Path(__file__).resolve().parent.parent
         h = hashlib.sha256()

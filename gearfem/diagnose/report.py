@@ -14,6 +14,8 @@ import numpy as np
 from mpi4py import MPI
 
 from gearfem.config import Case
+from gearfem.core.io import prepare_output
+from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY
 from gearfem.diagnose.data import QUANTITIES, Dataset, Measurement
 from gearfem.diagnose.forward import FullModel, Surrogate
@@ -32,9 +34,6 @@ def _replace_material(**kw):
 def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm | None = None,
                   max_size: int = 2, cache_dir: str | Path | None = None, u_model_K: float = 1.0) -> dict[str, Any]:
     """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns the result."""
-    from gearfem.cycle.store import cache_root
-
-    from gearfem.pipeline import prepare_output
 
     comm = comm or MPI.COMM_WORLD
     out = prepare_output(out_dir, "diagnosis.json", comm)

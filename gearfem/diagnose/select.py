@@ -30,9 +30,9 @@ from collections.abc import Callable
 import numpy as np
 from scipy import optimize, stats
 
+from gearfem.core.params import require_nonnegative
 from gearfem.diagnose.candidates import LIBRARY, Candidate, by_name
 from gearfem.diagnose.data import Dataset, Measurement
-from gearfem.params import require_nonnegative
 
 Predict = Callable[[Dataset, dict[str, float]], np.ndarray]
 CHI2_95 = 3.841

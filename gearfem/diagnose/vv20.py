@@ -16,7 +16,7 @@ import dataclasses
 
 import numpy as np
 
-from gearfem.params import require_positive
+from gearfem.core.params import require_positive
 
 
 @dataclasses.dataclass(frozen=True)

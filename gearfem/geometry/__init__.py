@@ -10,9 +10,16 @@
 
 from __future__ import annotations
 
-from gearfem.geometry.gmsh_pair import MeshOptions
-from gearfem.geometry.involute import GearPair, GearPairGeometry, PathOfContact, ToothProfile, inv, inv_inverse
+from gearfem.geometry.involute import (
+    GearPair,
+    GearPairGeometry,
+    PathOfContact,
+    ToothProfile,
+    inv,
+    inv_inverse,
+)
 from gearfem.geometry.mesh import GearMesh, build_gear_mesh
+from gearfem.geometry.options import MeshOptions
 
 __all__ = [
     "GearMesh",

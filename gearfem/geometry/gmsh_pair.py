@@ -40,149 +40,19 @@ from typing import Any
 
 import numpy as np
 
-from gearfem.errors import ParameterError
+from gearfem.geometry.extrude import GMSH_REF, Section2D, SweptBody, extrude
 from gearfem.geometry.involute import GearPair, GearPairGeometry, ToothProfile
-from gearfem.params import require_choice, require_int, require_positive, require_range
+from gearfem.geometry.options import (
+    BODY_KINDS,
+    TOOTH_KINDS,
+    MeshOptions,
+    check_options,
+    refined_tooth_indices,
+)
+from gearfem.geometry.placement import BodyPlacement, placement
+from gearfem.geometry.quality import SKEWNESS_BINS, hex_skewness, tet_max_dihedral_deg, tet_skewness
 
 log = logging.getLogger(__name__)
-
-#: Bump when a code change alters the generated meshes (part of the cache key). 2: tip rounds.
-GEOMETRY_CODE_VERSION = "2"
-
-BODIES = ("pinion", "wheel")
-TOOTH_KINDS = ("drive_flank", "coast_flank", "tip", "root")
-BODY_KINDS = ("side_front", "side_back", "bore", "cut_start", "cut_end")
-
-
-@dataclass(frozen=True)
-class MeshOptions:
-    """The ``[mesh]`` table: how the pair is meshed (sizes in mm).
-
-    Attributes:
-        teeth_in_model: N consecutive teeth of each gear (fractional model, thesis: 8);
-            equal to the number of teeth for a full 360-degree gear. Checked against the gear's
-            teeth when the model is built.
-        element: ``"tet"`` (swept prisms split into tetrahedra) or ``"hex"`` (sweep of an
-            all-quadrilateral section, every triangle split into three quadrilaterals: hexahedra
-            only, because DOLFINx 0.11 cannot tag facets of mixed hex/prism meshes).
-        order: Geometry/element order (2: 10-node tets or 27-node hexes, curved on the boundary).
-        layers: Element layers across the face width (thesis: 3).
-        size_flank_mm: Element size on the drive flanks of the refined teeth (profile direction;
-            the Hertz half-width at 8 N m is about 0.3 mm).
-        size_tip_mm: Size on the tips of the refined teeth.
-        size_root_mm: Size on the root fillets and lands of the refined teeth.
-        size_tooth_mm: Size on the coast flanks of the refined teeth and on all surfaces of the
-            other teeth.
-        size_body_mm: Largest size (web, bore, cut faces).
-        size_growth: Size gradient |grad h| of the grading away from the fine curves (the size
-            grows linearly with the distance; 0.6 gives neighbour size ratios up to about 1.6 and
-            2D angles >= 26 deg at the defaults).
-        refined_teeth: Number of teeth in the middle of each sector meshed with the fine sizes
-            (the loaded teeth; thesis: at most 4 loaded).
-        pinion_angle_deg: Pinion rotation from the reference position (counter-clockwise); the
-            wheel is placed at the rigid conjugate angle. Tooth numbering is unchanged.
-        bodies: Which bodies to mesh (``("pinion",)`` or ``("wheel",)`` for a single gear).
-    """
-
-    teeth_in_model: int = 8
-    element: str = "tet"
-    order: int = 2
-    layers: int = 3
-    size_flank_mm: float = 0.12
-    size_tip_mm: float = 0.15
-    size_root_mm: float = 0.25
-    size_tooth_mm: float = 0.8
-    size_body_mm: float = 3.0
-    size_growth: float = 0.6
-    refined_teeth: int = 4
-    pinion_angle_deg: float = 0.0
-    bodies: tuple[str, ...] = ("pinion", "wheel")
-
-    def __post_init__(self) -> None:
-        p = "mesh."
-        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
-        set_("teeth_in_model", require_int(p + "teeth_in_model", self.teeth_in_model, lo=1))
-        set_("element", require_choice(p + "element", self.element, ("tet", "hex")))
-        set_("order", require_int(p + "order", self.order, lo=1, hi=2))
-        set_("layers", require_int(p + "layers", self.layers, lo=1))
-        for key in ("size_flank_mm", "size_tip_mm", "size_root_mm", "size_tooth_mm", "size_body_mm"):
-            set_(key, require_positive(p + key, getattr(self, key)))
-        set_("size_growth", require_range(p + "size_growth", self.size_growth, 0.05, 2.0))
-        set_("refined_teeth", require_int(p + "refined_teeth", self.refined_teeth, lo=0))
-        set_("pinion_angle_deg",
-             require_range(p + "pinion_angle_deg", self.pinion_angle_deg, -360.0, 360.0, unit="deg"))
-        bodies = tuple(self.bodies)
-        if not bodies or len(set(bodies)) != len(bodies):
-            raise ParameterError(p + "bodies", self.bodies, "a non-empty list of distinct names from 'pinion', 'wheel'")
-        for b in bodies:
-            require_choice(p + "bodies", b, BODIES)
-        set_("bodies", tuple(b for b in BODIES if b in bodies))  # canonical order
-
-
-# ------------------------------------------------------------------------------------------------
-# placement
-# ------------------------------------------------------------------------------------------------
-
-
-def reference_tooth(body: str, teeth_in_model: int) -> int:
-    """Index of the tooth that touches at the pitch point in the reference position."""
-    return teeth_in_model // 2 if body == "pinion" else (teeth_in_model - 1) // 2
-
-
-def refined_tooth_indices(options: MeshOptions, teeth_in_model: int) -> list[int]:
-    """The ``refined_teeth`` teeth in the middle of the sector."""
-    n = min(options.refined_teeth, teeth_in_model)
-    first = (teeth_in_model - n) // 2
-    return list(range(first, first + n))
-
-
-@dataclass(frozen=True)
-class BodyPlacement:
-    """Where a body's teeth are: centre (m) and tooth-centre angles in the body's own polar frame.
-
-    ``tooth_angles_rad[k]`` is the polar angle (about the body's axis, from +x, counter-clockwise)
-    of the centre line of tooth k in the mesh as built, including ``pinion_angle_deg``.
-    """
-
-    body: str
-    center_m: np.ndarray
-    tooth_angles_rad: np.ndarray
-    pitch_angle_rad: float
-    reference_tooth: int
-    full: bool
-
-    @property
-    def sector_rad(self) -> tuple[float, float]:
-        """Start and end polar angles of the modelled sector (the cut planes) [rad]."""
-        h = 0.5 * self.pitch_angle_rad
-        return float(self.tooth_angles_rad[0] - h), float(self.tooth_angles_rad[-1] + h)
-
-
-def placement(pair: GearPair, options: MeshOptions, body: str) -> BodyPlacement:
-    """Placement of ``body`` in the pair frame for these options (see the module docstring)."""
-    prof = pair.profile(body)
-    n = options.teeth_in_model
-    k_ref = reference_tooth(body, n)
-    psi_w = prof.operating_thickness_m / (2.0 * prof.operating_pitch_radius_m)
-    rot_pinion = math.radians(options.pinion_angle_deg)
-    if body == "pinion":
-        center = np.array([0.0, 0.0, 0.0])
-        ref_angle = -psi_w + rot_pinion  # drive flank (ccw side) through the pitch point
-    else:
-        center = np.array([pair.center_distance_m, 0.0, 0.0])
-        ref_angle = math.pi - psi_w + pair.wheel_angle(rot_pinion)
-    angles = ref_angle + (np.arange(n) - k_ref) * prof.pitch_angle_rad
-    return BodyPlacement(body, center, angles, prof.pitch_angle_rad, k_ref, n == prof.teeth)
-
-
-def check_options(geometry: GearPairGeometry, options: MeshOptions) -> None:
-    """Checks that need both tables (N <= Z)."""
-    for body in options.bodies:
-        z = geometry.teeth_pinion if body == "pinion" else geometry.teeth_wheel
-        if options.teeth_in_model > z:
-            raise ParameterError("mesh.teeth_in_model", options.teeth_in_model, f"integer in [1, {z}]",
-                                 f"the {body} has only {z} teeth")
-
 
 # ------------------------------------------------------------------------------------------------
 # gmsh session
@@ -378,25 +248,6 @@ def _size_field(
 # ------------------------------------------------------------------------------------------------
 
 
-@dataclass
-class Section2D:
-    """Curved 2D mesh of one body's section at z = 0 (metres).
-
-    Attributes:
-        nodes: ``(n, 2)`` node coordinates (vertices and high-order nodes).
-        cell_type: gmsh type of the 2D cells (2/9 triangles, 3/10 quadrilaterals).
-        cells: ``(m, k)`` node indices of the cells (gmsh local order, counter-clockwise).
-        edges: facet-group name -> ``(e, 2 or 3)`` boundary line elements (gmsh order: ends, mid).
-    """
-
-    body: str
-    nodes: np.ndarray
-    cell_type: int
-    cells: np.ndarray
-    edges: dict[str, np.ndarray]
-    placement: BodyPlacement
-
-
 def _curve_groups(body: str, sec: _BodyCurves) -> dict[str, list[int]]:
     out: dict[str, list[int]] = {}
     for (kind, k), curves in sec.tooth.items():
@@ -473,254 +324,8 @@ def mesh_sections(
 
 
 # ------------------------------------------------------------------------------------------------
-# sweep over the face width
+# extrusion over the face width
 # ------------------------------------------------------------------------------------------------
-
-
-@dataclass
-class SweptBody:
-    """3D mesh of one body (metres): nodes, cells and facet groups, gmsh types and local order."""
-
-    body: str
-    nodes: np.ndarray
-    cell_type: int
-    cells: np.ndarray
-    facet_type: dict[str, int]
-    facets: dict[str, np.ndarray]
-
-
-# Reference node coordinates of the gmsh element types used here (MSH format, fixed by gmsh; the
-# test suite checks them against gmsh.model.mesh.getElementProperties) and their vertex counts.
-_H = (-1.0, 1.0, 0.0)
-GMSH_REF: dict[int, tuple[int, tuple[tuple[float, ...], ...]]] = {
-    1: (2, ((-1.0,), (1.0,))),
-    8: (2, ((-1.0,), (1.0,), (0.0,))),
-    2: (3, ((0, 0), (1, 0), (0, 1))),
-    9: (3, ((0, 0), (1, 0), (0, 1), (0.5, 0), (0.5, 0.5), (0, 0.5))),
-    3: (4, ((-1, -1), (1, -1), (1, 1), (-1, 1))),
-    10: (4, ((-1, -1), (1, -1), (1, 1), (-1, 1), (0, -1), (1, 0), (0, 1), (-1, 0), (0, 0))),
-    4: (4, ((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1))),
-    11: (4, ((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.5, 0, 0), (0.5, 0.5, 0), (0, 0.5, 0),
-             (0, 0, 0.5), (0, 0.5, 0.5), (0.5, 0, 0.5))),
-    5: (8, ((-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1))),
-    12: (8, ((-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1),
-             (0, -1, -1), (-1, 0, -1), (-1, -1, 0), (1, 0, -1), (1, -1, 0), (0, 1, -1), (1, 1, 0), (-1, 1, 0),
-             (0, -1, 1), (-1, 0, 1), (1, 0, 1), (0, 1, 1), (0, 0, -1), (0, -1, 0), (-1, 0, 0), (1, 0, 0),
-             (0, 1, 0), (0, 0, 1), (0, 0, 0))),
-}
-del _H
-
-
-def _ref_coords(gmsh_type: int) -> np.ndarray:
-    return np.asarray(GMSH_REF[gmsh_type][1], dtype=float)
-
-
-def _edge_mid_table(cell_type: int) -> list[tuple[int, int, int]]:
-    """(vertex a, vertex b, local node) for the edge nodes of a simplex type."""
-    ref = _ref_coords(cell_type)
-    nv = GMSH_REF[cell_type][0]
-    out = []
-    for loc in range(nv, len(ref)):
-        for a in range(nv):
-            for b in range(a + 1, nv):
-                if np.allclose(0.5 * (ref[a] + ref[b]), ref[loc]):
-                    out.append((a, b, loc))
-    if len(out) != len(ref) - nv:  # pragma: no cover - table error
-        raise RuntimeError(f"gmsh type {cell_type}: high-order nodes that are not edge midpoints")
-    return out
-
-
-class _Sweeper:
-    """Node numbering of the swept mesh: node (i, j) = 2D node i on plane j -> j * n2 + i."""
-
-    def __init__(self, sec: Section2D, face_width_m: float, layers: int, order: int) -> None:
-        self.sec = sec
-        self.n2 = len(sec.nodes)
-        self.q = order
-        self.layers = layers
-        self.planes = order * layers + 1
-        z = np.linspace(0.0, face_width_m, self.planes)
-        self.nodes = np.column_stack([np.tile(sec.nodes, (self.planes, 1)), np.repeat(z, self.n2)])
-        self._mid = None
-        if order == 2:
-            # 2D edge -> mid node, from the 2D cells (simplex or quadrilateral)
-            ct = sec.cell_type
-            if ct == 9:
-                table = _edge_mid_table(9)
-            else:  # quad9: edge nodes 4..7 between corners (0,1), (1,2), (2,3), (3,0)
-                table = [(0, 1, 4), (1, 2, 5), (2, 3, 6), (3, 0, 7)]
-            a = np.concatenate([sec.cells[:, t[0]] for t in table])
-            b = np.concatenate([sec.cells[:, t[1]] for t in table])
-            m = np.concatenate([sec.cells[:, t[2]] for t in table])
-            key = np.minimum(a, b) * self.n2 + np.maximum(a, b)
-            key, first = np.unique(key, return_index=True)
-            self._keys, self._mids = key, m[first]
-
-    def idx(self, i2: np.ndarray, plane: np.ndarray | int) -> np.ndarray:
-        return np.asarray(plane) * self.n2 + np.asarray(i2)
-
-    def mid2d(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        key = np.minimum(a, b) * self.n2 + np.maximum(a, b)
-        pos = np.searchsorted(self._keys, key)
-        if np.any(pos >= len(self._keys)) or np.any(self._keys[np.minimum(pos, len(self._keys) - 1)] != key):
-            raise RuntimeError("sweep: an edge without a 2D mid node")  # pragma: no cover
-        return self._mids[pos]
-
-    def mid3d(self, a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        """Mid node of the straight-in-z edge between swept vertices a = (i2, plane), b."""
-        (ia, pa), (ib, pb) = a, b
-        i_mid = ia.copy()  # vertical edge: the same 2D node on the middle plane
-        diff = ia != ib  # in-plane or diagonal edge: the 2D edge's mid node (on the middle plane)
-        if np.any(diff):
-            i_mid[diff] = self.mid2d(ia[diff], ib[diff])
-        return self.idx(i_mid, (pa + pb) // 2)
-
-
-def sweep(sec: Section2D, face_width_m: float, layers: int, order: int) -> SweptBody:
-    """Sweep a 2D section mesh over ``z in [0, face_width_m]`` with ``layers`` element layers:
-    quadrilaterals -> hexahedra, triangles -> prisms split into three tetrahedra each (diagonals
-    of the side faces from the lower- to the higher-numbered vertex, consistent between
-    neighbours). High-order nodes come from the 2D mesh (curved boundary) and straight in z."""
-    sw = _Sweeper(sec, face_width_m, layers, order)
-    q = order
-    quad = sec.cell_type in (3, 10)
-    facets: dict[str, np.ndarray] = {}
-    facet_type: dict[str, int] = {}
-    nplane = sw.planes
-    if quad:
-        cell_type = {1: 5, 2: 12}[q]
-        face_type = {1: 3, 2: 10}[q]
-        href = _ref_coords(cell_type)
-        qref = _ref_coords(sec.cell_type)
-        lmap = []  # hex local node -> (quad local node, plane offset)
-        for x in href:
-            k = int(np.flatnonzero(np.all(np.isclose(qref, x[:2]), axis=1))[0])
-            lmap.append((k, int(round((x[2] + 1.0) * 0.5 * q))))
-        cells = np.vstack([
-            np.column_stack([sw.idx(sec.cells[:, k], lay * q + off) for k, off in lmap]) for lay in range(layers)
-        ])
-        # lateral facets: quad (xi along the edge, eta along z)
-        lref = _ref_coords({1: 1, 2: 8}[q])[:, 0]
-        fmap = []
-        for x in _ref_coords(face_type):
-            k = int(np.flatnonzero(np.isclose(lref, x[0]))[0])
-            fmap.append((k, int(round((x[1] + 1.0) * 0.5 * q))))
-        for name, e in sec.edges.items():
-            facets[name] = np.vstack([
-                np.column_stack([sw.idx(e[:, k], lay * q + off) for k, off in fmap]) for lay in range(layers)
-            ])
-            facet_type[name] = face_type
-    else:
-        cell_type = {1: 4, 2: 11}[q]
-        face_type = {1: 2, 2: 9}[q]
-        tri = np.sort(sec.cells[:, :3], axis=1)
-        a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-        chunks = []
-        for lay in range(layers):
-            p0 = np.full(len(tri), lay * q)
-            p1 = p0 + q
-            for verts in (((a, p0), (b, p0), (c, p0), (c, p1)),
-                          ((a, p0), (b, p0), (b, p1), (c, p1)),
-                          ((a, p0), (a, p1), (b, p1), (c, p1))):
-                chunks.append(verts)
-        cells = _simplices(sw, chunks, cell_type, orient=True)
-        for name, e in sec.edges.items():
-            lo, hi = np.minimum(e[:, 0], e[:, 1]), np.maximum(e[:, 0], e[:, 1])
-            tris = []
-            for lay in range(layers):
-                p0 = np.full(len(e), lay * q)
-                p1 = p0 + q
-                tris.append(((lo, p0), (hi, p0), (hi, p1)))
-                tris.append(((lo, p0), (hi, p1), (lo, p1)))
-            facets[name] = _simplices(sw, tris, face_type, orient=False)
-            facet_type[name] = face_type
-    body = sec.body
-    front_back = {f"{body}_side_front": 0, f"{body}_side_back": nplane - 1}
-    for name, plane in front_back.items():
-        facets[name] = sw.idx(sec.cells, plane)
-        facet_type[name] = sec.cell_type
-    return SweptBody(body, sw.nodes, cell_type, cells, facet_type, facets)
-
-
-def _simplices(sw: _Sweeper, chunks, gmsh_type: int, orient: bool) -> np.ndarray:
-    """Assemble simplices from vertex lists ``((i2, plane), ...)`` with their edge mid nodes."""
-    table = _edge_mid_table(gmsh_type) if sw.q == 2 else []
-    out = []
-    for verts in chunks:
-        verts = [(np.asarray(i, dtype=np.int64), np.asarray(p, dtype=np.int64)) for i, p in verts]
-        if orient:  # positive volume: swap vertices 1 and 2 where negative
-            X = [sw.nodes[sw.idx(i, p)] for i, p in verts]
-            vol = np.einsum("ij,ij->i", X[1] - X[0], np.cross(X[2] - X[0], X[3] - X[0]))
-            neg = vol < 0
-            v1 = (np.where(neg, verts[2][0], verts[1][0]), np.where(neg, verts[2][1], verts[1][1]))
-            v2 = (np.where(neg, verts[1][0], verts[2][0]), np.where(neg, verts[1][1], verts[2][1]))
-            verts = [verts[0], v1, v2, verts[3]]
-        cols = [sw.idx(i, p) for i, p in verts]
-        cols += [sw.mid3d(verts[a], verts[b]) for a, b, _ in sorted(table, key=lambda t: t[2])]
-        out.append(np.column_stack(cols))
-    return np.vstack(out)
-
-
-# ------------------------------------------------------------------------------------------------
-# quality
-# ------------------------------------------------------------------------------------------------
-
-SKEWNESS_BINS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 1.0)
-
-
-def tet_skewness(v: np.ndarray) -> np.ndarray:
-    """Equilateral-volume skewness of tetrahedra ``v`` (``(n, 4, 3)`` corner coordinates):
-    ``1 - V / V_eq``, with ``V_eq`` the volume of the regular tetrahedron that has the same
-    circumradius (the ANSYS Meshing definition for tetrahedra; 0 = regular, 1 = degenerate).
-    It penalises aspect ratio: swept tetrahedra with layers much thicker than the in-plane size
-    score high however good their angles are (see :func:`tet_max_dihedral_deg`)."""
-    a = v[:, 1] - v[:, 0]
-    b = v[:, 2] - v[:, 0]
-    c = v[:, 3] - v[:, 0]
-    vol = np.abs(np.einsum("ij,ij->i", a, np.cross(b, c))) / 6.0
-    M = np.stack([a, b, c], axis=1)  # circumcentre x (relative to v0): 2 M x = |rows|^2
-    rhs = 0.5 * np.einsum("nij,nij->ni", M, M)
-    x = np.linalg.solve(M, rhs[..., None])[..., 0]
-    R = np.linalg.norm(x, axis=1)
-    v_eq = 8.0 * R**3 / (9.0 * math.sqrt(3.0))  # regular tetrahedron with circumradius R
-    return np.clip(1.0 - vol / v_eq, 0.0, 1.0)
-
-
-def tet_max_dihedral_deg(v: np.ndarray) -> np.ndarray:
-    """Largest dihedral angle of each tetrahedron [deg] (the maximum-angle condition of FE
-    interpolation: anisotropic tetrahedra are fine while this stays away from 180 deg)."""
-    faces = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
-    normals = []
-    for f in faces:
-        n = np.cross(v[:, f[1]] - v[:, f[0]], v[:, f[2]] - v[:, f[0]])
-        normals.append(n / np.linalg.norm(n, axis=1)[:, None])
-    worst = np.zeros(len(v))
-    for i in range(4):
-        for j in range(i + 1, 4):
-            cosn = np.clip(np.einsum("ij,ij->i", normals[i], normals[j]), -1.0, 1.0)
-            worst = np.maximum(worst, 180.0 - np.degrees(np.arccos(cosn)))
-    return worst
-
-
-# gmsh hexahedron corner numbering: 0-3 bottom (counter-clockwise), 4-7 top
-_HEX_FACES = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
-
-
-def hex_skewness(v: np.ndarray) -> np.ndarray:
-    """Normalised equiangular skewness of hexahedra ``v`` (``(n, 8, 3)``, gmsh corner order):
-    ``max((t_max - 90) / 90, (90 - t_min) / 90)`` over the 24 corner angles of the six faces (the
-    ANSYS Meshing definition for hexahedra; 0 = all right angles, independent of aspect ratio)."""
-    tmax = np.zeros(len(v))
-    tmin = np.full(len(v), 180.0)
-    for face in _HEX_FACES:
-        for i in range(4):
-            p0, p1, p2 = v[:, face[i - 1]], v[:, face[i]], v[:, face[(i + 1) % 4]]
-            e1, e2 = p0 - p1, p2 - p1
-            cosang = np.einsum("ij,ij->i", e1, e2) / (np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1))
-            ang = np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0)))
-            tmax = np.maximum(tmax, ang)
-            tmin = np.minimum(tmin, ang)
-    return np.clip(np.maximum((tmax - 90.0) / 90.0, (90.0 - tmin) / 90.0), 0.0, 1.0)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -776,7 +381,7 @@ def _group_sort_key(name: str) -> tuple:
 
 
 def section_angles_deg(sec: Section2D) -> tuple[float, float]:
-    """Smallest and largest corner angle of the 2D section cells [deg] (their shape; the sweep adds
+    """Smallest and largest corner angle of the 2D section cells [deg] (their shape; the extrusion adds
     the face-width direction with the deliberate layer thickness)."""
     nv = GMSH_REF[sec.cell_type][0]
     P = sec.nodes[sec.cells[:, :nv]]
@@ -864,7 +469,7 @@ def write_model(path: Path, geometry: GearPairGeometry, options: MeshOptions) ->
     t_2d = time.perf_counter() - t0
     angles = [section_angles_deg(sec) for sec in sections.values()]
     b = geometry.face_width_mm * 1e-3
-    bodies = [sweep(sections[body], b, options.layers, options.order) for body in options.bodies]
+    bodies = [extrude(sections[body], b, options.layers, options.order) for body in options.bodies]
     with gmsh_session("gearfem_pair") as gmsh:
         groups, cell_tags, surfaces = _write_discrete(gmsh, bodies)
         t_mesh = time.perf_counter() - t0

@@ -46,8 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gearfem.errors import ParameterError
-from gearfem.params import require_int, require_nonnegative, require_positive, require_range
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_int, require_nonnegative, require_positive, require_range
 
 # ------------------------------------------------------------------------------------------------
 # involute function

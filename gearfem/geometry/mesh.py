@@ -29,20 +29,20 @@ from typing import Any
 
 import numpy as np
 
-from gearfem.geometry.gmsh_pair import (
+from gearfem.core.params import to_dict
+from gearfem.geometry import gmsh_pair, involute
+from gearfem.geometry.extrude import GMSH_REF
+from gearfem.geometry.gmsh_pair import gmsh_session, placement, write_model
+from gearfem.geometry.involute import GearPair, GearPairGeometry
+from gearfem.geometry.options import (
     BODIES,
     BODY_KINDS,
     GEOMETRY_CODE_VERSION,
     TOOTH_KINDS,
     MeshOptions,
     check_options,
-    gmsh_session,
-    placement,
     reference_tooth,
-    write_model,
 )
-from gearfem.geometry.involute import GearPair, GearPairGeometry
-from gearfem.params import to_dict
 
 log = logging.getLogger(__name__)
 
@@ -61,7 +61,6 @@ def default_cache_dir() -> Path:
 
 def _source_hash() -> str:
     """Hash of the source of the modules that generate meshes (any edit invalidates the cache)."""
-    from gearfem.geometry import gmsh_pair, involute
 
     h = hashlib.sha256()
     for mod in (involute, gmsh_pair):
@@ -243,9 +242,8 @@ def build_gear_mesh(
         cache_dir: Cache root (default: see :func:`default_cache_dir`).
         rebuild: Regenerate even if cached (the old entry is replaced).
     """
-    from mpi4py import MPI
-
     from dolfinx.io import gmsh as dgmsh
+    from mpi4py import MPI
 
     geometry = geometry or GearPairGeometry()
     options = options or MeshOptions()
@@ -337,9 +335,8 @@ def analytic_areas_mm2(geometry: GearPairGeometry, options: MeshOptions) -> dict
 
 def body_volumes_m3(gm: GearMesh) -> dict[str, float]:
     """Volume of each body [m^3] integrated on the (curved) DOLFINx mesh, reduced over ranks."""
-    from mpi4py import MPI
-
     import dolfinx.fem as fem
+    from mpi4py import MPI
 
     one = fem.Constant(gm.mesh, 1.0)
     return {
@@ -350,9 +347,8 @@ def body_volumes_m3(gm: GearMesh) -> dict[str, float]:
 
 def mesh_report(gm: GearMesh) -> dict[str, Any]:
     """Everything ``mesh.json`` records (collective: integrals are reduced over ranks)."""
-    from mpi4py import MPI
-
     import dolfinx.fem as fem
+    from mpi4py import MPI
 
     comm = gm.mesh.comm
     g, o = gm.geometry, gm.options
@@ -419,15 +415,6 @@ def mesh_report(gm: GearMesh) -> dict[str, Any]:
     }
 
 
-def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
-    """Write JSON via a temporary file and rename (call on one rank)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
-    os.replace(tmp, path)
-
-
 # ------------------------------------------------------------------------------------------------
 # picture
 # ------------------------------------------------------------------------------------------------
@@ -436,8 +423,6 @@ def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
 def _surface_polydata(msh_path: Path):
     """Boundary surfaces of each body from the .msh (corner nodes), as pyvista PolyData in mm."""
     import pyvista as pv
-
-    from gearfem.geometry.gmsh_pair import GMSH_REF, gmsh_session
 
     out: dict[str, Any] = {}
     with gmsh_session("gearfem_plot") as gmsh:

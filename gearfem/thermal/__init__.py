@@ -13,14 +13,19 @@ Public API::
 
 from gearfem.thermal.balance import HeatBalance
 from gearfem.thermal.boundary import SurfaceExchange, ThermalBoundary
-from gearfem.thermal.convection import AirProperties, ConvectionCoefficients, GearRadii, thesis_convection
+from gearfem.thermal.convection import (
+    AirProperties,
+    ConvectionCoefficients,
+    GearRadii,
+    thesis_convection,
+)
 from gearfem.thermal.domain import ThermalDomain
-from gearfem.thermal.options import ThermalOptions
+from gearfem.thermal.options import PrescribedSources, ThermalOptions, loading_frequency_Hz
 from gearfem.thermal.problem import StepRecord, ThermalProblem
-from gearfem.thermal.sources import HeatSources, PrescribedSources, loading_frequency_Hz
+from gearfem.thermal.source_terms import HeatSources, prescribed_heat_sources
 
 __all__ = [
     "AirProperties", "ConvectionCoefficients", "GearRadii", "HeatBalance", "HeatSources", "PrescribedSources",
     "StepRecord", "SurfaceExchange", "ThermalBoundary", "ThermalDomain", "ThermalOptions", "ThermalProblem",
-    "loading_frequency_Hz", "thesis_convection",
+    "loading_frequency_Hz", "prescribed_heat_sources", "thesis_convection",
 ]

@@ -20,9 +20,9 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-from gearfem.errors import ParameterError
-from gearfem.materials import ZERO_CELSIUS_K, Material
-from gearfem.params import require_positive, require_range
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import ZERO_CELSIUS_K, Material
+from gearfem.core.params import require_positive, require_range
 from gearfem.thermal import convection as conv
 from gearfem.thermal.options import ThermalOptions
 

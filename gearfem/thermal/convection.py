@@ -42,8 +42,8 @@ import logging
 import math
 from typing import Any
 
-from gearfem.errors import ParameterError
-from gearfem.params import require_choice, require_nonnegative, require_positive
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_choice, require_nonnegative, require_positive
 
 log = logging.getLogger(__name__)
 

@@ -25,7 +25,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from gearfem.errors import ParameterError
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_choice
 
 ROLES = ("teeth", "sides", "bore", "cuts")
 TOOTH_SURFACES = ("drive_flank", "coast_flank", "tip", "root")
@@ -211,7 +212,6 @@ class ThermalDomain:
                 ``model_fraction`` (None: the mesh is the whole gear).
             flux_flanks: ``"drive"``, ``"coast"`` or ``"both"``: default friction-flux surfaces.
         """
-        from gearfem.params import require_choice
 
         require_choice("sources.flanks", flux_flanks, ("drive", "coast", "both"))
         grp = {k: ((int(v),) if np.isscalar(v) else tuple(int(x) for x in v)) for k, v in groups.items()}

@@ -14,7 +14,7 @@ Newton: x <- x - lambda J^{-1} F with full steps (lambda = 1, transient: the ext
 predictor starts close) or backtracking (halving lambda until ||F|| decreases by the Armijo
 factor, steady state). Converged when ||F||_2 <= max(atol, rtol ||F_0||_2) (W; the residual is a
 heat flow per test function) or when the update is below 1e-14 ||x||. Failures raise
-:class:`~gearfem.errors.ConvergenceError` named like PETSc's SNES reasons (DIVERGED_MAX_IT,
+:class:`~gearfem.core.errors.ConvergenceError` named like PETSc's SNES reasons (DIVERGED_MAX_IT,
 DIVERGED_LINE_SEARCH, DIVERGED_FNORM_NAN, DIVERGED_LINEAR_SOLVE with the KSP reason).
 
 Linear solver: a KSP with the options of ``ThermalOptions.linear_solver``. With
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from gearfem.errors import ConvergenceError
+from gearfem.core.errors import ConvergenceError
 
 REBUILD_RATIO = 1.25
 ARMIJO = 1e-4

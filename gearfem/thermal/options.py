@@ -5,8 +5,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from gearfem.errors import ParameterError
-from gearfem.params import (
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import (
     require_choice,
     require_int,
     require_nonnegative,
@@ -14,6 +14,45 @@ from gearfem.params import (
     require_range,
 )
 from gearfem.thermal.convection import AIR_MODELS, AirProperties
+
+LOADING_FREQUENCIES = ("rotation", "tooth_pass")
+
+
+def loading_frequency_Hz(choice: str, speed_rpm: float, teeth: int) -> float:
+    """f of q_h = H U_max f: ``"rotation"`` n/60 (thesis eq. 2.15) or ``"tooth_pass"`` z n/60."""
+    require_choice("sources.loading_frequency", choice, LOADING_FREQUENCIES)
+    require_nonnegative("operating.speed_rpm", speed_rpm)
+    return speed_rpm / 60.0 * (teeth if choice == "tooth_pass" else 1)
+
+
+@dataclasses.dataclass(frozen=True)
+class PrescribedSources:
+    """``[sources]`` table: prescribed sources until the contact cycle provides them.
+
+    Args:
+        flank_heat_per_gear_W: Friction heat into this gear, W, over the whole gear; spread uniformly
+            over the chosen flanks (scaled to the modelled sector by its fraction of the gear).
+        flanks: ``"drive"``, ``"coast"`` or ``"both"``: flanks receiving it.
+        u_max_J_m3: Uniform maximum strain energy density, J/m^3 (0: no hysteresis).
+        loading_frequency: ``"rotation"`` (n/60, thesis) or ``"tooth_pass"`` (z n/60).
+        hysteresis_scale, flux_scale: Multipliers on the two sources.
+    """
+
+    flank_heat_per_gear_W: float = 0.0
+    flanks: str = "drive"
+    u_max_J_m3: float = 0.0
+    loading_frequency: str = "rotation"
+    hysteresis_scale: float = 1.0
+    flux_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        require_nonnegative("sources.flank_heat_per_gear_W", self.flank_heat_per_gear_W)
+        require_choice("sources.flanks", self.flanks, ("drive", "coast", "both"))
+        require_nonnegative("sources.u_max_J_m3", self.u_max_J_m3)
+        require_choice("sources.loading_frequency", self.loading_frequency, LOADING_FREQUENCIES)
+        require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
+        require_nonnegative("sources.flux_scale", self.flux_scale)
+
 
 CONVECTION_MODELS = ("thesis", "none")
 

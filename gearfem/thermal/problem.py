@@ -25,15 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from gearfem.errors import ConvergenceError
-from gearfem.materials import STEFAN_BOLTZMANN_W_m2K4, ZERO_CELSIUS_K, Material
+from gearfem.core.errors import ConvergenceError
+from gearfem.core.materials import ZERO_CELSIUS_K, Material, STEFAN_BOLTZMANN_W_m2K4
 from gearfem.thermal.balance import HeatBalance
 from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.domain import ThermalDomain
 from gearfem.thermal.newton import NewtonSolver
 from gearfem.thermal.options import ThermalOptions
-from gearfem.thermal.properties import enthalpy_ufl
-from gearfem.thermal.sources import HeatSources, field_ufl
+from gearfem.thermal.properties import enthalpy_ufl, table_ufl
+from gearfem.thermal.source_terms import HeatSources, field_ufl
 from gearfem.thermal.timestepping import (
     StepController,
     bdf2_coefficients,
@@ -146,7 +146,7 @@ class ThermalProblem:
         surf: dict[str, list[tuple[Any, Any]]] = {"friction": [], "convected": [], "radiated": [], "bore": []}
         if sources.u_max is not None:
             vol["hysteresis"] = (sources.hysteresis_scale * sources.loading_frequency_Hz
-                                 * sources.hysteresis.ufl(T) * sources.u_max)
+                                 * table_ufl(sources.hysteresis, T) * sources.u_max)
         if sources.volumetric_W_m3 is not None:
             vol["volumetric"] = field_ufl(sources.volumetric_W_m3, x, self._t)
         if sources.flank_flux_W_m2 is not None:
@@ -175,7 +175,7 @@ class ThermalProblem:
         self._cp_const, self._k_const = cp.is_constant, kT.is_constant
         F_nl = 0
         if not self._k_const:
-            F_nl += kT.ufl(T) * ufl.inner(ufl.grad(T), ufl.grad(v)) * dx
+            F_nl += table_ufl(kT, T) * ufl.inner(ufl.grad(T), ufl.grad(v)) * dx
         for q in vol.values():
             F_nl -= q * v * dx
         for name, terms in surf.items():
@@ -475,7 +475,7 @@ class ThermalProblem:
         self._n_steps += 1
         return self._record(self._n_steps, dt, order, its, err, balance)
 
-    def run(self, observer: _Observer | None = None, duration_s: float | None = None) -> list[StepRecord]:
+    def integrate(self, observer: _Observer | None = None, duration_s: float | None = None) -> list[StepRecord]:
         """Integrate to ``duration_s`` (default: options) from the current state; return the records
         (initial state first). Steps land exactly on ``options.output_times_s`` and the end."""
         o = self.options

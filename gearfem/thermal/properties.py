@@ -3,7 +3,7 @@
 The transient equation is written for the volumetric enthalpy e(T) = rho * int_{T_ref}^{T} c_p(s) ds
 (J/m^3), so that the discrete stored heat is an exact difference of contents and the heat
 balance closes also when c_p depends on T. For the piecewise-linear tables of
-:class:`~gearfem.materials.TemperatureTable` (constant outside the table) the antiderivative is
+:class:`~gearfem.core.materials.TemperatureTable` (constant outside the table) the antiderivative is
 piecewise quadratic; it is built here for numpy and UFL alike.
 """
 
@@ -12,8 +12,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import ufl
 
-from gearfem.materials import TemperatureTable
+from gearfem.core.materials import TemperatureTable
 
 
 def _segments(table: TemperatureTable):
@@ -43,8 +44,6 @@ def antiderivative(table: TemperatureTable, T_K: Any) -> Any:
 
 def antiderivative_ufl(table: TemperatureTable, T: Any) -> Any:
     """The same G(T) as a UFL expression of ``T`` (kelvin)."""
-    import ufl
-
     t, v, G = _segments(table)
     if len(t) == 1 or table.is_constant:
         return float(v[0]) * (T - float(t[0]))
@@ -64,3 +63,16 @@ def enthalpy_ufl(density_kg_m3: float, cp: TemperatureTable, T: Any, T_ref_K: fl
 def enthalpy(density_kg_m3: float, cp: TemperatureTable, T_K: Any, T_ref_K: float) -> Any:
     """e(T) = rho (G(T) - G(T_ref)), J/m^3 (numpy)."""
     return density_kg_m3 * (np.asarray(antiderivative(cp, T_K)) - antiderivative(cp, T_ref_K))
+
+
+def table_ufl(table: TemperatureTable, T: Any) -> Any:
+    """The piecewise-linear ``table`` as a function of the UFL expression ``T`` (kelvin), constant
+    outside the table."""
+    t, v = table.T_K, table.values
+    if len(t) == 1 or table.is_constant:
+        return ufl.as_ufl(float(v[0]))
+    expr = ufl.as_ufl(float(v[-1]))  # T >= t[-1]
+    for i in range(len(t) - 2, -1, -1):
+        slope = (v[i + 1] - v[i]) / (t[i + 1] - t[i])
+        expr = ufl.conditional(ufl.lt(T, t[i + 1]), v[i] + slope * (T - t[i]), expr)
+    return ufl.conditional(ufl.lt(T, t[0]), float(v[0]), expr)

@@ -31,7 +31,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from gearfem.params import require_positive, require_range
+from gearfem.core.params import require_positive, require_range
 
 
 def bdf2_coefficients(dt: float, dt_prev: float | None) -> tuple[float, float, float]:

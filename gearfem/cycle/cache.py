@@ -1,11 +1,11 @@
 """Saving, loading and caching cycle results.
 
-A :class:`~gearfem.cycle.sweep.CycleResult` is stored as ``cycle.npz`` (arrays) plus
+A :class:`~gearfem.cycle.solve.CycleResult` is stored as ``cycle.npz`` (arrays) plus
 ``cycle.json`` (scalars and metadata), written to a temporary name and renamed, so an interrupted
 run never leaves a result that looks complete. Results are cached under
 ``<cache>/cycles/<key>/`` with ``key`` a hash of everything that changes the structural answer:
 geometry, mesh options, materials, contact and cycle options, torque and the source of the
-contact/cycle code (speed does not enter: one sweep per torque serves every speed).
+contact/cycle code (speed does not enter: one cycle solve per torque serves every speed).
 """
 
 from __future__ import annotations
@@ -21,8 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from gearfem.cycle.sweep import BodyFields, CycleResult
-from gearfem.params import to_dict
+from gearfem.core.io import jsonable
+from gearfem.core.params import to_dict
+from gearfem.cycle.result import BodyFields, CycleResult
+from gearfem.cycle.solve import solve_cycle
 
 log = logging.getLogger(__name__)
 
@@ -73,10 +75,10 @@ def save(result: CycleResult, directory: str | Path) -> Path:
     np.savez_compressed(tmp / "cycle.npz", **arrays)
     meta: dict[str, Any] = {k: getattr(result, k) for k in _SCALARS}
     meta.update(heat_fraction=result.heat_fraction, reference_tooth=result.reference_tooth, info=result.info,
-                periodicity=_jsonable(result.periodicity),
+                periodicity=jsonable(result.periodicity),
                 fields={b: {"tooth_angle_rad": f.tooth_angle_rad, "pitch_angle_rad": f.pitch_angle_rad}
                         for b, f in result.fields.items()})
-    (tmp / "cycle.json").write_text(json.dumps(meta, indent=2, default=_jsonable))
+    (tmp / "cycle.json").write_text(json.dumps(meta, indent=2, default=jsonable))
     if directory.exists():
         shutil.rmtree(directory)
     os.replace(tmp, directory)
@@ -104,23 +106,10 @@ def load(directory: str | Path) -> CycleResult:
     )
 
 
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return obj
-
-
 def cached_cycle(model_factory, key: str, comm, cache_dir: Path | None = None, rebuild: bool = False,
                  **run_kwargs) -> tuple[CycleResult, Path, bool]:
     """The cycle result for ``key`` from the cache, or computed (``model_factory()`` then
-    :func:`~gearfem.cycle.sweep.run_cycle`) and stored. Collective. Returns (result, dir, from_cache)."""
-    from gearfem.cycle.sweep import run_cycle
+    :func:`~gearfem.cycle.solve.run_cycle`) and stored. Collective. Returns (result, dir, from_cache)."""
 
     directory = (cache_dir or cache_root()) / "cycles" / key
     done = (directory / "cycle.json").exists() and (directory / "cycle.npz").exists()
@@ -128,7 +117,7 @@ def cached_cycle(model_factory, key: str, comm, cache_dir: Path | None = None, r
     if done and not rebuild:
         log.info("cycle %s from the cache (%s)", key, directory)
         return load(directory), directory, True
-    result = run_cycle(model_factory(), **run_kwargs)
+    result = solve_cycle(model_factory(), **run_kwargs)
     if comm.rank == 0:
         save(result, directory)
     comm.barrier()

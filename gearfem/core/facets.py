@@ -15,7 +15,7 @@ from functools import cached_property
 import basix
 import numpy as np
 
-from gearfem.errors import ParameterError
+from gearfem.core.errors import ParameterError
 
 _FACET_TYPE = {
     basix.CellType.tetrahedron: basix.CellType.triangle,

@@ -1,4 +1,4 @@
-"""Studies (``gearfem sweep``): validation of the study file, the operating-point grid, running the
+"""Studies (``gearfem study``): validation of the study file, the operating-point grid, running the
 cases side by side or on all ranks, resuming (a finished case is not recomputed, a changed one is),
 and the collected table.
 
@@ -15,8 +15,8 @@ import shutil
 import pytest
 from mpi4py import MPI
 
-from gearfem.errors import ParameterError
-from gearfem.sweep import StudyOptions, load_study, run_study, study_from_dict
+from gearfem.core.errors import ParameterError
+from gearfem.study import StudyOptions, load_study, run_study, study_from_dict
 
 SMALL_MESH = {"teeth_in_model": 2, "refined_teeth": 2, "layers": 1, "size_flank_mm": 0.8, "size_tip_mm": 0.8,
               "size_root_mm": 0.8, "size_tooth_mm": 2.0, "size_body_mm": 6.0}

@@ -1,6 +1,6 @@
 """A speed × torque study of the thesis gear pair: one structural cycle per torque, every speed.
 
-The study (written to OUT/study.toml, then run exactly as ``gearfem sweep OUT/study.toml --out OUT``)
+The study (written to OUT/study.toml, then run exactly as ``gearfem study OUT/study.toml --out OUT``)
 uses the thesis gears and material on a coarse mesh so that it finishes in minutes on 2 cores:
 6 of 30 teeth per gear, 2 element layers, flank elements of 0.3 mm, 8 positions per pitch,
 first-order thermal elements. The structural cycle is computed once per torque and cached; every
@@ -12,8 +12,8 @@ Parameters (command-line options, defaults in brackets):
     --torques-Nm T...      resisting torques on the wheel, N m [4 8]
     --duration-s D         simulated running time per point, s [900: when the bench was read]
     --friction MU          Coulomb friction coefficient, dimensionless [0.5: thesis 5.1.2]
-    --parallel P           cases | mpi | auto: how the ranks share the work (docs/sweep.md) [auto]
-    --out DIR              output directory [results/demos/sweep]
+    --parallel P           cases | mpi | auto: how the ranks share the work (docs/study.md) [auto]
+    --out DIR              output directory [results/demos/study]
 
 Outputs (DIR): study.toml (the study as run), results.csv and study.json (one row per operating
 point: heat, temperatures, contact ratio, pressure, VDI 2736 and Mao baselines, wall time),
@@ -21,13 +21,11 @@ temperature_histories.png, steady_temperature.png, cases/<label>/ (each point's 
 ``gearfem run`` output). study.json is written last.
 
 Run:
-    python demos/sweep.py
-    mpirun -n 2 python demos/sweep.py        # two operating points at a time
+    python demos/study.py
+    mpirun -n 2 python demos/study.py        # two operating points at a time
 """
 
 from __future__ import annotations
-
-import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 
 import argparse
 import sys
@@ -36,7 +34,8 @@ from pathlib import Path
 import tomli_w
 from mpi4py import MPI
 
-from gearfem.sweep import load_study, run_study
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
+from gearfem.study import load_study, run_study
 
 COARSE_MESH = {"teeth_in_model": 6, "refined_teeth": 4, "layers": 2, "size_flank_mm": 0.3, "size_tip_mm": 0.3,
                "size_root_mm": 0.4, "size_tooth_mm": 1.2, "size_body_mm": 4.0}
@@ -49,7 +48,7 @@ def main(argv=None) -> int:
     p.add_argument("--duration-s", type=float, default=900.0)
     p.add_argument("--friction", type=float, default=0.5)
     p.add_argument("--parallel", default="auto", choices=("auto", "cases", "mpi"))
-    p.add_argument("--out", default="results/demos/sweep")
+    p.add_argument("--out", default="results/demos/study")
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     out = Path(args.out)

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from gearfem.errors import ParameterError
-from gearfem.params import require_positive, require_range
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_positive, require_range
 
 ZERO_CELSIUS_K = 273.15
 GAS_CONSTANT_J_molK = 8.314462618
@@ -111,19 +111,6 @@ class TemperatureTable:
     @property
     def is_constant(self) -> bool:
         return len(set(self.values)) == 1
-
-    def ufl(self, T):
-        """The same piecewise-linear function of the UFL expression ``T`` (kelvin)."""
-        import ufl
-
-        t, v = self.T_K, self.values
-        if len(t) == 1 or self.is_constant:
-            return ufl.as_ufl(float(v[0]))
-        expr = ufl.as_ufl(float(v[-1]))  # T >= t[-1]
-        for i in range(len(t) - 2, -1, -1):
-            slope = (v[i + 1] - v[i]) / (t[i + 1] - t[i])
-            expr = ufl.conditional(ufl.lt(T, t[i + 1]), v[i] + slope * (T - t[i]), expr)
-        return ufl.conditional(ufl.lt(T, t[0]), float(v[0]), expr)
 
 
 def peek450g_hysteresis() -> TemperatureTable:

@@ -12,7 +12,7 @@ table ``[study]``::
     [thermal]
     duration_s = 900.0
 
-How it runs (``gearfem sweep STUDY.toml --out DIR``, under ``mpirun -n N`` or serial):
+How it runs (``gearfem study STUDY.toml --out DIR``, under ``mpirun -n N`` or serial):
 
 1. the meshes are built once on all ranks;
 2. the structural cycle of every torque is computed (or found in the cycle cache): the cycle is
@@ -26,11 +26,11 @@ Parallelism: with ``parallel = "cases"`` every rank runs whole tasks on its own 
 dealt round-robin); with ``"mpi"`` every task runs on all ranks. ``"auto"`` takes ``"cases"`` for a
 stage when it has at least as many tasks as ranks, else ``"mpi"``. Measured on 2 cores (thermal,
 24.7k DOFs, 8000 s): 25.9 s on 1 rank, 15.1 s on 2 ranks, i.e. 1.7× from MPI against 2× from
-running two cases side by side; see ``docs/sweep.md`` for the cycle.
+running two cases side by side; see ``docs/study.md`` for the cycle.
 
 Resuming: a case whose ``summary.json`` exists and whose stored ``case.toml`` equals the resolved
 case is not recomputed. On a cluster, ``--index I`` runs only task I (e.g. one Slurm array task per
-operating point) and ``--collect`` only gathers the table (``docs/sweep.md``).
+operating point) and ``--collect`` only gathers the table (``docs/study.md``).
 """
 
 from __future__ import annotations
@@ -47,9 +47,18 @@ from typing import Any
 
 from mpi4py import MPI
 
+from gearfem import pipeline
 from gearfem.config import Case, case_from_dict, case_to_dict, read_toml
-from gearfem.errors import ParameterError
-from gearfem.params import from_dict, require_choice, require_nonnegative, require_positive, to_dict
+from gearfem.core.errors import ParameterError
+from gearfem.core.io import write_json
+from gearfem.core.params import (
+    from_dict,
+    require_choice,
+    require_nonnegative,
+    require_positive,
+    to_dict,
+)
+from gearfem.geometry.mesh import build_gear_mesh
 
 log = logging.getLogger(__name__)
 
@@ -143,7 +152,7 @@ def _mode(option: str, n_tasks: int, size: int) -> str:
     return "cases" if size > 1 and n_tasks >= size else "mpi"
 
 
-def _is_done(case: Case, directory: Path) -> bool:
+def is_done(case: Case, directory: Path) -> bool:
     """A finished case: summary.json present and the stored case equal to this one."""
     summ, stored = directory / "summary.json", directory / "case.toml"
     if not (summ.exists() and stored.exists()):
@@ -163,7 +172,6 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
             array jobs).
         collect_only: Only gather the table and plots from the finished cases.
     """
-    from gearfem import pipeline
 
     comm = comm or MPI.COMM_WORLD
     out = Path(out_dir)
@@ -181,7 +189,7 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
     ran: list[str] = []
     if not collect_only:
         todo = [(lab, c) for i, (lab, c) in enumerate(cases)
-                if (index is None or i == index) and not _is_done(c, out / "cases" / lab)]
+                if (index is None or i == index) and not is_done(c, out / "cases" / lab)]
         skipped = len([1 for i, _ in enumerate(cases) if index is None or i == index]) - len(todo)
         if comm.rank == 0:
             log.info("study %s: %d operating points, %d to run, %d finished before", study.name, len(cases),
@@ -191,7 +199,6 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
             c0 = todo[0][1]
             if c0.sources.mode == "cycle":
                 pipeline.pair_mesh(c0, comm)
-            from gearfem.geometry.mesh import build_gear_mesh
 
             build_gear_mesh(c0.geometry, dataclasses.replace(c0.mesh, bodies=(c0.thermal.body,)), comm)
             # 2. one cycle per torque
@@ -200,7 +207,7 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
                 reps = {t: next(c for _, c in todo if c.operating.torque_Nm == t) for t in torques}
                 mode = _mode(study.options.parallel, len(torques), comm.size)
                 t1 = time.perf_counter()
-                _dispatch(comm, mode, list(reps.values()), lambda c, sub: pipeline.cycle(c, sub))
+                dispatch(comm, mode, list(reps.values()), lambda c, sub: pipeline.cycle(c, sub))
                 timing["cycles_s"] = time.perf_counter() - t1
                 timing["cycles_parallel"] = mode  # type: ignore[assignment]
             # 3. thermal + baselines per operating point
@@ -212,7 +219,7 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
                 pipeline.run(c, out / "cases" / lab, sub, progress=False,
                              write_fields=study.options.write_fields)
 
-            _dispatch(comm, mode, todo, one)
+            dispatch(comm, mode, todo, one)
             timing["cases_s"] = time.perf_counter() - t2
             timing["cases_parallel"] = mode  # type: ignore[assignment]
             ran = [lab for lab, _ in todo]
@@ -222,12 +229,12 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
     results = collect(study, out, comm)
     results.update({"ran": ran, "wall_time_s": time.perf_counter() - t0, "timing": timing, "mpi_size": comm.size})
     if comm.rank == 0:
-        pipeline._write_json(out / "study.json", results)  # last: marks a complete study
+        write_json(out / "study.json", results)  # last: marks a complete study
     comm.barrier()
     return results
 
 
-def _dispatch(comm: MPI.Comm, mode: str, tasks: list, fn) -> None:
+def dispatch(comm: MPI.Comm, mode: str, tasks: list, fn) -> None:
     """Run ``fn(task, comm)`` for every task: all on ``comm`` ("mpi") or dealt round-robin to the
     ranks, each on COMM_SELF ("cases"). Errors on any rank are raised on every rank."""
     if mode == "mpi" or comm.size == 1:

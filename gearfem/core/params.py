@@ -2,7 +2,7 @@
 
 gearfem's configuration is a tree of frozen dataclasses, one per physics concept, composed into a
 :class:`gearfem.config.Case`. Each dataclass validates itself in ``__post_init__`` with the
-``require_*`` helpers below, so that a bad value raises a :class:`~gearfem.errors.ParameterError`
+``require_*`` helpers below, so that a bad value raises a :class:`~gearfem.core.errors.ParameterError`
 naming the parameter, its value and the allowed range, whether it came from a TOML file, the
 command line or Python. Nothing is clamped.
 """
@@ -16,7 +16,7 @@ import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
-from gearfem.errors import ParameterError
+from gearfem.core.errors import ParameterError
 
 T = TypeVar("T")
 

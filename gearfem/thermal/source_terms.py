@@ -14,8 +14,8 @@ Two physical sources (thesis 5.2.2, 5.2.3):
 Fields are a float, a ``dolfinx.fem.Function`` on the thermal mesh, or a callable
 ``(x, t) -> UFL expression`` of the spatial coordinate (m) and the time constant (s).
 
-:class:`PrescribedSources` is the ``[sources]`` table used until the cycle stage provides
-:class:`HeatSources` itself.
+:func:`prescribed_heat_sources` builds them from the ``[sources]`` prescribed fields
+(:class:`~gearfem.thermal.options.PrescribedSources`) until the cycle stage provides them.
 """
 
 from __future__ import annotations
@@ -24,22 +24,17 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-from gearfem.errors import ParameterError
-from gearfem.materials import Material, TemperatureTable
-from gearfem.params import require_choice, require_nonnegative, require_positive
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from gearfem.core.errors import ParameterError
+from gearfem.core.materials import Material, TemperatureTable
+from gearfem.core.params import require_nonnegative, require_positive
+from gearfem.thermal.options import PrescribedSources, loading_frequency_Hz
 
 SourceField = Any  # float | fem.Function | Callable[[x, t], ufl.core.expr.Expr]
 TemperatureFactor = Callable[[Any], Any]  # T (kelvin, UFL) -> dimensionless UFL expression
-
-LOADING_FREQUENCIES = ("rotation", "tooth_pass")
-
-
-def loading_frequency_Hz(choice: str, speed_rpm: float, teeth: int) -> float:
-    """f of q_h = H U_max f: ``"rotation"`` n/60 (thesis eq. 2.15) or ``"tooth_pass"`` z n/60."""
-    require_choice("sources.loading_frequency", choice, LOADING_FREQUENCIES)
-    require_nonnegative("operating.speed_rpm", speed_rpm)
-    return speed_rpm / 60.0 * (teeth if choice == "tooth_pass" else 1)
-
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class HeatSources:
@@ -94,66 +89,36 @@ def field_ufl(field: SourceField, x: Any, t: Any) -> Any:
     return field
 
 
-@dataclasses.dataclass(frozen=True)
-class PrescribedSources:
-    """``[sources]`` table: prescribed sources until the contact cycle provides them.
-
-    Args:
-        flank_heat_per_gear_W: Friction heat into this gear, W, over the whole gear; spread uniformly
-            over the chosen flanks (scaled to the modelled sector by its fraction of the gear).
-        flanks: ``"drive"``, ``"coast"`` or ``"both"``: flanks receiving it.
-        u_max_J_m3: Uniform maximum strain energy density, J/m^3 (0: no hysteresis).
-        loading_frequency: ``"rotation"`` (n/60, thesis) or ``"tooth_pass"`` (z n/60).
-        hysteresis_scale, flux_scale: Multipliers on the two sources.
-    """
-
-    flank_heat_per_gear_W: float = 0.0
-    flanks: str = "drive"
-    u_max_J_m3: float = 0.0
-    loading_frequency: str = "rotation"
-    hysteresis_scale: float = 1.0
-    flux_scale: float = 1.0
-
-    def __post_init__(self) -> None:
-        require_nonnegative("sources.flank_heat_per_gear_W", self.flank_heat_per_gear_W)
-        require_choice("sources.flanks", self.flanks, ("drive", "coast", "both"))
-        require_nonnegative("sources.u_max_J_m3", self.u_max_J_m3)
-        require_choice("sources.loading_frequency", self.loading_frequency, LOADING_FREQUENCIES)
-        require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
-        require_nonnegative("sources.flux_scale", self.flux_scale)
-
-    def build(self, domain, material: Material, speed_rpm: float, teeth: int) -> HeatSources:
-        """HeatSources on ``domain`` (a :class:`~gearfem.thermal.domain.ThermalDomain`)."""
-        import ufl
-        from dolfinx import fem
-        from mpi4py import MPI
-
-        require_positive("geometry.teeth", teeth)
-        surfaces = _flank_groups(domain, self.flanks)
-        flux = None
-        if self.flank_heat_per_gear_W > 0.0:
-            ds = ufl.Measure("ds", domain=domain.mesh, subdomain_data=domain.facet_tags)
-            area = domain.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM)
-            if area <= 0.0:
-                raise ParameterError("sources.flanks", self.flanks, "flanks with positive area in the mesh")
-            flux = self.flank_heat_per_gear_W * domain.model_fraction / area
-        u_max = None
-        if self.u_max_J_m3 > 0.0:
-            Q = fem.functionspace(domain.mesh, ("DG", 0))
-            u_max = fem.Function(Q, name="U_max_J_m3")
-            u_max.x.array[:] = self.u_max_J_m3
-        return HeatSources(
-            u_max=u_max,
-            loading_frequency_Hz=loading_frequency_Hz(self.loading_frequency, speed_rpm, teeth) if u_max else 0.0,
-            hysteresis=material.hysteresis_table() if u_max else None,
-            flank_flux_W_m2=flux, flux_surfaces=surfaces if flux is not None else (),
-            hysteresis_scale=self.hysteresis_scale, flux_scale=self.flux_scale,
-        )
-
-
 def _flank_groups(domain, flanks: str) -> tuple[str, ...]:
     kinds = {"drive": ("drive_flank",), "coast": ("coast_flank",), "both": ("drive_flank", "coast_flank")}[flanks]
     out = tuple(n for n in domain.teeth if any(n.endswith("_" + k) for k in kinds))
     if not out:
         raise ParameterError("sources.flanks", flanks, "a mesh with *_drive_flank / *_coast_flank facet groups")
     return out
+
+
+def prescribed_heat_sources(prescribed: PrescribedSources, domain, material: Material, speed_rpm: float,
+                            teeth: int) -> HeatSources:
+    """The :class:`HeatSources` of the ``[sources]`` prescribed fields on ``domain`` (a
+    :class:`~gearfem.thermal.domain.ThermalDomain`)."""
+    require_positive("geometry.teeth", teeth)
+    surfaces = _flank_groups(domain, prescribed.flanks)
+    flux = None
+    if prescribed.flank_heat_per_gear_W > 0.0:
+        ds = ufl.Measure("ds", domain=domain.mesh, subdomain_data=domain.facet_tags)
+        area = domain.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM)
+        if area <= 0.0:
+            raise ParameterError("sources.flanks", prescribed.flanks, "flanks with positive area in the mesh")
+        flux = prescribed.flank_heat_per_gear_W * domain.model_fraction / area
+    u_max = None
+    if prescribed.u_max_J_m3 > 0.0:
+        Q = fem.functionspace(domain.mesh, ("DG", 0))
+        u_max = fem.Function(Q, name="U_max_J_m3")
+        u_max.x.array[:] = prescribed.u_max_J_m3
+    return HeatSources(
+        u_max=u_max,
+        loading_frequency_Hz=loading_frequency_Hz(prescribed.loading_frequency, speed_rpm, teeth) if u_max else 0.0,
+        hysteresis=material.hysteresis_table() if u_max else None,
+        flank_flux_W_m2=flux, flux_surfaces=surfaces if flux is not None else (),
+        hysteresis_scale=prescribed.hysteresis_scale, flux_scale=prescribed.flux_scale,
+    )

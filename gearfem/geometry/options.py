@@ -1,0 +1,107 @@
+"""The ``[mesh]`` options and the naming facts of the gear-pair mesh (DOLFINx- and gmsh-free)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_choice, require_int, require_positive, require_range
+from gearfem.geometry.involute import GearPairGeometry
+
+#: Bump when a code change alters the generated meshes (part of the cache key). 2: tip rounds.
+GEOMETRY_CODE_VERSION = "2"
+
+BODIES = ("pinion", "wheel")
+TOOTH_KINDS = ("drive_flank", "coast_flank", "tip", "root")
+BODY_KINDS = ("side_front", "side_back", "bore", "cut_start", "cut_end")
+
+
+@dataclass(frozen=True)
+class MeshOptions:
+    """The ``[mesh]`` table: how the pair is meshed (sizes in mm).
+
+    Attributes:
+        teeth_in_model: N consecutive teeth of each gear (fractional model, thesis: 8);
+            equal to the number of teeth for a full 360-degree gear. Checked against the gear's
+            teeth when the model is built.
+        element: ``"tet"`` (swept prisms split into tetrahedra) or ``"hex"`` (sweep of an
+            all-quadrilateral section, every triangle split into three quadrilaterals: hexahedra
+            only, because DOLFINx 0.11 cannot tag facets of mixed hex/prism meshes).
+        order: Geometry/element order (2: 10-node tets or 27-node hexes, curved on the boundary).
+        layers: Element layers across the face width (thesis: 3).
+        size_flank_mm: Element size on the drive flanks of the refined teeth (profile direction;
+            the Hertz half-width at 8 N m is about 0.3 mm).
+        size_tip_mm: Size on the tips of the refined teeth.
+        size_root_mm: Size on the root fillets and lands of the refined teeth.
+        size_tooth_mm: Size on the coast flanks of the refined teeth and on all surfaces of the
+            other teeth.
+        size_body_mm: Largest size (web, bore, cut faces).
+        size_growth: Size gradient |grad h| of the grading away from the fine curves (the size
+            grows linearly with the distance; 0.6 gives neighbour size ratios up to about 1.6 and
+            2D angles >= 26 deg at the defaults).
+        refined_teeth: Number of teeth in the middle of each sector meshed with the fine sizes
+            (the loaded teeth; thesis: at most 4 loaded).
+        pinion_angle_deg: Pinion rotation from the reference position (counter-clockwise); the
+            wheel is placed at the rigid conjugate angle. Tooth numbering is unchanged.
+        bodies: Which bodies to mesh (``("pinion",)`` or ``("wheel",)`` for a single gear).
+    """
+
+    teeth_in_model: int = 8
+    element: str = "tet"
+    order: int = 2
+    layers: int = 3
+    size_flank_mm: float = 0.12
+    size_tip_mm: float = 0.15
+    size_root_mm: float = 0.25
+    size_tooth_mm: float = 0.8
+    size_body_mm: float = 3.0
+    size_growth: float = 0.6
+    refined_teeth: int = 4
+    pinion_angle_deg: float = 0.0
+    bodies: tuple[str, ...] = ("pinion", "wheel")
+
+    def __post_init__(self) -> None:
+        p = "mesh."
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        set_("teeth_in_model", require_int(p + "teeth_in_model", self.teeth_in_model, lo=1))
+        set_("element", require_choice(p + "element", self.element, ("tet", "hex")))
+        set_("order", require_int(p + "order", self.order, lo=1, hi=2))
+        set_("layers", require_int(p + "layers", self.layers, lo=1))
+        for key in ("size_flank_mm", "size_tip_mm", "size_root_mm", "size_tooth_mm", "size_body_mm"):
+            set_(key, require_positive(p + key, getattr(self, key)))
+        set_("size_growth", require_range(p + "size_growth", self.size_growth, 0.05, 2.0))
+        set_("refined_teeth", require_int(p + "refined_teeth", self.refined_teeth, lo=0))
+        set_("pinion_angle_deg",
+             require_range(p + "pinion_angle_deg", self.pinion_angle_deg, -360.0, 360.0, unit="deg"))
+        bodies = tuple(self.bodies)
+        if not bodies or len(set(bodies)) != len(bodies):
+            raise ParameterError(p + "bodies", self.bodies, "a non-empty list of distinct names from 'pinion', 'wheel'")
+        for b in bodies:
+            require_choice(p + "bodies", b, BODIES)
+        set_("bodies", tuple(b for b in BODIES if b in bodies))  # canonical order
+
+
+# ------------------------------------------------------------------------------------------------
+# placement
+# ------------------------------------------------------------------------------------------------
+
+
+def reference_tooth(body: str, teeth_in_model: int) -> int:
+    """Index of the tooth that touches at the pitch point in the reference position."""
+    return teeth_in_model // 2 if body == "pinion" else (teeth_in_model - 1) // 2
+
+
+def refined_tooth_indices(options: MeshOptions, teeth_in_model: int) -> list[int]:
+    """The ``refined_teeth`` teeth in the middle of the sector."""
+    n = min(options.refined_teeth, teeth_in_model)
+    first = (teeth_in_model - n) // 2
+    return list(range(first, first + n))
+
+
+def check_options(geometry: GearPairGeometry, options: MeshOptions) -> None:
+    """Checks that need both tables (N <= Z)."""
+    for body in options.bodies:
+        z = geometry.teeth_pinion if body == "pinion" else geometry.teeth_wheel
+        if options.teeth_in_model > z:
+            raise ParameterError("mesh.teeth_in_model", options.teeth_in_model, f"integer in [1, {z}]",
+                                 f"the {body} has only {z} teeth")
