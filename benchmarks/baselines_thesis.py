@@ -27,22 +27,41 @@ def main() -> None:
     r_a = (m * z / 2) + ag["addendum_mm"] * 1e-3
     h_fP = ag["dedendum_mm"] * 1e-3 / m
     x = B.profile_shift_from_thickness(kg["operating_tooth_thickness_mm"] * 1e-3, m, alpha)
-    opt = B.BaselineOptions(rack_dedendum_coef=h_fP, rack_fillet_coef=B.max_rack_fillet_coef(alpha, h_fP))
+    opt = B.BaselineOptions(
+        rack_dedendum_coef=h_fP, rack_fillet_coef=B.max_rack_fillet_coef(alpha, h_fP)
+    )
     peek = Material.peek450g()
     bench = read_csv("testbench", "thesis_testbench.csv")
 
     rows = []
     for row in bench:
-        rows.append(B.baseline_summary(
-            speed_rpm=float(row["speed_rpm"]), torque_Nm=float(row["torque_Nm"]), mu=model["friction_coefficient"],
-            teeth1=z, teeth2=z, module_m=m, pressure_angle_deg=alpha, face_width_m=kg["face_width_mm"] * 1e-3,
-            tip_radius1_m=r_a, tip_radius2_m=r_a, centre_distance_m=kg["operating_pitch_diameter_mm"] * 1e-3,
-            ambient_C=model["ambient_C"], material1=peek, material2=peek, profile_shift1=x, profile_shift2=x,
-            options=opt))
+        rows.append(
+            B.baseline_summary(
+                speed_rpm=float(row["speed_rpm"]),
+                torque_Nm=float(row["torque_Nm"]),
+                mu=model["friction_coefficient"],
+                teeth1=z,
+                teeth2=z,
+                module_m=m,
+                pressure_angle_deg=alpha,
+                face_width_m=kg["face_width_mm"] * 1e-3,
+                tip_radius1_m=r_a,
+                tip_radius2_m=r_a,
+                centre_distance_m=kg["operating_pitch_diameter_mm"] * 1e-3,
+                ambient_C=model["ambient_C"],
+                material1=peek,
+                material2=peek,
+                profile_shift1=x,
+                profile_shift2=x,
+                options=opt,
+            )
+        )
 
-    print(f"PEEK 450G pair z = {z}/{z}, m = {m * 1e3:g} mm, alpha = {alpha:g} deg, b = {kg['face_width_mm']} mm, "
-          f"r_a = {r_a * 1e3:g} mm, x = {x:+.4f}, rho_fP = {opt.rack_fillet_coef:.4f} m, mu = {model['friction_coefficient']}, "
-          f"ambient {model['ambient_C']} C")
+    print(
+        f"PEEK 450G pair z = {z}/{z}, m = {m * 1e3:g} mm, alpha = {alpha:g} deg, b = {kg['face_width_mm']} mm, "
+        f"r_a = {r_a * 1e3:g} mm, x = {x:+.4f}, rho_fP = {opt.rack_fillet_coef:.4f} m, mu = {model['friction_coefficient']}, "
+        f"ambient {model['ambient_C']} C"
+    )
     lines = [
         ("speed (rpm)", "speed_rpm", 1, "{:.0f}"),
         ("torque (N m)", "torque_Nm", 1, "{:.1f}"),
@@ -79,8 +98,12 @@ def main() -> None:
 
     a, b = rows
     print("\nratio of temperature rises, point 2 / point 1 (equal power, speed x2, torque /2):")
-    for label, key in (("VDI 2736 flank", "vdi2736_flank1_C"), ("VDI 2736 root", "vdi2736_root1_C"),
-                       ("Mao bulk", "mao_bulk1_C"), ("VDI root + Blok flash max", "vdi_root_plus_flash_max_C")):
+    for label, key in (
+        ("VDI 2736 flank", "vdi2736_flank1_C"),
+        ("VDI 2736 root", "vdi2736_root1_C"),
+        ("Mao bulk", "mao_bulk1_C"),
+        ("VDI root + Blok flash max", "vdi_root_plus_flash_max_C"),
+    ):
         print(f"  {label:28s} {B.temperature_rise_ratio(a, b, key):.3f}")
     print(f"  {'Blok flash max':28s} {b['flash_max_K'] / a['flash_max_K']:.3f}")
     print(f"  {'bench (camera ambient 21 C)':28s} {(meas[1] - cam[1]) / (meas[0] - cam[0]):.3f}")

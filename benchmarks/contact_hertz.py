@@ -48,30 +48,63 @@ REFINEMENT_SIZES = (0.014, 0.01, 0.007, 0.005)
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    p.add_argument("--contact-size", type=float, default=0.0115, help="element size near the contact, m")
-    p.add_argument("--layers", type=int, default=None, help="element layers (default 3; 1 with --refinement)")
-    p.add_argument("--thickness", type=float, default=None, help="slab thickness, m (default 2 · layers · size)")
-    p.add_argument("--method", default="augmented_lagrangian", choices=("penalty", "augmented_lagrangian"))
-    p.add_argument("--max-krylov-its", type=int, default=ContactOptions.max_krylov_its,
-                   help="GMRES iterations on reused factors before refactoring")
-    p.add_argument("--refactor-krylov-its", type=int, default=ContactOptions.refactor_krylov_its,
-                   help="GMRES iterations above which the factors are replaced at the next solve")
+    p = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
+    p.add_argument(
+        "--contact-size", type=float, default=0.0115, help="element size near the contact, m"
+    )
+    p.add_argument(
+        "--layers", type=int, default=None, help="element layers (default 3; 1 with --refinement)"
+    )
+    p.add_argument(
+        "--thickness",
+        type=float,
+        default=None,
+        help="slab thickness, m (default 2 · layers · size)",
+    )
+    p.add_argument(
+        "--method", default="augmented_lagrangian", choices=("penalty", "augmented_lagrangian")
+    )
+    p.add_argument(
+        "--max-krylov-its",
+        type=int,
+        default=ContactOptions.max_krylov_its,
+        help="GMRES iterations on reused factors before refactoring",
+    )
+    p.add_argument(
+        "--refactor-krylov-its",
+        type=int,
+        default=ContactOptions.refactor_krylov_its,
+        help="GMRES iterations above which the factors are replaced at the next solve",
+    )
     p.add_argument("--refinement", action="store_true", help="convergence table over --sizes")
-    p.add_argument("--sizes", type=float, nargs="+", default=list(REFINEMENT_SIZES), help="contact sizes, m")
+    p.add_argument(
+        "--sizes", type=float, nargs="+", default=list(REFINEMENT_SIZES), help="contact sizes, m"
+    )
     p.add_argument("--ranks-both", action="store_true", help="run on 1 and on 2 ranks (via mpirun)")
-    p.add_argument("--json", type=Path, default=None, help="also write the results as JSON (rank 0)")
+    p.add_argument(
+        "--json", type=Path, default=None, help="also write the results as JSON (rank 0)"
+    )
     return p.parse_args(argv)
 
 
 def _options(args) -> ContactOptions:
-    return ContactOptions(method=args.method, search_distance_rel=2.0, max_krylov_its=args.max_krylov_its,
-                          refactor_krylov_its=args.refactor_krylov_its)
+    return ContactOptions(
+        method=args.method,
+        search_distance_rel=2.0,
+        max_krylov_its=args.max_krylov_its,
+        refactor_krylov_its=args.refactor_krylov_its,
+    )
 
 
-def run_case(comm: MPI.Comm, options: ContactOptions, contact_size: float, layers: int,
-             thickness: float | None) -> dict:
+def run_case(
+    comm: MPI.Comm,
+    options: ContactOptions,
+    contact_size: float,
+    layers: int,
+    thickness: float | None,
+) -> dict:
     """Build, solve and compare one Hertz case (collective); the same dict on every rank."""
     t = thickness if thickness is not None else 2.0 * layers * contact_size
     case = hertz_case(comm, options, contact_size=contact_size, layers=layers, thickness_m=t)
@@ -80,38 +113,55 @@ def run_case(comm: MPI.Comm, options: ContactOptions, contact_size: float, layer
     cpu = time.process_time() - cpu0
     cmp = compare_hertz(case)
     rss_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
-    tmax = lambda v: comm.allreduce(v, op=MPI.MAX)  # noqa: E731
+    tmax = lambda v: comm.allreduce(v, op=MPI.MAX)
     return {
-        "ranks": comm.size, "contact_size_m": contact_size, "layers": layers, "thickness_m": t,
-        "dofs": case.num_dofs(), "a_over_h": cmp.a_analytic_m / contact_size,
-        "newton": rep.newton_iterations, "uzawa": rep.uzawa_iterations,
-        "factorizations": case.problem.factorizations, "linear_solves": rep.linear_solves,
-        "mesh_s": tmax(case.timings_s["mesh"]), "setup_s": tmax(case.timings_s["setup"]),
-        "solve_s": tmax(rep.wall_time_s), "solve_cpu_s": tmax(cpu),
-        "rss_max_MiB": comm.allreduce(rss_mib, op=MPI.MAX), "rss_sum_MiB": comm.allreduce(rss_mib, op=MPI.SUM),
+        "ranks": comm.size,
+        "contact_size_m": contact_size,
+        "layers": layers,
+        "thickness_m": t,
+        "dofs": case.num_dofs(),
+        "a_over_h": cmp.a_analytic_m / contact_size,
+        "newton": rep.newton_iterations,
+        "uzawa": rep.uzawa_iterations,
+        "factorizations": case.problem.factorizations,
+        "linear_solves": rep.linear_solves,
+        "mesh_s": tmax(case.timings_s["mesh"]),
+        "setup_s": tmax(case.timings_s["setup"]),
+        "solve_s": tmax(rep.wall_time_s),
+        "solve_cpu_s": tmax(cpu),
+        "rss_max_MiB": comm.allreduce(rss_mib, op=MPI.MAX),
+        "rss_sum_MiB": comm.allreduce(rss_mib, op=MPI.SUM),
         "max_penetration_m": rep.max_penetration_m,
-        "p0_error": cmp.p0_error, "a_error": cmp.a_error, "a_fit_error": cmp.a_fit_m / cmp.a_analytic_m - 1.0,
+        "p0_error": cmp.p0_error,
+        "a_error": cmp.a_error,
+        "a_fit_error": cmp.a_fit_m / cmp.a_analytic_m - 1.0,
         "a_current_error": cmp.a_current_m / cmp.a_analytic_m - 1.0,
         "force_per_length_N_m": cmp.force_per_length_N_m,
     }
 
 
 def format_timing(rows: list[dict]) -> str:
-    head = (f"{'ranks':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'fact.':>5} {'solves':>6} {'mesh s':>7} "
-            f"{'setup s':>7} {'solve s':>7} {'CPU s':>6} {'RSS max MiB':>11} {'RSS sum MiB':>11} "
-            f"{'p0 err':>7} {'a err':>7}")
+    head = (
+        f"{'ranks':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'fact.':>5} {'solves':>6} {'mesh s':>7} "
+        f"{'setup s':>7} {'solve s':>7} {'CPU s':>6} {'RSS max MiB':>11} {'RSS sum MiB':>11} "
+        f"{'p0 err':>7} {'a err':>7}"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
-        lines.append(f"{r['ranks']:>5} {r['dofs']:>8} {r['newton']:>6} {r['uzawa']:>5} {r['factorizations']:>5} "
-                     f"{r['linear_solves']:>6} {r['mesh_s']:>7.1f} {r['setup_s']:>7.1f} {r['solve_s']:>7.1f} "
-                     f"{r['solve_cpu_s']:>6.1f} {r['rss_max_MiB']:>11.0f} {r['rss_sum_MiB']:>11.0f} "
-                     f"{100 * r['p0_error']:>+6.2f}% {100 * r['a_error']:>+6.2f}%")
+        lines.append(
+            f"{r['ranks']:>5} {r['dofs']:>8} {r['newton']:>6} {r['uzawa']:>5} {r['factorizations']:>5} "
+            f"{r['linear_solves']:>6} {r['mesh_s']:>7.1f} {r['setup_s']:>7.1f} {r['solve_s']:>7.1f} "
+            f"{r['solve_cpu_s']:>6.1f} {r['rss_max_MiB']:>11.0f} {r['rss_sum_MiB']:>11.0f} "
+            f"{100 * r['p0_error']:>+6.2f}% {100 * r['a_error']:>+6.2f}%"
+        )
     return "\n".join(lines)
 
 
 def format_refinement(rows: list[dict]) -> str:
-    head = (f"{'ranks':>5} {'h mm':>6} {'a/h':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'p0 err':>8} {'order':>5} "
-            f"{'a err':>8} {'order':>5} {'a fit':>8} {'a cur.':>8} {'solve s':>7}")
+    head = (
+        f"{'ranks':>5} {'h mm':>6} {'a/h':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'p0 err':>8} {'order':>5} "
+        f"{'a err':>8} {'order':>5} {'a fit':>8} {'a cur.':>8} {'solve s':>7}"
+    )
     lines = [head, "-" * len(head)]
     prev = None
     for r in rows:
@@ -122,10 +172,13 @@ def format_refinement(rows: list[dict]) -> str:
             if prev is None or r[key] == 0 or prev[key] == 0 or prev[key] * r[key] < 0:
                 return f"{'':>5}"
             return f"{math.log(abs(prev[key] / r[key])) / math.log(prev['contact_size_m'] / r['contact_size_m']):>5.2f}"
-        lines.append(f"{r['ranks']:>5} {1e3 * r['contact_size_m']:>6.1f} {r['a_over_h']:>5.2f} {r['dofs']:>8} {r['newton']:>6} "
-                     f"{r['uzawa']:>5} {100 * r['p0_error']:>+7.2f}% {order('p0_error')} {100 * r['a_error']:>+7.2f}% "
-                     f"{order('a_error')} {100 * r['a_fit_error']:>+7.2f}% {100 * r['a_current_error']:>+7.2f}% "
-                     f"{r['solve_s']:>7.1f}")
+
+        lines.append(
+            f"{r['ranks']:>5} {1e3 * r['contact_size_m']:>6.1f} {r['a_over_h']:>5.2f} {r['dofs']:>8} {r['newton']:>6} "
+            f"{r['uzawa']:>5} {100 * r['p0_error']:>+7.2f}% {order('p0_error')} {100 * r['a_error']:>+7.2f}% "
+            f"{order('a_error')} {100 * r['a_fit_error']:>+7.2f}% {100 * r['a_current_error']:>+7.2f}% "
+            f"{r['solve_s']:>7.1f}"
+        )
         prev = r
     return "\n".join(lines)
 
@@ -145,12 +198,22 @@ def ranks_both(args, argv: list[str]) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for n in (1, 2):
             out = Path(tmp) / f"np{n}.json"
-            cmd = [_mpirun(), "-n", str(n), sys.executable, str(Path(__file__).resolve()), *passthrough,
-                   "--json", str(out)]
+            cmd = [
+                _mpirun(),
+                "-n",
+                str(n),
+                sys.executable,
+                str(Path(__file__).resolve()),
+                *passthrough,
+                "--json",
+                str(out),
+            ]
             print(f"$ {' '.join(cmd)}", flush=True)
             proc = subprocess.run(cmd, check=False)
             if proc.returncode != 0:
-                print(f"run on {n} rank(s) failed with exit code {proc.returncode}", file=sys.stderr)
+                print(
+                    f"run on {n} rank(s) failed with exit code {proc.returncode}", file=sys.stderr
+                )
                 return proc.returncode
             rows += json.loads(out.read_text())["rows"]
     print("\n1 and 2 ranks:")
@@ -176,17 +239,24 @@ def main(argv: list[str] | None = None) -> int:
         for h in args.sizes:
             rows.append(run_case(comm, options, h, layers, args.thickness))
             if comm.rank == 0:
-                print(f"  h = {h} m: {rows[-1]['dofs']} DOFs, solve {rows[-1]['solve_s']:.1f} s", flush=True)
+                print(
+                    f"  h = {h} m: {rows[-1]['dofs']} DOFs, solve {rows[-1]['solve_s']:.1f} s",
+                    flush=True,
+                )
     else:
         rows.append(run_case(comm, options, args.contact_size, args.layers or 3, args.thickness))
     load1 = os.getloadavg()[0]
     if comm.rank == 0:
         r = rows[-1]
-        print(f"Hertz line contact, {'refinement' if args.refinement else '3D slab'}: {r['layers']} layer(s), "
-              f"{comm.size} rank(s), {args.method}; load average {load0:.2f} before, {load1:.2f} after")
+        print(
+            f"Hertz line contact, {'refinement' if args.refinement else '3D slab'}: {r['layers']} layer(s), "
+            f"{comm.size} rank(s), {args.method}; load average {load0:.2f} before, {load1:.2f} after"
+        )
         print(format_refinement(rows) if args.refinement else format_timing(rows))
         if args.json:
-            args.json.write_text(json.dumps({"rows": rows, "load_average": [load0, load1]}, indent=2) + "\n")
+            args.json.write_text(
+                json.dumps({"rows": rows, "load_average": [load0, load1]}, indent=2) + "\n"
+            )
     return 0
 
 

@@ -79,11 +79,15 @@ def main() -> None:
     for h, row in matrix.items():
         print(h.ljust(28) + " ".join(str(row[c]).rjust(10) for c in cols))
     ok = sum(matrix[n][n] for n in names)
-    print(f"rank-1 recovery: {ok}/{len(names) * args.seeds}; truth inside the 95 % interval when recovered: "
-          f"{sum(inside.values())}/{ok} (surrogate), {sum(inside_refined.values())}/{ok} (after full-model "
-          f"refinement); null false alarms: {args.seeds - matrix['null']['baseline']}/{args.seeds}")
-    print(f"analysis time per data set: mean {np.mean(t_an):.1f} s, max {np.max(t_an):.1f} s "
-          f"(full-model solves in total {full.solves})")
+    print(
+        f"rank-1 recovery: {ok}/{len(names) * args.seeds}; truth inside the 95 % interval when recovered: "
+        f"{sum(inside.values())}/{ok} (surrogate), {sum(inside_refined.values())}/{ok} (after full-model "
+        f"refinement); null false alarms: {args.seeds - matrix['null']['baseline']}/{args.seeds}"
+    )
+    print(
+        f"analysis time per data set: mean {np.mean(t_an):.1f} s, max {np.max(t_an):.1f} s "
+        f"(full-model solves in total {full.solves})"
+    )
 
 
 if __name__ == "__main__":

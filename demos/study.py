@@ -37,8 +37,16 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.study import load_study, run_study
 
-COARSE_MESH = {"teeth_in_model": 6, "refined_teeth": 4, "layers": 2, "size_flank_mm": 0.3, "size_tip_mm": 0.3,
-               "size_root_mm": 0.4, "size_tooth_mm": 1.2, "size_body_mm": 4.0}
+COARSE_MESH = {
+    "teeth_in_model": 6,
+    "refined_teeth": 4,
+    "layers": 2,
+    "size_flank_mm": 0.3,
+    "size_tip_mm": 0.3,
+    "size_root_mm": 0.4,
+    "size_tooth_mm": 1.2,
+    "size_body_mm": 4.0,
+}
 
 
 def main(argv=None) -> int:
@@ -57,8 +65,16 @@ def main(argv=None) -> int:
         "mesh": COARSE_MESH,
         "cycle": {"positions_per_pitch": 8},
         "contact": {"friction_coefficient": args.friction},
-        "thermal": {"duration_s": args.duration_s, "degree": 1, "output_times_s": [min(300.0, args.duration_s)]},
-        "study": {"speeds_rpm": args.speeds_rpm, "torques_Nm": args.torques_Nm, "parallel": args.parallel},
+        "thermal": {
+            "duration_s": args.duration_s,
+            "degree": 1,
+            "output_times_s": [min(300.0, args.duration_s)],
+        },
+        "study": {
+            "speeds_rpm": args.speeds_rpm,
+            "torques_Nm": args.torques_Nm,
+            "parallel": args.parallel,
+        },
     }
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
@@ -66,12 +82,18 @@ def main(argv=None) -> int:
     comm.barrier()
     res = run_study(load_study(out / "study.toml"), out, comm)
     if comm.rank == 0:
-        print(f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T_max end C':>11} {'VDI flank C':>11}")
+        print(
+            f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T_max end C':>11} {'VDI flank C':>11}"
+        )
         for r in res["results"]:
-            print(f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} {r['max_surface_end_C']:11.1f} "
-                  f"{r['vdi2736_flank_C']:11.1f}")
-        print(f"wrote {out / 'results.csv'}, {out / 'steady_temperature.png'}, "
-              f"{out / 'temperature_histories.png'}, {out / 'study.json'}")
+            print(
+                f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} {r['max_surface_end_C']:11.1f} "
+                f"{r['vdi2736_flank_C']:11.1f}"
+            )
+        print(
+            f"wrote {out / 'results.csv'}, {out / 'steady_temperature.png'}, "
+            f"{out / 'temperature_histories.png'}, {out / 'study.json'}"
+        )
     return 0 if res["complete"] else 1
 
 

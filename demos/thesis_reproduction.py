@@ -51,45 +51,103 @@ from gearfem.config import load_case
 from gearfem.geometry.options import MeshOptions
 from gearfem.study import _mode, dispatch, is_done
 
-COARSE = MeshOptions(teeth_in_model=6, refined_teeth=4, layers=2, size_flank_mm=0.3, size_tip_mm=0.3,
-                     size_root_mm=0.4, size_tooth_mm=1.2, size_body_mm=4.0)
+COARSE = MeshOptions(
+    teeth_in_model=6,
+    refined_teeth=4,
+    layers=2,
+    size_flank_mm=0.3,
+    size_tip_mm=0.3,
+    size_root_mm=0.4,
+    size_tooth_mm=1.2,
+    size_body_mm=4.0,
+)
 
 # label, speed rpm, torque N m, duration s, hysteresis, thesis statement, thesis value C, bench C
 POINTS = [
     ("20Nm", 1000.0, 20.0, 6000.0, True, "about 137 C (full 30-tooth model)", 137.0, None),
-    ("20Nm_friction", 1000.0, 20.0, 6000.0, False, "friction alone: nearly 100 C rise", 123.0, None),
+    (
+        "20Nm_friction",
+        1000.0,
+        20.0,
+        6000.0,
+        False,
+        "friction alone: nearly 100 C rise",
+        123.0,
+        None,
+    ),
     ("15Nm", 1000.0, 15.0, 6000.0, True, "hysteresis adds about 2 C", None, None),
     ("15Nm_friction", 1000.0, 15.0, 6000.0, False, "-", None, None),
-    ("10Nm_2000rpm", 2000.0, 10.0, 6000.0, True, "full and fractional models differ by 1.5 C", None, None),
-    ("bench_8Nm", 1000.0, 8.0, 900.0, True, "about 5 C below the bench after lowering h", 105.0, 110.0),
-    ("bench_4Nm", 2000.0, 4.0, 900.0, True, "about 8 C above the bench after lowering h", 57.0, 49.0),
+    (
+        "10Nm_2000rpm",
+        2000.0,
+        10.0,
+        6000.0,
+        True,
+        "full and fractional models differ by 1.5 C",
+        None,
+        None,
+    ),
+    (
+        "bench_8Nm",
+        1000.0,
+        8.0,
+        900.0,
+        True,
+        "about 5 C below the bench after lowering h",
+        105.0,
+        110.0,
+    ),
+    (
+        "bench_4Nm",
+        2000.0,
+        4.0,
+        900.0,
+        True,
+        "about 8 C above the bench after lowering h",
+        57.0,
+        49.0,
+    ),
 ]
 
 
 def cases(mesh: str, degree: int | None):
     base = load_case(None)
     if mesh == "coarse":
-        base = dataclasses.replace(base, mesh=COARSE, cycle=dataclasses.replace(base.cycle, positions_per_pitch=8))
+        base = dataclasses.replace(
+            base, mesh=COARSE, cycle=dataclasses.replace(base.cycle, positions_per_pitch=8)
+        )
     elif mesh == "fine":
-        base = dataclasses.replace(base, mesh=MeshOptions(), cycle=dataclasses.replace(base.cycle,
-                                                                                     positions_per_pitch=24))
+        base = dataclasses.replace(
+            base, mesh=MeshOptions(), cycle=dataclasses.replace(base.cycle, positions_per_pitch=24)
+        )
     deg = degree or 2
     out = []
     for label, n, T, dur, hyst, stmt, thesis, bench in POINTS:
         c = base.with_operating(speed_rpm=n, torque_Nm=T)
-        c = dataclasses.replace(c, name=f"thesis reproduction {label}",
-                                sources=dataclasses.replace(c.sources, hysteresis=hyst),
-                                thermal=dataclasses.replace(c.thermal, duration_s=dur, degree=deg,
-                                                            output_times_s=(900.0,) if dur > 900.0 else ()))
-        out.append((label, c, dict(statement=stmt, thesis_C=thesis, bench_C=bench, hysteresis=hyst)))
+        c = dataclasses.replace(
+            c,
+            name=f"thesis reproduction {label}",
+            sources=dataclasses.replace(c.sources, hysteresis=hyst),
+            thermal=dataclasses.replace(
+                c.thermal,
+                duration_s=dur,
+                degree=deg,
+                output_times_s=(900.0,) if dur > 900.0 else (),
+            ),
+        )
+        out.append(
+            (label, c, dict(statement=stmt, thesis_C=thesis, bench_C=bench, hysteresis=hyst))
+        )
     return out
 
 
 def table(rows, out: Path) -> str:
     by = {r["label"]: r for r in rows}
-    lines = ["| point | speed rpm | torque N m | t s | hysteresis | ours T_max C | ours at 900 s C | "
-             "ours bulk C | friction W/gear | hysteresis W/gear | VDI 2736 flank C | thesis | bench C |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| point | speed rpm | torque N m | t s | hysteresis | ours T_max C | ours at 900 s C | "
+        "ours bulk C | friction W/gear | hysteresis W/gear | VDI 2736 flank C | thesis | bench C |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         at900 = r.get("at_900_C")
         lines.append(
@@ -97,12 +155,15 @@ def table(rows, out: Path) -> str:
             f"{'on' if r['hysteresis'] else 'off'} | {r['max_surface_C']:.1f} | "
             f"{'' if at900 is None else f'{at900:.1f}'} | {r['mean_bulk_C']:.1f} | {r['friction_W']:.1f} | "
             f"{r['hysteresis_W']:.2f} | {r['vdi2736_flank_C']:.1f} | {r['statement']} | "
-            f"{'' if r['bench_C'] is None else r['bench_C']:} |")
+            f"{'' if r['bench_C'] is None else r['bench_C']:} |"
+        )
     for T in ("20Nm", "15Nm"):
         if T in by and f"{T}_friction" in by:
             d = by[T]["max_surface_C"] - by[f"{T}_friction"]["max_surface_C"]
-            lines.append(f"\nHysteresis adds {d:.1f} C to the maximum surface temperature at {T[:-2]} N m "
-                         f"(thesis: {'about 6' if T == '20Nm' else 'about 2'} C).")
+            lines.append(
+                f"\nHysteresis adds {d:.1f} C to the maximum surface temperature at {T[:-2]} N m "
+                f"(thesis: {'about 6' if T == '20Nm' else 'about 2'} C)."
+            )
     text = "\n".join(lines) + "\n"
     (out / "reproduction.md").write_text(text)
     return text
@@ -117,9 +178,16 @@ def plot(rows, out: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(8, 5))
     for r in rows:
-        d = np.genfromtxt(out / "cases" / r["label"] / "thermal" / "thermal_history.csv", delimiter=",", names=True)
-        line, = ax.plot(d["time_s"] / 60, d["T_max_surface_C"], label=f"{r['label']} ({r['speed_rpm']:g} rpm, "
-                                                                     f"{r['torque_Nm']:g} N m)")
+        d = np.genfromtxt(
+            out / "cases" / r["label"] / "thermal" / "thermal_history.csv",
+            delimiter=",",
+            names=True,
+        )
+        (line,) = ax.plot(
+            d["time_s"] / 60,
+            d["T_max_surface_C"],
+            label=f"{r['label']} ({r['speed_rpm']:g} rpm, {r['torque_Nm']:g} N m)",
+        )
         if r["bench_C"] is not None:
             ax.plot([15.0], [r["bench_C"]], "s", color=line.get_color(), ms=9, mfc="none")
         if r["thesis_C"] is not None:
@@ -158,25 +226,43 @@ def main(argv=None) -> int:
     reps = {}
     for _, c, _ in todo:
         reps.setdefault(c.operating.torque_Nm, c)
-    dispatch(comm, _mode("auto", len(reps), comm.size), list(reps.values()), lambda c, sub: pipeline.cycle(c, sub))
+    dispatch(
+        comm,
+        _mode("auto", len(reps), comm.size),
+        list(reps.values()),
+        lambda c, sub: pipeline.cycle(c, sub),
+    )
     pending = [(lab, c) for lab, c, _ in todo if not is_done(c, out / "cases" / lab)]
-    dispatch(comm, _mode("auto", len(pending), comm.size), pending,
-              lambda item, sub: pipeline.run(item[1], out / "cases" / item[0], sub, progress=False,
-                                             write_fields=False))
+    dispatch(
+        comm,
+        _mode("auto", len(pending), comm.size),
+        pending,
+        lambda item, sub: pipeline.run(
+            item[1], out / "cases" / item[0], sub, progress=False, write_fields=False
+        ),
+    )
     if comm.rank == 0:
         rows = []
         for lab, c, meta in todo:
             s = json.loads((out / "cases" / lab / "summary.json").read_text())
             th = s["thermal"]
             frac = th["model_fraction"]
-            rows.append(dict(label=lab, speed_rpm=c.operating.speed_rpm, torque_Nm=c.operating.torque_Nm,
-                             time_s=th["time_s"], max_surface_C=th["final_temperatures_C"]["max_surface"],
-                             mean_bulk_C=th["final_temperatures_C"]["mean_bulk"],
-                             at_900_C=th.get("at_times_C", {}).get("900", {}).get("max_surface"),
-                             friction_W=th["final_balance_W"]["friction_W"] / frac,
-                             hysteresis_W=th["final_balance_W"]["hysteresis_W"] / frac,
-                             vdi2736_flank_C=s["baselines"]["vdi2736_flank1_C"],
-                             effective_contact_ratio=s["cycle"]["effective_contact_ratio"], **meta))
+            rows.append(
+                dict(
+                    label=lab,
+                    speed_rpm=c.operating.speed_rpm,
+                    torque_Nm=c.operating.torque_Nm,
+                    time_s=th["time_s"],
+                    max_surface_C=th["final_temperatures_C"]["max_surface"],
+                    mean_bulk_C=th["final_temperatures_C"]["mean_bulk"],
+                    at_900_C=th.get("at_times_C", {}).get("900", {}).get("max_surface"),
+                    friction_W=th["final_balance_W"]["friction_W"] / frac,
+                    hysteresis_W=th["final_balance_W"]["hysteresis_W"] / frac,
+                    vdi2736_flank_C=s["baselines"]["vdi2736_flank1_C"],
+                    effective_contact_ratio=s["cycle"]["effective_contact_ratio"],
+                    **meta,
+                )
+            )
         import csv
 
         with (out / "reproduction.csv").open("w", newline="") as fh:
@@ -185,9 +271,20 @@ def main(argv=None) -> int:
             w.writerows(rows)
         print(table(rows, out))
         plot(rows, out)
-        (out / "summary.json").write_text(json.dumps({"mesh": args.mesh, "rows": rows, "ranks": comm.size,
-                                                      "wall_time_s": time.perf_counter() - t0}, indent=2))
-        print(f"wrote {out / 'reproduction.md'}, {out / 'reproduction.csv'}, {out / 'reproduction.png'}")
+        (out / "summary.json").write_text(
+            json.dumps(
+                {
+                    "mesh": args.mesh,
+                    "rows": rows,
+                    "ranks": comm.size,
+                    "wall_time_s": time.perf_counter() - t0,
+                },
+                indent=2,
+            )
+        )
+        print(
+            f"wrote {out / 'reproduction.md'}, {out / 'reproduction.csv'}, {out / 'reproduction.png'}"
+        )
     comm.barrier()
     return 0
 

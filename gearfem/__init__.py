@@ -38,7 +38,9 @@ except ImportError:
 try:
     import dolfinx as _dolfinx
 except ImportError as _err:  # pragma: no cover - exercised in a subprocess test
-    raise MissingDependencyError(f"gearfem needs DOLFINx, which is not importable ({_err}). {_INSTALL_HINT}") from _err
+    raise MissingDependencyError(
+        f"gearfem needs DOLFINx, which is not importable ({_err}). {_INSTALL_HINT}"
+    ) from _err
 
 
 def _version_tuple(text: str) -> tuple[int, ...]:
@@ -57,4 +59,4 @@ if _version_tuple(getattr(_dolfinx, "__version__", "0")) < MIN_DOLFINX:
         f"{getattr(_dolfinx, '__version__', 'unknown')} at {getattr(_dolfinx, '__file__', '?')}. {_INSTALL_HINT}"
     )
 
-__all__ = ["__version__", "MIN_DOLFINX"]
+__all__ = ["MIN_DOLFINX", "__version__"]

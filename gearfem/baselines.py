@@ -173,33 +173,80 @@ def _pair(
     alpha = _deg("pressure_angle_deg", pressure_angle_deg)
     r1, r2 = m * z1 / 2.0, m * z2 / 2.0
     rb1, rb2 = r1 * math.cos(alpha), r2 * math.cos(alpha)
-    ra1 = require_range("tip_radius1_m", tip_radius1_m, r1, r1 + 3.0 * m, lo_open=True, unit="m",
-                        reason="between the reference radius m z1/2 and m z1/2 + 3 m")
-    ra2 = require_range("tip_radius2_m", tip_radius2_m, r2, r2 + 3.0 * m, lo_open=True, unit="m",
-                        reason="between the reference radius m z2/2 and m z2/2 + 3 m")
+    ra1 = require_range(
+        "tip_radius1_m",
+        tip_radius1_m,
+        r1,
+        r1 + 3.0 * m,
+        lo_open=True,
+        unit="m",
+        reason="between the reference radius m z1/2 and m z1/2 + 3 m",
+    )
+    ra2 = require_range(
+        "tip_radius2_m",
+        tip_radius2_m,
+        r2,
+        r2 + 3.0 * m,
+        lo_open=True,
+        unit="m",
+        reason="between the reference radius m z2/2 and m z2/2 + 3 m",
+    )
     a = require_positive("centre_distance_m", centre_distance_m)
     if a <= rb1 + rb2:
-        raise ParameterError("centre_distance_m", a, f"> {rb1 + rb2:.6g} m", "must exceed the sum of the base radii")
+        raise ParameterError(
+            "centre_distance_m", a, f"> {rb1 + rb2:.6g} m", "must exceed the sum of the base radii"
+        )
     alpha_w = math.acos((rb1 + rb2) / a)
     T1C, T2C = rb1 * math.tan(alpha_w), rb2 * math.tan(alpha_w)
     g_a = math.sqrt(ra1**2 - rb1**2) - T1C
     g_f = math.sqrt(ra2**2 - rb2**2) - T2C
     if g_a <= 0 or g_f <= 0:
-        raise ParameterError("tip_radius1_m" if g_a <= 0 else "tip_radius2_m",
-                             ra1 if g_a <= 0 else ra2, "a tip circle that reaches past the pitch point",
-                             f"at centre distance {a:g} m")
+        raise ParameterError(
+            "tip_radius1_m" if g_a <= 0 else "tip_radius2_m",
+            ra1 if g_a <= 0 else ra2,
+            "a tip circle that reaches past the pitch point",
+            f"at centre distance {a:g} m",
+        )
     if g_a > T2C or g_f > T1C:
-        raise ParameterError("tip_radius1_m" if g_a > T2C else "tip_radius2_m",
-                             ra1 if g_a > T2C else ra2, "a path of contact inside T1T2",
-                             "involute interference: the tip contacts beyond the mate's base-tangent point")
+        raise ParameterError(
+            "tip_radius1_m" if g_a > T2C else "tip_radius2_m",
+            ra1 if g_a > T2C else ra2,
+            "a path of contact inside T1T2",
+            "involute interference: the tip contacts beyond the mate's base-tangent point",
+        )
     pb = math.pi * m * math.cos(alpha)
     eps_1, eps_2 = g_a / pb, g_f / pb
     eps_alpha = eps_1 + eps_2
     if not 1.0 <= eps_alpha < 2.0:
-        raise ParameterError("tip_radius1_m", ra1, "tip radii giving a contact ratio in [1, 2)",
-                             f"contact ratio is {eps_alpha:.4f}")
-    return _Pair(z1, z2, z2 / z1, m, alpha, r1, r2, rb1, rb2, ra1, ra2, a, alpha_w, pb, T1C, T2C,
-                 g_a, g_f, eps_1, eps_2, eps_alpha)
+        raise ParameterError(
+            "tip_radius1_m",
+            ra1,
+            "tip radii giving a contact ratio in [1, 2)",
+            f"contact ratio is {eps_alpha:.4f}",
+        )
+    return _Pair(
+        z1,
+        z2,
+        z2 / z1,
+        m,
+        alpha,
+        r1,
+        r2,
+        rb1,
+        rb2,
+        ra1,
+        ra2,
+        a,
+        alpha_w,
+        pb,
+        T1C,
+        T2C,
+        g_a,
+        g_f,
+        eps_1,
+        eps_2,
+        eps_alpha,
+    )
 
 
 def _rigid_load_share(s_m: np.ndarray, p: _Pair) -> np.ndarray:
@@ -221,8 +268,10 @@ def _rigid_load_share(s_m: np.ndarray, p: _Pair) -> np.ndarray:
 
 def _int_abs(lo: float, hi: float) -> float:
     """Exact integral of |x| dx from lo to hi (lo <= hi)."""
+
     def F(x: float) -> float:
         return 0.5 * x * abs(x)
+
     return F(hi) - F(lo)
 
 
@@ -286,9 +335,15 @@ def tooth_loss_factor_from_load_share(
     s = np.asarray(path_position_m, dtype=float)
     X = np.asarray(load_share, dtype=float)
     if s.ndim != 1 or s.shape != X.shape or s.size < 2:
-        raise ParameterError("load_share", X.shape, f"a 1-D array of the shape of path_position_m {s.shape}")
+        raise ParameterError(
+            "load_share", X.shape, f"a 1-D array of the shape of path_position_m {s.shape}"
+        )
     if np.any(np.diff(s) <= 0) or not np.all(np.isfinite(s)):
-        raise ParameterError("path_position_m", "non-increasing or non-finite", "strictly increasing finite positions")
+        raise ParameterError(
+            "path_position_m",
+            "non-increasing or non-finite",
+            "strictly increasing finite positions",
+        )
     if np.any(X < 0) or np.any(X > 1) or not np.all(np.isfinite(X)):
         raise ParameterError("load_share", f"[{X.min():g}, {X.max():g}]", "fractions in [0, 1]")
     z1 = require_int("teeth1", z1, 5)
@@ -355,7 +410,9 @@ def vdi2736_temperature_C(
     housing = 0.0
     if R > 0:
         if housing_area_m2 is None:
-            raise ParameterError("housing_area_m2", None, "> 0 m^2", "needed when housing_resistance_K_m2_W > 0")
+            raise ParameterError(
+                "housing_area_m2", None, "> 0 m^2", "needed when housing_resistance_K_m2_W > 0"
+            )
         housing = R / require_positive("housing_area_m2", housing_area_m2)
     rise = P * mu * H_V * (k / (b_mm * z * (v_t * m_mm) ** 0.75) + housing) * ED**0.64
     return theta_0 + rise
@@ -411,8 +468,15 @@ def mao_bulk_temperature_rise_K(
     Z = require_int("teeth", teeth, 5)
     h = require_positive("face_width_m", face_width_m)
     r = require_positive("reference_radius_m", reference_radius_m)
-    r_out = require_range("tip_radius_m", tip_radius_m, r, 10.0 * r, lo_open=True, unit="m",
-                          reason="must exceed the reference radius")
+    r_out = require_range(
+        "tip_radius_m",
+        tip_radius_m,
+        r,
+        10.0 * r,
+        lo_open=True,
+        unit="m",
+        reason="must exceed the reference radius",
+    )
     rho = require_positive("air_density_kg_m3", air_density_kg_m3)
     cp = require_positive("air_specific_heat_J_kgK", air_specific_heat_J_kgK)
     return 0.625 * mu * T / (rho * cp * Z * h * (r_out**2 - r**2))
@@ -423,7 +487,9 @@ def mao_bulk_temperature_rise_K(
 # ------------------------------------------------------------------------------------------------
 
 
-def effective_modulus_Pa(youngs1_Pa: float, poisson1: float, youngs2_Pa: float, poisson2: float) -> float:
+def effective_modulus_Pa(
+    youngs1_Pa: float, poisson1: float, youngs2_Pa: float, poisson2: float
+) -> float:
     """Contact modulus E* = 1 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2) [Joh1985, eq. 4.22 notation]."""
     E1 = require_positive("youngs1_Pa", youngs1_Pa)
     E2 = require_positive("youngs2_Pa", youngs2_Pa)
@@ -455,7 +521,9 @@ def hertz_line_contact(
     if np.any(w < 0) or not np.all(np.isfinite(w)):
         raise ParameterError("load_per_length_N_m", "negative or non-finite", ">= 0 N/m")
     if np.any(R1 <= 0) or np.any(R2 <= 0):
-        raise ParameterError("radius_m", f"min {min(R1.min(), R2.min()):g}", "> 0 m (convex surfaces)")
+        raise ParameterError(
+            "radius_m", f"min {min(R1.min(), R2.min()):g}", "> 0 m (convex surfaces)"
+        )
     Es = require_positive("effective_modulus", effective_modulus)
     R = R1 * R2 / (R1 + R2)
     a = np.sqrt(4.0 * w * R / (math.pi * Es))
@@ -481,8 +549,12 @@ def involute_curvature_radii_m(
     p = _pair(z1, z2, module_m, pressure_angle_deg, tip_radius1_m, tip_radius2_m, centre_distance_m)
     s = np.asarray(path_position_m, dtype=float)
     if np.any(s < -p.g_f - 1e-12 * p.m) or np.any(s > p.g_a + 1e-12 * p.m):
-        raise ParameterError("path_position_m", f"[{s.min():g}, {s.max():g}]", f"[{-p.g_f:g}, {p.g_a:g}] m",
-                             "the path of contact")
+        raise ParameterError(
+            "path_position_m",
+            f"[{s.min():g}, {s.max():g}]",
+            f"[{-p.g_f:g}, {p.g_a:g}] m",
+            "the path of contact",
+        )
     return p.T1C + s, p.T2C - s
 
 
@@ -548,7 +620,9 @@ def band_source_flash_K(
     w = np.asarray(width_m, dtype=float)
     v = np.asarray(speed_m_s, dtype=float)
     if np.any(w < 0) or np.any(v <= 0) or np.any(q < 0):
-        raise ParameterError("band source", "negative flux/width or non-positive speed", "q >= 0, w >= 0, v > 0")
+        raise ParameterError(
+            "band source", "negative flux/width or non-positive speed", "q >= 0, w >= 0, v > 0"
+        )
     b = require_positive("effusivity_value", effusivity_value)
     FF = require_positive("form_factor", form_factor)
     return FF * q * np.sqrt(w / v) / b
@@ -691,7 +765,9 @@ def flash_temperature_along_path(
     mu = _mu("mu", mu)
     if path_position_m is None:
         if load_per_length_N_m is not None:
-            raise ParameterError("path_position_m", None, "positions for the given load_per_length_N_m")
+            raise ParameterError(
+                "path_position_m", None, "positions for the given load_per_length_N_m"
+            )
         n = require_int("n_points", n_points, 3)
         s = np.linspace(-p.g_f, p.g_a, n)
         w = _rigid_load_share(s, p) * (T1 / p.rb1) / b
@@ -702,13 +778,22 @@ def flash_temperature_along_path(
         else:
             w = np.asarray(load_per_length_N_m, dtype=float)
             if w.shape != s.shape:
-                raise ParameterError("load_per_length_N_m", w.shape, f"the shape of path_position_m {s.shape}")
+                raise ParameterError(
+                    "load_per_length_N_m", w.shape, f"the shape of path_position_m {s.shape}"
+                )
         if s.ndim != 1 or np.any(np.diff(s) <= 0):
-            raise ParameterError("path_position_m", "not strictly increasing", "strictly increasing positions (m)")
-    rho1, rho2 = involute_curvature_radii_m(s, z1, z2, module_m, pressure_angle_deg,
-                                            tip_radius1_m, tip_radius2_m, centre_distance_m)
-    Es = effective_modulus_Pa(material1.youngs_modulus_Pa, material1.poissons_ratio,
-                              material2.youngs_modulus_Pa, material2.poissons_ratio)
+            raise ParameterError(
+                "path_position_m", "not strictly increasing", "strictly increasing positions (m)"
+            )
+    rho1, rho2 = involute_curvature_radii_m(
+        s, z1, z2, module_m, pressure_angle_deg, tip_radius1_m, tip_radius2_m, centre_distance_m
+    )
+    Es = effective_modulus_Pa(
+        material1.youngs_modulus_Pa,
+        material1.poissons_ratio,
+        material2.youngs_modulus_Pa,
+        material2.poissons_ratio,
+    )
     a, p0 = hertz_line_contact(w, rho1, rho2, Es)
     omega1 = n1 * 2.0 * math.pi / 60.0
     omega2 = omega1 * p.z1 / p.z2
@@ -720,9 +805,17 @@ def flash_temperature_along_path(
     kappa1 = m1.thermal_conductivity_W_mK / (m1.density_kg_m3 * m1.specific_heat_J_kgK)
     kappa2 = m2.thermal_conductivity_W_mK / (m2.density_kg_m3 * m2.specific_heat_J_kgK)
     return FlashTemperatureCurve(
-        s_m=s, roll_angle1_deg=np.degrees(s / p.rb1), load_per_length_N_m=w, half_width_m=a,
-        peak_pressure_Pa=p0, speed1_m_s=v1, speed2_m_s=v2, sliding_speed_m_s=np.abs(v1 - v2),
-        flash_K=theta, peclet1=v1 * a / (2.0 * kappa1), peclet2=v2 * a / (2.0 * kappa2),
+        s_m=s,
+        roll_angle1_deg=np.degrees(s / p.rb1),
+        load_per_length_N_m=w,
+        half_width_m=a,
+        peak_pressure_Pa=p0,
+        speed1_m_s=v1,
+        speed2_m_s=v2,
+        sliding_speed_m_s=np.abs(v1 - v2),
+        flash_K=theta,
+        peclet1=v1 * a / (2.0 * kappa1),
+        peclet2=v2 * a / (2.0 * kappa2),
     )
 
 
@@ -731,7 +824,9 @@ def flash_temperature_along_path(
 # ------------------------------------------------------------------------------------------------
 
 
-def profile_shift_from_thickness(thickness_m: float, module_m: float, pressure_angle_deg: float) -> float:
+def profile_shift_from_thickness(
+    thickness_m: float, module_m: float, pressure_angle_deg: float
+) -> float:
     """Profile shift coefficient x from the circular tooth thickness s at the reference circle.
 
     s = m (pi/2 + 2 x tan(alpha)) (ISO 21771), so x = (s/m - pi/2) / (2 tan(alpha)). For a tooth
@@ -739,7 +834,9 @@ def profile_shift_from_thickness(thickness_m: float, module_m: float, pressure_a
     tooth), which is what the root geometry of :func:`root_form_factors` depends on.
     """
     m = require_positive("module_m", module_m)
-    s = require_range("thickness_m", thickness_m, 0.0, math.pi * m, lo_open=True, hi_open=True, unit="m")
+    s = require_range(
+        "thickness_m", thickness_m, 0.0, math.pi * m, lo_open=True, hi_open=True, unit="m"
+    )
     alpha = _deg("pressure_angle_deg", pressure_angle_deg)
     return (s / m - math.pi / 2.0) / (2.0 * math.tan(alpha))
 
@@ -757,8 +854,12 @@ def max_rack_fillet_coef(pressure_angle_deg: float, dedendum_coef: float = 1.25)
     h = require_positive("dedendum_coef", dedendum_coef)
     half_tip = math.pi / 4.0 - h * math.tan(alpha)
     if half_tip <= 0:
-        raise ParameterError("dedendum_coef", h, f"< {math.pi / 4 / math.tan(alpha):.4f}",
-                             "the rack tooth comes to a point before reaching this depth")
+        raise ParameterError(
+            "dedendum_coef",
+            h,
+            f"< {math.pi / 4 / math.tan(alpha):.4f}",
+            "the rack tooth comes to a point before reaching this depth",
+        )
     return half_tip * math.cos(alpha) / (1.0 - math.sin(alpha))
 
 
@@ -850,11 +951,24 @@ def root_form_factors(
     load_at = require_choice("load_at", load_at, ("single_contact", "tip"))
     hfP = require_positive("rack_dedendum_coef", rack_dedendum_coef) * m
     rho_max = max_rack_fillet_coef(pressure_angle_deg, rack_dedendum_coef)
-    rhofP = require_range("rack_fillet_coef", rack_fillet_coef, 0.0, rho_max, lo_open=True,
-                          reason="the tip fillet must fit the rack tooth (full round at the maximum)") * m
+    rhofP = (
+        require_range(
+            "rack_fillet_coef",
+            rack_fillet_coef,
+            0.0,
+            rho_max,
+            lo_open=True,
+            reason="the tip fillet must fit the rack tooth (full round at the maximum)",
+        )
+        * m
+    )
     r, rb = m * z / 2.0, m * z * math.cos(alpha) / 2.0
     ra = require_range("tip_radius_m", tip_radius_m, r - m, r + 3.0 * m, lo_open=True, unit="m")
-    E = math.pi / 4.0 * m - hfP * math.tan(alpha) - (1.0 - math.sin(alpha)) * rhofP / math.cos(alpha)
+    E = (
+        math.pi / 4.0 * m
+        - hfP * math.tan(alpha)
+        - (1.0 - math.sin(alpha)) * rhofP / math.cos(alpha)
+    )
     G = rhofP / m - hfP / m + x
     H = 2.0 / z * (math.pi / 2.0 - E / m) - math.pi / 3.0
     theta = math.pi / 6.0
@@ -864,39 +978,76 @@ def root_form_factors(
         step = f / df
         theta -= step
         if not 0.0 < theta < math.pi / 2.0:
-            raise ConvergenceError("ISO 6336-3 theta iteration", f"left (0, pi/2): theta = {theta:.6g}",
-                                   step=f"z = {z}, x = {x:g}", iteration=it)
+            raise ConvergenceError(
+                "ISO 6336-3 theta iteration",
+                f"left (0, pi/2): theta = {theta:.6g}",
+                step=f"z = {z}, x = {x:g}",
+                iteration=it,
+            )
         if abs(step) < 1e-14:
             break
     else:
-        raise ConvergenceError("ISO 6336-3 theta iteration", "no convergence in 100 Newton steps",
-                               step=f"z = {z}, x = {x:g}", iteration=100, residual=abs(f))
-    s_Fn = m * (z * math.sin(math.pi / 3.0 - theta) + math.sqrt(3.0) * (G / math.cos(theta) - rhofP / m))
+        raise ConvergenceError(
+            "ISO 6336-3 theta iteration",
+            "no convergence in 100 Newton steps",
+            step=f"z = {z}, x = {x:g}",
+            iteration=100,
+            residual=abs(f),
+        )
+    s_Fn = m * (
+        z * math.sin(math.pi / 3.0 - theta) + math.sqrt(3.0) * (G / math.cos(theta) - rhofP / m)
+    )
     rho_F = m * (rhofP / m + 2.0 * G**2 / (math.cos(theta) * (z * math.cos(theta) ** 2 - 2.0 * G)))
     if load_at == "tip":
         d_en = 2.0 * ra
     else:
         if contact_ratio is None:
-            raise ParameterError("contact_ratio", None, "eps_alpha in [1, 2)", "needed for load_at='single_contact'")
+            raise ParameterError(
+                "contact_ratio", None, "eps_alpha in [1, 2)", "needed for load_at='single_contact'"
+            )
         eps = require_range("contact_ratio", contact_ratio, 1.0, 2.0, hi_open=True)
         pb = math.pi * m * math.cos(alpha)
         d_en = 2.0 * math.sqrt((math.sqrt(ra**2 - rb**2) - pb * (eps - 1.0)) ** 2 + rb**2)
     alpha_en = math.acos(rb / (d_en / 2.0))
     gamma_e = (math.pi / 2.0 + 2.0 * x * math.tan(alpha)) / z + _inv(alpha) - _inv(alpha_en)
     alpha_Fen = alpha_en - gamma_e
-    h_Fe = 0.5 * m * ((math.cos(gamma_e) - math.sin(gamma_e) * math.tan(alpha_Fen)) * d_en / m
-                      - z * math.cos(math.pi / 3.0 - theta) - G / math.cos(theta) + rhofP / m)
+    h_Fe = (
+        0.5
+        * m
+        * (
+            (math.cos(gamma_e) - math.sin(gamma_e) * math.tan(alpha_Fen)) * d_en / m
+            - z * math.cos(math.pi / 3.0 - theta)
+            - G / math.cos(theta)
+            + rhofP / m
+        )
+    )
     if s_Fn <= 0 or rho_F <= 0 or h_Fe <= 0:
-        raise ParameterError("profile_shift", x, "a tooth with a positive root chord and moment arm",
-                             f"s_Fn = {s_Fn:g} m, h_Fe = {h_Fe:g} m, rho_F = {rho_F:g} m")
+        raise ParameterError(
+            "profile_shift",
+            x,
+            "a tooth with a positive root chord and moment arm",
+            f"s_Fn = {s_Fn:g} m, h_Fe = {h_Fe:g} m, rho_F = {rho_F:g} m",
+        )
     Y_F = 6.0 * (h_Fe / m) * math.cos(alpha_Fen) / ((s_Fn / m) ** 2 * math.cos(alpha))
     L = s_Fn / h_Fe
     q_s = s_Fn / (2.0 * rho_F)
     Y_S = (1.2 + 0.13 * L) * q_s ** (1.0 / (1.21 + 2.3 / L))
-    out = RootFormFactors(Y_F, Y_S, s_Fn, h_Fe, rho_F, math.degrees(alpha_Fen), math.degrees(theta),
-                          d_en, q_s, load_at)
+    out = RootFormFactors(
+        Y_F,
+        Y_S,
+        s_Fn,
+        h_Fe,
+        rho_F,
+        math.degrees(alpha_Fen),
+        math.degrees(theta),
+        d_en,
+        q_s,
+        load_at,
+    )
     if not out.Y_S_in_range:
-        log.warning("ISO 6336-3 Y_S used outside its range 1 <= q_s < 8 (q_s = %.3f, z = %d)", q_s, z)
+        log.warning(
+            "ISO 6336-3 Y_S used outside its range 1 <= q_s < 8 (q_s = %.3f, z = %d)", q_s, z
+        )
     return out
 
 
@@ -972,10 +1123,16 @@ class BaselineOptions:
     def __post_init__(self) -> None:
         require_positive("baselines.vdi_k_theta_flank", self.vdi_k_theta_flank)
         require_positive("baselines.vdi_k_theta_root", self.vdi_k_theta_root)
-        require_nonnegative("baselines.vdi_housing_resistance_K_m2_W", self.vdi_housing_resistance_K_m2_W)
+        require_nonnegative(
+            "baselines.vdi_housing_resistance_K_m2_W", self.vdi_housing_resistance_K_m2_W
+        )
         if self.vdi_housing_resistance_K_m2_W > 0 and self.vdi_housing_area_m2 is None:
-            raise ParameterError("baselines.vdi_housing_area_m2", None, "> 0 m^2",
-                                 "needed when vdi_housing_resistance_K_m2_W > 0")
+            raise ParameterError(
+                "baselines.vdi_housing_area_m2",
+                None,
+                "> 0 m^2",
+                "needed when vdi_housing_resistance_K_m2_W > 0",
+            )
         if self.vdi_housing_area_m2 is not None:
             require_positive("baselines.vdi_housing_area_m2", self.vdi_housing_area_m2)
         require_range("baselines.vdi_duty_cycle", self.vdi_duty_cycle, 0.0, 1.0, lo_open=True)
@@ -1034,64 +1191,141 @@ def baseline_summary(
     T1 = require_positive("torque_Nm", torque_Nm)
     mu = _mu("mu", mu)
     b = require_positive("face_width_m", face_width_m)
-    p = _pair(teeth1, teeth2, module_m, pressure_angle_deg, tip_radius1_m, tip_radius2_m, centre_distance_m)
+    p = _pair(
+        teeth1,
+        teeth2,
+        module_m,
+        pressure_angle_deg,
+        tip_radius1_m,
+        tip_radius2_m,
+        centre_distance_m,
+    )
     omega1 = n1 * 2.0 * math.pi / 60.0
     power = T1 * omega1
     v_t = omega1 * p.r1
     Ft = T1 / p.r1
     Fbn = T1 / p.rb1
-    H_V = tooth_loss_factor(teeth1, teeth2, module_m, pressure_angle_deg, tip_radius1_m, tip_radius2_m,
-                            centre_distance_m)
+    H_V = tooth_loss_factor(
+        teeth1,
+        teeth2,
+        module_m,
+        pressure_angle_deg,
+        tip_radius1_m,
+        tip_radius2_m,
+        centre_distance_m,
+    )
     out: dict[str, Any] = {
-        "speed_rpm": n1, "torque_Nm": T1, "mu": mu, "ambient_C": ambient_C, "power_W": power,
-        "pitch_line_speed_m_s": v_t, "tangential_force_N": Ft, "normal_force_N": Fbn,
-        "eps_1": p.eps_1, "eps_2": p.eps_2, "contact_ratio": p.eps_alpha,
-        "tooth_loss_factor_HV": H_V, "friction_power_W": mu * H_V * power,
+        "speed_rpm": n1,
+        "torque_Nm": T1,
+        "mu": mu,
+        "ambient_C": ambient_C,
+        "power_W": power,
+        "pitch_line_speed_m_s": v_t,
+        "tangential_force_N": Ft,
+        "normal_force_N": Fbn,
+        "eps_1": p.eps_1,
+        "eps_2": p.eps_2,
+        "contact_ratio": p.eps_alpha,
+        "tooth_loss_factor_HV": H_V,
+        "friction_power_W": mu * H_V * power,
     }
-    common = dict(ambient_C=ambient_C, power_W=power, mu=mu, loss_factor=H_V, face_width_m=b,
-                  pitch_line_speed_m_s=v_t, module_m=p.m,
-                  housing_resistance_K_m2_W=opt.vdi_housing_resistance_K_m2_W,
-                  housing_area_m2=opt.vdi_housing_area_m2, duty_cycle=opt.vdi_duty_cycle)
-    for i, z, ra, r, x, T in ((1, p.z1, p.ra1, p.r1, profile_shift1, T1),
-                              (2, p.z2, p.ra2, p.r2, profile_shift2, T1 * p.z2 / p.z1)):
+    common = dict(
+        ambient_C=ambient_C,
+        power_W=power,
+        mu=mu,
+        loss_factor=H_V,
+        face_width_m=b,
+        pitch_line_speed_m_s=v_t,
+        module_m=p.m,
+        housing_resistance_K_m2_W=opt.vdi_housing_resistance_K_m2_W,
+        housing_area_m2=opt.vdi_housing_area_m2,
+        duty_cycle=opt.vdi_duty_cycle,
+    )
+    for i, z, ra, r, x, T in (
+        (1, p.z1, p.ra1, p.r1, profile_shift1, T1),
+        (2, p.z2, p.ra2, p.r2, profile_shift2, T1 * p.z2 / p.z1),
+    ):
         fl = vdi2736_temperature_C(teeth=z, k_theta=opt.vdi_k_theta_flank, **common)
         rt = vdi2736_temperature_C(teeth=z, k_theta=opt.vdi_k_theta_root, **common)
         out[f"vdi2736_flank{i}_C"], out[f"vdi2736_flank{i}_rise_K"] = fl, fl - ambient_C
         out[f"vdi2736_root{i}_C"], out[f"vdi2736_root{i}_rise_K"] = rt, rt - ambient_C
-        mao = mao_bulk_temperature_rise_K(mu=mu, torque_Nm=T, teeth=z, face_width_m=b, tip_radius_m=ra,
-                                          reference_radius_m=r, air_density_kg_m3=opt.air_density_kg_m3,
-                                          air_specific_heat_J_kgK=opt.air_specific_heat_J_kgK)
+        mao = mao_bulk_temperature_rise_K(
+            mu=mu,
+            torque_Nm=T,
+            teeth=z,
+            face_width_m=b,
+            tip_radius_m=ra,
+            reference_radius_m=r,
+            air_density_kg_m3=opt.air_density_kg_m3,
+            air_specific_heat_J_kgK=opt.air_specific_heat_J_kgK,
+        )
         out[f"mao_bulk_rise{i}_K"], out[f"mao_bulk{i}_C"] = mao, ambient_C + mao
-        rho = opt.rack_fillet_coef if opt.rack_fillet_coef is not None else max_rack_fillet_coef(
-            pressure_angle_deg, opt.rack_dedendum_coef)
+        rho = (
+            opt.rack_fillet_coef
+            if opt.rack_fillet_coef is not None
+            else max_rack_fillet_coef(pressure_angle_deg, opt.rack_dedendum_coef)
+        )
         out["rack_fillet_coef"] = rho
         kw = dict(rack_dedendum_coef=opt.rack_dedendum_coef, rack_fillet_coef=rho)
-        fB = root_form_factors(z, p.m, pressure_angle_deg, x, ra, load_at="single_contact",
-                               contact_ratio=p.eps_alpha, **kw)
+        fB = root_form_factors(
+            z,
+            p.m,
+            pressure_angle_deg,
+            x,
+            ra,
+            load_at="single_contact",
+            contact_ratio=p.eps_alpha,
+            **kw,
+        )
         fC = root_form_factors(z, p.m, pressure_angle_deg, x, ra, load_at="tip", **kw)
         Y_eps = vdi2736_contact_ratio_factor(p.eps_alpha)
         out[f"iso6336_YF{i}"], out[f"iso6336_YS{i}"] = fB.Y_F, fB.Y_S
-        out[f"iso6336_sigmaF0_{i}_Pa"] = root_stress_Pa(tangential_force_N=Ft, face_width_m=b, module_m=p.m,
-                                                        factors=fB)
+        out[f"iso6336_sigmaF0_{i}_Pa"] = root_stress_Pa(
+            tangential_force_N=Ft, face_width_m=b, module_m=p.m, factors=fB
+        )
         out[f"vdi2736_YFa{i}"], out[f"vdi2736_YSa{i}"], out["vdi2736_Yeps"] = fC.Y_F, fC.Y_S, Y_eps
-        out[f"vdi2736_sigmaF{i}_Pa"] = root_stress_Pa(tangential_force_N=Ft, face_width_m=b, module_m=p.m,
-                                                      factors=fC, contact_ratio_factor=Y_eps)
+        out[f"vdi2736_sigmaF{i}_Pa"] = root_stress_Pa(
+            tangential_force_N=Ft,
+            face_width_m=b,
+            module_m=p.m,
+            factors=fC,
+            contact_ratio_factor=Y_eps,
+        )
     # Hertz at the pitch point (load share there: 1 if C lies in the single-contact zone)
     share_C = float(_rigid_load_share(np.array([0.0]), p)[0])
-    Es = effective_modulus_Pa(m1.youngs_modulus_Pa, m1.poissons_ratio, m2.youngs_modulus_Pa, m2.poissons_ratio)
+    Es = effective_modulus_Pa(
+        m1.youngs_modulus_Pa, m1.poissons_ratio, m2.youngs_modulus_Pa, m2.poissons_ratio
+    )
     aC, p0C = hertz_line_contact(share_C * Fbn / b, p.T1C, p.T2C, Es)
     out["hertz_pitch_half_width_m"], out["hertz_pitch_p0_Pa"] = float(aC), float(p0C)
     r_w1 = p.rb1 / math.cos(p.alpha_w)  # operating pitch radius
     out["agma_pitch_sigma_H_Pa"] = agma_pitch_contact_stress_Pa(
-        tangential_load_N=share_C * T1 / r_w1, pitch_diameter_m=2.0 * r_w1,
-        face_width_m=b, pressure_angle_deg=math.degrees(p.alpha_w), speed_ratio=p.u,
-        youngs_pinion_Pa=m1.youngs_modulus_Pa, poisson_pinion=m1.poissons_ratio,
-        youngs_gear_Pa=m2.youngs_modulus_Pa, poisson_gear=m2.poissons_ratio)
+        tangential_load_N=share_C * T1 / r_w1,
+        pitch_diameter_m=2.0 * r_w1,
+        face_width_m=b,
+        pressure_angle_deg=math.degrees(p.alpha_w),
+        speed_ratio=p.u,
+        youngs_pinion_Pa=m1.youngs_modulus_Pa,
+        poisson_pinion=m1.poissons_ratio,
+        youngs_gear_Pa=m2.youngs_modulus_Pa,
+        poisson_gear=m2.poissons_ratio,
+    )
     curve = flash_temperature_along_path(
-        z1=teeth1, z2=teeth2, module_m=module_m, pressure_angle_deg=pressure_angle_deg,
-        tip_radius1_m=tip_radius1_m, tip_radius2_m=tip_radius2_m, centre_distance_m=centre_distance_m,
-        face_width_m=b, torque1_Nm=T1, speed1_rpm=n1, mu=mu, material1=m1, material2=m2,
-        n_points=opt.flash_points)
+        z1=teeth1,
+        z2=teeth2,
+        module_m=module_m,
+        pressure_angle_deg=pressure_angle_deg,
+        tip_radius1_m=tip_radius1_m,
+        tip_radius2_m=tip_radius2_m,
+        centre_distance_m=centre_distance_m,
+        face_width_m=b,
+        torque1_Nm=T1,
+        speed1_rpm=n1,
+        mu=mu,
+        material1=m1,
+        material2=m2,
+        n_points=opt.flash_points,
+    )
     out["flash_max_K"], out["flash_max_at_s_m"] = curve.max_K, curve.s_at_max_m
     out["flash_min_peclet"] = curve.min_peclet
     out["vdi_root_plus_flash_max_C"] = out["vdi2736_root1_C"] + curve.max_K
@@ -1106,12 +1340,31 @@ def temperature_rise_ratio(summary_a: dict[str, Any], summary_b: dict[str, Any],
 
 
 __all__ = [
-    "AIR_DENSITY_25C_kg_m3", "AIR_SPECIFIC_HEAT_25C_J_kgK", "BLOK_FORM_FACTOR_SEMI_ELLIPTIC",
-    "BLOK_FORM_FACTOR_UNIFORM", "VDI2736_K_THETA", "BaselineOptions", "FlashTemperatureCurve",
-    "RootFormFactors", "agma_pitch_contact_stress_Pa", "band_source_flash_K", "baseline_summary",
-    "blok_flash_temperature_K", "effective_modulus_Pa", "effusivity",
-    "flash_temperature_along_path", "hertz_line_contact", "involute_curvature_radii_m",
-    "mao_bulk_temperature_rise_K", "max_rack_fillet_coef", "profile_shift_from_thickness",
-    "root_form_factors", "root_stress_Pa", "tooth_loss_factor", "tooth_loss_factor_from_load_share",
-    "temperature_rise_ratio", "vdi2736_contact_ratio_factor", "vdi2736_temperature_C",
+    "BLOK_FORM_FACTOR_SEMI_ELLIPTIC",
+    "BLOK_FORM_FACTOR_UNIFORM",
+    "VDI2736_K_THETA",
+    "AIR_DENSITY_25C_kg_m3",
+    "AIR_SPECIFIC_HEAT_25C_J_kgK",
+    "BaselineOptions",
+    "FlashTemperatureCurve",
+    "RootFormFactors",
+    "agma_pitch_contact_stress_Pa",
+    "band_source_flash_K",
+    "baseline_summary",
+    "blok_flash_temperature_K",
+    "effective_modulus_Pa",
+    "effusivity",
+    "flash_temperature_along_path",
+    "hertz_line_contact",
+    "involute_curvature_radii_m",
+    "mao_bulk_temperature_rise_K",
+    "max_rack_fillet_coef",
+    "profile_shift_from_thickness",
+    "root_form_factors",
+    "root_stress_Pa",
+    "temperature_rise_ratio",
+    "tooth_loss_factor",
+    "tooth_loss_factor_from_load_share",
+    "vdi2736_contact_ratio_factor",
+    "vdi2736_temperature_C",
 ]

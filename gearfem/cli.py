@@ -57,23 +57,34 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         shutil.copyfile(gm.msh_path, tmp)
         os.replace(tmp, out / "mesh.msh")
         if not args.no_picture:
-            png = plot_pair(gm.msh_path, out / ".gear_pair_mesh.tmp.png",
-                            focus_mm=tuple(report["reference"]["pitch_point_mm"]),
-                            face_width_mm=geometry.face_width_mm,
-                            title=f"{report['counts']['cells']} {report['element']['cell_type']} cells, "
-                                  f"{report['counts']['dofs_p2_vector']} P2 vector DOFs")
+            png = plot_pair(
+                gm.msh_path,
+                out / ".gear_pair_mesh.tmp.png",
+                focus_mm=tuple(report["reference"]["pitch_point_mm"]),
+                face_width_mm=geometry.face_width_mm,
+                title=f"{report['counts']['cells']} {report['element']['cell_type']} cells, "
+                f"{report['counts']['dofs_p2_vector']} P2 vector DOFs",
+            )
             os.replace(png, out / "gear_pair_mesh.png")
         write_json_atomic(out / "mesh.json", report)  # last: its presence marks a complete output
         c, t = report["counts"], report["timing"]
         q = report["quality"]
-        print(f"mesh {gm.cache_key}: {c['cells']} cells ({report['element']['cell_type']}), {c['nodes']} nodes, "
-              f"{c['dofs_p2_vector']} P2 vector DOFs; min scaled Jacobian {q['min_scaled_jacobian']:.3f}")
+        print(
+            f"mesh {gm.cache_key}: {c['cells']} cells ({report['element']['cell_type']}), {c['nodes']} nodes, "
+            f"{c['dofs_p2_vector']} P2 vector DOFs; min scaled Jacobian {q['min_scaled_jacobian']:.3f}"
+        )
         for body, v in report["volumes"].items():
-            print(f"  {body}: volume {v['fe_mm3']:.3f} mm^3 "
-                  f"(analytic {v['analytic_mm3']:.3f}, rel. error {v['rel_error']:.1e})")
-        print(f"  {len(report['groups'])} named groups; "
-              f"build {t['build_time_s']:.1f} s, import {t['import_time_s']:.1f} s")
-        written = [out / "mesh.msh", out / "mesh.json"] + ([] if args.no_picture else [out / "gear_pair_mesh.png"])
+            print(
+                f"  {body}: volume {v['fe_mm3']:.3f} mm^3 "
+                f"(analytic {v['analytic_mm3']:.3f}, rel. error {v['rel_error']:.1e})"
+            )
+        print(
+            f"  {len(report['groups'])} named groups; "
+            f"build {t['build_time_s']:.1f} s, import {t['import_time_s']:.1f} s"
+        )
+        written = [out / "mesh.msh", out / "mesh.json"] + (
+            [] if args.no_picture else [out / "gear_pair_mesh.png"]
+        )
         print("wrote " + ", ".join(str(w) for w in written))
     return 0
 
@@ -86,10 +97,12 @@ def _cmd_thermal(args: argparse.Namespace) -> int:
     # (read_case: the one case schema of gearfem.config; None = the built-in thesis case)
     if MPI.COMM_WORLD.rank == 0:
         T = summary["final_temperatures_C"]
-        print(f"thermal: t = {summary['time_s']:g} s, {summary['steps']} steps, {summary['dofs']} DOFs, "
-              f"T max surface {T['max_surface']:.1f} C, mean bulk {T['mean_bulk']:.1f} C; "
-              f"results in {args.out} (thermal_history.csv, temperature.bp, thermal_history.png, "
-              f"thermal_summary.json)")
+        print(
+            f"thermal: t = {summary['time_s']:g} s, {summary['steps']} steps, {summary['dofs']} DOFs, "
+            f"T max surface {T['max_surface']:.1f} C, mean bulk {T['mean_bulk']:.1f} C; "
+            f"results in {args.out} (thermal_history.csv, temperature.bp, thermal_history.png, "
+            f"thermal_summary.json)"
+        )
     return 0
 
 
@@ -109,17 +122,21 @@ def _cmd_cycle(args: argparse.Namespace) -> int:
         case = case.with_operating(torque_Nm=args.torque_Nm)
     comm = MPI.COMM_WORLD
     with ProgressBar(comm) as bar:
-        res, directory, cached = pipeline.cycle(case, comm, rebuild=args.rebuild, progress=bar.update)
+        res, directory, cached = pipeline.cycle(
+            case, comm, rebuild=args.rebuild, progress=bar.update
+        )
     if comm.rank == 0:
         write_cycle_outputs(res, args.out)
         s = cycle_summary_dict(res)
-        _say(f"cycle at {case.operating.torque_Nm:g} N m ({'cached' if cached else 'computed'}, {directory}): "
-             f"{s['positions']} positions, effective contact ratio {s['effective_contact_ratio']:.3f} "
-             f"(theory {s['theoretical_contact_ratio']:.3f}), TE {s['transmission_error_um']['mean']:.1f} um, "
-             f"max pressure {s['max_contact_pressure_MPa']:.1f} MPa, friction power "
-             f"{s['mean_friction_power_W_per_rad_s']:.3f} W per rad/s; results in {args.out} "
-             "(cycle_history.csv, cycle_summary.json, load_sharing.png, transmission_error.png, "
-             "strain_energy_history.png, flank_maps.png)")
+        _say(
+            f"cycle at {case.operating.torque_Nm:g} N m ({'cached' if cached else 'computed'}, {directory}): "
+            f"{s['positions']} positions, effective contact ratio {s['effective_contact_ratio']:.3f} "
+            f"(theory {s['theoretical_contact_ratio']:.3f}), TE {s['transmission_error_um']['mean']:.1f} um, "
+            f"max pressure {s['max_contact_pressure_MPa']:.1f} MPa, friction power "
+            f"{s['mean_friction_power_W_per_rad_s']:.3f} W per rad/s; results in {args.out} "
+            "(cycle_history.csv, cycle_summary.json, load_sharing.png, transmission_error.png, "
+            "strain_energy_history.png, flank_maps.png)"
+        )
     comm.barrier()
     return 0
 
@@ -133,14 +150,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.duration_s is not None:
         import dataclasses
 
-        case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s))
+        case = dataclasses.replace(
+            case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s)
+        )
     summary = pipeline.run(case, args.out, MPI.COMM_WORLD, progress=not args.no_progress)
     h = summary["headline"]
-    _say(f"{case.name}: {case.operating.speed_rpm:g} rpm, {case.operating.torque_Nm:g} N m, "
-         f"t = {h['time_s']:g} s: max surface {h['max_surface_temperature_C']:.1f} C "
-         f"(steady {h.get('steady_max_surface_temperature_C') or float('nan'):.1f} C), "
-         f"mean bulk {h['mean_bulk_temperature_C']:.1f} C; VDI 2736 flank {h.get('vdi2736_flank1_C', float('nan')):.1f} C, "
-         f"root {h.get('vdi2736_root1_C', float('nan')):.1f} C")
+    _say(
+        f"{case.name}: {case.operating.speed_rpm:g} rpm, {case.operating.torque_Nm:g} N m, "
+        f"t = {h['time_s']:g} s: max surface {h['max_surface_temperature_C']:.1f} C "
+        f"(steady {h.get('steady_max_surface_temperature_C') or float('nan'):.1f} C), "
+        f"mean bulk {h['mean_bulk_temperature_C']:.1f} C; VDI 2736 flank {h.get('vdi2736_flank1_C', float('nan')):.1f} C, "
+        f"root {h.get('vdi2736_root1_C', float('nan')):.1f} C"
+    )
     _say(f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/")
     return 0
 
@@ -156,22 +177,32 @@ def _cmd_study(args: argparse.Namespace) -> int:
         return 0
     res = run_study(study, args.out, MPI.COMM_WORLD, index=args.index, collect_only=args.collect)
     if args.index is not None:
-        _say(f"study {study.name}: task {args.index} {'ran' if res['ran'] else 'was already finished'}; "
-             f"collect with: gearfem study {args.study} --out {args.out} --collect")
+        _say(
+            f"study {study.name}: task {args.index} {'ran' if res['ran'] else 'was already finished'}; "
+            f"collect with: gearfem study {args.study} --out {args.out} --collect"
+        )
         return 0
-    _say(f"study {study.name}: {len(res['results'])} operating points, {len(res['ran'])} computed now, "
-         f"{len(res['missing'])} missing")
-    _say(f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T max end C':>11} {'T max steady C':>14} "
-         f"{'VDI flank C':>11}")
+    _say(
+        f"study {study.name}: {len(res['results'])} operating points, {len(res['ran'])} computed now, "
+        f"{len(res['missing'])} missing"
+    )
+    _say(
+        f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T max end C':>11} {'T max steady C':>14} "
+        f"{'VDI flank C':>11}"
+    )
     for r in res["results"]:
         if r["status"] != "done":
             _say(f"{r['speed_rpm']:10g} {r['torque_Nm']:10g}  (missing)")
             continue
         steady = r.get("max_surface_steady_C")
-        _say(f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} {r['max_surface_end_C']:11.1f} "
-             f"{steady if steady is not None else float('nan'):14.1f} {r.get('vdi2736_flank_C') or float('nan'):11.1f}")
-    _say(f"results in {args.out}: results.csv, study.json, temperature_histories.png, steady_temperature.png, "
-         "cases/<label>/")
+        _say(
+            f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} {r['max_surface_end_C']:11.1f} "
+            f"{steady if steady is not None else float('nan'):14.1f} {r.get('vdi2736_flank_C') or float('nan'):11.1f}"
+        )
+    _say(
+        f"results in {args.out}: results.csv, study.json, temperature_histories.png, steady_temperature.png, "
+        "cases/<label>/"
+    )
     return 0 if res["complete"] else 1
 
 
@@ -181,15 +212,25 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     data = read_csv(args.data)
     case = load_case(args.case)
-    r = run_diagnosis(data, case, args.out, MPI.COMM_WORLD, max_size=1 if args.singles else 2,
-                      u_model_K=args.u_model_K)
+    r = run_diagnosis(
+        data,
+        case,
+        args.out,
+        MPI.COMM_WORLD,
+        max_size=1 if args.singles else 2,
+        u_model_K=args.u_model_K,
+    )
     for row in r["vv20"]["rows"]:
-        _say(f"  {row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = {row['E_K']:+.1f} K, "
-             f"u_val = {row['u_val_K']:.1f} K{' (resolved)' if row['resolved'] else ''}")
+        _say(
+            f"  {row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = {row['E_K']:+.1f} K, "
+            f"u_val = {row['u_val_K']:.1f} K{' (resolved)' if row['resolved'] else ''}"
+        )
     g = r["gain"]
     _say(f"verdict: {r['verdict']['text']}")
     if g["loo_rmse_before_K"] is not None and g["loo_rmse_after_K"] is not None:
-        _say(f"held-out RMS error: {g['loo_rmse_before_K']:.1f} K before, {g['loo_rmse_after_K']:.1f} K after")
+        _say(
+            f"held-out RMS error: {g['loo_rmse_before_K']:.1f} K before, {g['loo_rmse_after_K']:.1f} K after"
+        )
     _say(f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, ranking.png")
     return 0
 
@@ -206,56 +247,128 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    s = sub.add_parser("info", help="print versions (gearfem, DOLFINx, PETSc, gmsh, MPI) for bug reports")
+    s = sub.add_parser(
+        "info", help="print versions (gearfem, DOLFINx, PETSc, gmsh, MPI) for bug reports"
+    )
     s.add_argument("--json", action="store_true", help="print JSON instead of a table")
     s.set_defaults(func=_cmd_info)
 
-    s = sub.add_parser("mesh", help="mesh the gear pair of a case: mesh.msh, mesh.json, picture (cached)")
-    s.add_argument("case", nargs="?", default=None,
-                   help="case TOML with optional [geometry] and [mesh] tables (default: the thesis pair)")
+    s = sub.add_parser(
+        "mesh", help="mesh the gear pair of a case: mesh.msh, mesh.json, picture (cached)"
+    )
+    s.add_argument(
+        "case",
+        nargs="?",
+        default=None,
+        help="case TOML with optional [geometry] and [mesh] tables (default: the thesis pair)",
+    )
     s.add_argument("--out", required=True, help="output directory")
-    s.add_argument("--cache-dir", default=None, help="mesh cache (default: $GEARFEM_MESH_CACHE or meshes/cache)")
+    s.add_argument(
+        "--cache-dir",
+        default=None,
+        help="mesh cache (default: $GEARFEM_MESH_CACHE or meshes/cache)",
+    )
     s.add_argument("--rebuild", action="store_true", help="regenerate even if the mesh is cached")
     s.add_argument("--no-picture", action="store_true", help="skip the PNG")
     s.set_defaults(func=_cmd_mesh)
 
-    s = sub.add_parser("thermal", help="temperature history of one gear from the stored cycle or prescribed sources")
-    s.add_argument("case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)")
+    s = sub.add_parser(
+        "thermal",
+        help="temperature history of one gear from the stored cycle or prescribed sources",
+    )
+    s.add_argument(
+        "case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)"
+    )
     s.add_argument("--out", required=True, help="output directory")
-    s.add_argument("--cache-dir", default=None, help="mesh cache (default: $GEARFEM_MESH_CACHE or meshes/cache)")
+    s.add_argument(
+        "--cache-dir",
+        default=None,
+        help="mesh cache (default: $GEARFEM_MESH_CACHE or meshes/cache)",
+    )
     s.set_defaults(func=_cmd_thermal)
 
-    s = sub.add_parser("cycle", help="solve the mesh cycle at the case torque: load sharing, TE, U_max, flank flux")
-    s.add_argument("case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)")
+    s = sub.add_parser(
+        "cycle", help="solve the mesh cycle at the case torque: load sharing, TE, U_max, flank flux"
+    )
+    s.add_argument(
+        "case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)"
+    )
     s.add_argument("--out", required=True, help="output directory")
-    s.add_argument("--torque-Nm", dest="torque_Nm", type=float, default=None, help="override [operating] torque_Nm")
+    s.add_argument(
+        "--torque-Nm",
+        dest="torque_Nm",
+        type=float,
+        default=None,
+        help="override [operating] torque_Nm",
+    )
     s.add_argument("--rebuild", action="store_true", help="recompute even if the cycle is cached")
     s.set_defaults(func=_cmd_cycle)
 
-    s = sub.add_parser("run", help="the whole chain for one operating point (the README's main job)")
-    s.add_argument("case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)")
+    s = sub.add_parser(
+        "run", help="the whole chain for one operating point (the README's main job)"
+    )
+    s.add_argument(
+        "case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)"
+    )
     s.add_argument("--out", required=True, help="output directory")
-    s.add_argument("--speed-rpm", dest="speed_rpm", type=float, default=None, help="override [operating] speed_rpm")
-    s.add_argument("--torque-Nm", dest="torque_Nm", type=float, default=None, help="override [operating] torque_Nm")
-    s.add_argument("--duration-s", dest="duration_s", type=float, default=None, help="override [thermal] duration_s")
+    s.add_argument(
+        "--speed-rpm",
+        dest="speed_rpm",
+        type=float,
+        default=None,
+        help="override [operating] speed_rpm",
+    )
+    s.add_argument(
+        "--torque-Nm",
+        dest="torque_Nm",
+        type=float,
+        default=None,
+        help="override [operating] torque_Nm",
+    )
+    s.add_argument(
+        "--duration-s",
+        dest="duration_s",
+        type=float,
+        default=None,
+        help="override [thermal] duration_s",
+    )
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_run)
 
-    s = sub.add_parser("study", help="speed x torque study (resumable): one cycle per torque, table and plots")
-    s.add_argument("study", help="study TOML: a case file with a [study] table (see gearfem/study.py)")
+    s = sub.add_parser(
+        "study", help="speed x torque study (resumable): one cycle per torque, table and plots"
+    )
+    s.add_argument(
+        "study", help="study TOML: a case file with a [study] table (see gearfem/study.py)"
+    )
     s.add_argument("--out", required=True, help="output directory (re-running resumes it)")
-    s.add_argument("--index", type=int, default=None, help="run only this operating point (cluster array task)")
-    s.add_argument("--collect", action="store_true", help="only collect the table and plots of finished cases")
-    s.add_argument("--list", action="store_true", help="list the operating points with their indices")
+    s.add_argument(
+        "--index", type=int, default=None, help="run only this operating point (cluster array task)"
+    )
+    s.add_argument(
+        "--collect", action="store_true", help="only collect the table and plots of finished cases"
+    )
+    s.add_argument(
+        "--list", action="store_true", help="list the operating points with their indices"
+    )
     s.set_defaults(func=_cmd_study)
 
-    s = sub.add_parser("diagnose", help="confront the model with measured data, name the cause, measure the gain")
-    s.add_argument("data", help="measured-data CSV (gearfem.diagnose.data format, or the thesis bench file)")
+    s = sub.add_parser(
+        "diagnose", help="confront the model with measured data, name the cause, measure the gain"
+    )
+    s.add_argument(
+        "data", help="measured-data CSV (gearfem.diagnose.data format, or the thesis bench file)"
+    )
     s.add_argument("--case", default=None, help="case TOML (default: the built-in thesis case)")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument("--singles", action="store_true", help="single candidates only (no pairs)")
-    s.add_argument("--u-model-K", dest="u_model_K", type=float, default=1.0,
-                   help="model (surrogate, discretisation) standard uncertainty added to u_D in the fits, K")
+    s.add_argument(
+        "--u-model-K",
+        dest="u_model_K",
+        type=float,
+        default=1.0,
+        help="model (surrogate, discretisation) standard uncertainty added to u_D in the fits, K",
+    )
     s.set_defaults(func=_cmd_diagnose)
     return p
 

@@ -75,9 +75,17 @@ class Case:
     def materials(self) -> dict[str, Material]:
         return {"pinion": self.material, "wheel": self.material_wheel or self.material}
 
-    def with_operating(self, speed_rpm: float | None = None, torque_Nm: float | None = None) -> Case:
+    def with_operating(
+        self, speed_rpm: float | None = None, torque_Nm: float | None = None
+    ) -> Case:
         op = dataclasses.replace(
-            self.operating, **{k: v for k, v in (("speed_rpm", speed_rpm), ("torque_Nm", torque_Nm)) if v is not None})
+            self.operating,
+            **{
+                k: v
+                for k, v in (("speed_rpm", speed_rpm), ("torque_Nm", torque_Nm))
+                if v is not None
+            },
+        )
         return dataclasses.replace(self, operating=op)
 
 

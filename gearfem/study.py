@@ -90,8 +90,11 @@ class StudyOptions:
         for i, t in enumerate(self.torques_Nm):
             require_positive(f"study.torques_Nm[{i}]", t)
         if bool(self.speeds_rpm) != bool(self.torques_Nm):
-            raise ParameterError("study.speeds_rpm / study.torques_Nm",
-                                 (list(self.speeds_rpm), list(self.torques_Nm)), "both given (a grid) or neither")
+            raise ParameterError(
+                "study.speeds_rpm / study.torques_Nm",
+                (list(self.speeds_rpm), list(self.torques_Nm)),
+                "both given (a grid) or neither",
+            )
         for i, p in enumerate(self.points):
             if len(p) != 2:
                 raise ParameterError(f"study.points[{i}]", list(p), "a pair [speed_rpm, torque_Nm]")
@@ -99,7 +102,9 @@ class StudyOptions:
             require_positive(f"study.points[{i}][1] (torque_Nm)", p[1])
         require_choice("study.parallel", self.parallel, PARALLEL)
         if not self.operating_points():
-            raise ParameterError("study", "no operating points", "speeds_rpm and torques_Nm, or points")
+            raise ParameterError(
+                "study", "no operating points", "speeds_rpm and torques_Nm, or points"
+            )
 
     def operating_points(self) -> list[tuple[float, float]]:
         """(speed_rpm, torque_Nm) in a stable order: grid (torque-major), then the explicit points;
@@ -117,8 +122,10 @@ class Study:
 
     def cases(self) -> list[tuple[str, Case]]:
         """(label, case) per operating point."""
-        return [(case_label(s, t), self.case.with_operating(speed_rpm=s, torque_Nm=t))
-                for s, t in self.options.operating_points()]
+        return [
+            (case_label(s, t), self.case.with_operating(speed_rpm=s, torque_Nm=t))
+            for s, t in self.options.operating_points()
+        ]
 
     def torques(self) -> list[float]:
         return sorted({t for _, t in self.options.operating_points()})
@@ -135,7 +142,9 @@ def study_from_dict(data: dict[str, Any]) -> Study:
         raise ParameterError("study", None, "a [study] table with speeds_rpm/torques_Nm or points")
     raw = dict(raw)
     if "points" in raw:
-        raw["points"] = tuple(tuple(p) if isinstance(p, (list, tuple)) else (p,) for p in raw["points"])
+        raw["points"] = tuple(
+            tuple(p) if isinstance(p, (list, tuple)) else (p,) for p in raw["points"]
+        )
     opts = from_dict(StudyOptions, raw, "study")
     case = case_from_dict(data)
     return Study(name=case.name, case=case, options=opts)
@@ -163,8 +172,13 @@ def is_done(case: Case, directory: Path) -> bool:
         return False
 
 
-def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, index: int | None = None,
-              collect_only: bool = False) -> dict[str, Any]:
+def run_study(
+    study: Study,
+    out_dir: str | Path,
+    comm: MPI.Comm | None = None,
+    index: int | None = None,
+    collect_only: bool = False,
+) -> dict[str, Any]:
     """Run (or resume) a study; returns the collected results (collective).
 
     Args:
@@ -177,7 +191,9 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
     out = Path(out_dir)
     cases = study.cases()
     if index is not None and not 0 <= index < len(cases):
-        raise ParameterError("--index", index, f"0 .. {len(cases) - 1} (the study has {len(cases)} operating points)")
+        raise ParameterError(
+            "--index", index, f"0 .. {len(cases) - 1} (the study has {len(cases)} operating points)"
+        )
     if comm.rank == 0:
         (out / "cases").mkdir(parents=True, exist_ok=True)
         stale = out / "study.json"
@@ -188,19 +204,29 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
     timing: dict[str, float] = {}
     ran: list[str] = []
     if not collect_only:
-        todo = [(lab, c) for i, (lab, c) in enumerate(cases)
-                if (index is None or i == index) and not is_done(c, out / "cases" / lab)]
+        todo = [
+            (lab, c)
+            for i, (lab, c) in enumerate(cases)
+            if (index is None or i == index) and not is_done(c, out / "cases" / lab)
+        ]
         skipped = len([1 for i, _ in enumerate(cases) if index is None or i == index]) - len(todo)
         if comm.rank == 0:
-            log.info("study %s: %d operating points, %d to run, %d finished before", study.name, len(cases),
-                     len(todo), skipped)
+            log.info(
+                "study %s: %d operating points, %d to run, %d finished before",
+                study.name,
+                len(cases),
+                len(todo),
+                skipped,
+            )
         if todo:
             # 1. meshes on all ranks (the pair for the cycle, one body for the thermal model)
             c0 = todo[0][1]
             if c0.sources.mode == "cycle":
                 pipeline.pair_mesh(c0, comm)
 
-            build_gear_mesh(c0.geometry, dataclasses.replace(c0.mesh, bodies=(c0.thermal.body,)), comm)
+            build_gear_mesh(
+                c0.geometry, dataclasses.replace(c0.mesh, bodies=(c0.thermal.body,)), comm
+            )
             # 2. one cycle per torque
             if c0.sources.mode == "cycle":
                 torques = sorted({c.operating.torque_Nm for _, c in todo})
@@ -216,8 +242,13 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
 
             def one(item, sub):
                 lab, c = item
-                pipeline.run(c, out / "cases" / lab, sub, progress=False,
-                             write_fields=study.options.write_fields)
+                pipeline.run(
+                    c,
+                    out / "cases" / lab,
+                    sub,
+                    progress=False,
+                    write_fields=study.options.write_fields,
+                )
 
             dispatch(comm, mode, todo, one)
             timing["cases_s"] = time.perf_counter() - t2
@@ -227,7 +258,14 @@ def run_study(study: Study, out_dir: str | Path, comm: MPI.Comm | None = None, i
         comm.barrier()
         return {"ran": ran}
     results = collect(study, out, comm)
-    results.update({"ran": ran, "wall_time_s": time.perf_counter() - t0, "timing": timing, "mpi_size": comm.size})
+    results.update(
+        {
+            "ran": ran,
+            "wall_time_s": time.perf_counter() - t0,
+            "timing": timing,
+            "mpi_size": comm.size,
+        }
+    )
     if comm.rank == 0:
         write_json(out / "study.json", results)  # last: marks a complete study
     comm.barrier()
@@ -247,7 +285,7 @@ def dispatch(comm: MPI.Comm, mode: str, tasks: list, fn) -> None:
             continue
         try:
             fn(t, MPI.COMM_SELF)
-        except Exception as err:  # noqa: BLE001 - re-raised collectively below
+        except Exception as err:
             error = err
             break
     errors = comm.allgather(None if error is None else f"{type(error).__name__}: {error}")
@@ -259,10 +297,26 @@ def dispatch(comm: MPI.Comm, mode: str, tasks: list, fn) -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-COLUMNS = ("label", "speed_rpm", "torque_Nm", "status", "power_W", "friction_W", "hysteresis_W",
-           "t_end_s", "max_surface_end_C", "max_surface_steady_C", "mean_bulk_end_C", "flank_max_end_C",
-           "effective_contact_ratio", "max_contact_pressure_MPa", "vdi2736_flank_C", "vdi2736_root_C",
-           "mao_bulk_C", "wall_time_s")
+COLUMNS = (
+    "label",
+    "speed_rpm",
+    "torque_Nm",
+    "status",
+    "power_W",
+    "friction_W",
+    "hysteresis_W",
+    "t_end_s",
+    "max_surface_end_C",
+    "max_surface_steady_C",
+    "mean_bulk_end_C",
+    "flank_max_end_C",
+    "effective_contact_ratio",
+    "max_contact_pressure_MPa",
+    "vdi2736_flank_C",
+    "vdi2736_root_C",
+    "mao_bulk_C",
+    "wall_time_s",
+)
 
 
 def _row(label: str, speed: float, torque: float, directory: Path) -> dict[str, Any]:
@@ -277,15 +331,22 @@ def _row(label: str, speed: float, torque: float, directory: Path) -> dict[str, 
     frac = th.get("model_fraction") or 1.0
     final = th.get("final_temperatures_C", {})
     row.update(
-        status="done", power_W=b.get("power_W"),
-        friction_W=(bal.get("friction_W") or 0.0) / frac, hysteresis_W=(bal.get("hysteresis_W") or 0.0) / frac,
-        t_end_s=th.get("time_s"), max_surface_end_C=final.get("max_surface"),
-        max_surface_steady_C=th.get("steady_state_C", {}).get("max_surface"), mean_bulk_end_C=final.get("mean_bulk"),
+        status="done",
+        power_W=b.get("power_W"),
+        friction_W=(bal.get("friction_W") or 0.0) / frac,
+        hysteresis_W=(bal.get("hysteresis_W") or 0.0) / frac,
+        t_end_s=th.get("time_s"),
+        max_surface_end_C=final.get("max_surface"),
+        max_surface_steady_C=th.get("steady_state_C", {}).get("max_surface"),
+        mean_bulk_end_C=final.get("mean_bulk"),
         flank_max_end_C=final.get("flank_max"),
         effective_contact_ratio=s.get("cycle", {}).get("effective_contact_ratio"),
         max_contact_pressure_MPa=s.get("cycle", {}).get("max_contact_pressure_MPa"),
-        vdi2736_flank_C=b.get("vdi2736_flank1_C"), vdi2736_root_C=b.get("vdi2736_root1_C"),
-        mao_bulk_C=b.get("mao_bulk1_C"), wall_time_s=s.get("wall_time_s", {}).get("total_s"))
+        vdi2736_flank_C=b.get("vdi2736_flank1_C"),
+        vdi2736_root_C=b.get("vdi2736_root1_C"),
+        mao_bulk_C=b.get("mao_bulk1_C"),
+        wall_time_s=s.get("wall_time_s", {}).get("total_s"),
+    )
     return row
 
 
@@ -293,8 +354,10 @@ def collect(study: Study, out: Path, comm: MPI.Comm) -> dict[str, Any]:
     """Gather the results table and plots (rank 0 writes; returned on every rank)."""
     rows = None
     if comm.rank == 0:
-        rows = [_row(lab, c.operating.speed_rpm, c.operating.torque_Nm, out / "cases" / lab)
-                for lab, c in study.cases()]
+        rows = [
+            _row(lab, c.operating.speed_rpm, c.operating.torque_Nm, out / "cases" / lab)
+            for lab, c in study.cases()
+        ]
         tmp = out / f".results.csv.tmp{os.getpid()}"
         with tmp.open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
@@ -304,12 +367,17 @@ def collect(study: Study, out: Path, comm: MPI.Comm) -> dict[str, Any]:
         os.replace(tmp, out / "results.csv")
         try:
             plot_study(rows, out)
-        except Exception as err:  # noqa: BLE001 - a plot must not lose the table
+        except Exception as err:
             log.warning("study plots failed: %s", err)
     rows = comm.bcast(rows, root=0)
     missing = [r["label"] for r in rows if r["status"] != "done"]
-    return {"name": study.name, "study": to_dict(study.options), "results": rows, "missing": missing,
-            "complete": not missing}
+    return {
+        "name": study.name,
+        "study": to_dict(study.options),
+        "results": rows,
+        "missing": missing,
+        "complete": not missing,
+    }
 
 
 def plot_study(rows: list[dict[str, Any]], out: Path) -> None:
@@ -328,8 +396,11 @@ def plot_study(rows: list[dict[str, Any]], out: Path) -> None:
         if not hist.exists():
             continue
         data = np.genfromtxt(hist, delimiter=",", names=True)
-        ax.plot(data["time_s"] / 60.0, data["T_max_surface_C"],
-                label=f"{r['speed_rpm']:g} rpm, {r['torque_Nm']:g} N m")
+        ax.plot(
+            data["time_s"] / 60.0,
+            data["T_max_surface_C"],
+            label=f"{r['speed_rpm']:g} rpm, {r['torque_Nm']:g} N m",
+        )
     ax.set_xlabel("time (min)")
     ax.set_ylabel("maximum surface temperature (°C)")
     ax.set_title("Maximum surface temperature per operating point")
@@ -340,18 +411,30 @@ def plot_study(rows: list[dict[str, Any]], out: Path) -> None:
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
-    key = "max_surface_steady_C" if all(r.get("max_surface_steady_C") is not None for r in done) \
+    key = (
+        "max_surface_steady_C"
+        if all(r.get("max_surface_steady_C") is not None for r in done)
         else "max_surface_end_C"
+    )
     for t in sorted({r["torque_Nm"] for r in done}):
         sel = sorted((r for r in done if r["torque_Nm"] == t), key=lambda r: r["speed_rpm"])
         ax.plot([r["speed_rpm"] for r in sel], [r[key] for r in sel], "o-", label=f"{t:g} N m (FE)")
         vdi = [r.get("vdi2736_flank_C") for r in sel]
         if all(v is not None for v in vdi):
-            ax.plot([r["speed_rpm"] for r in sel], vdi, "x--", color=ax.lines[-1].get_color(), alpha=0.6,
-                    label=f"{t:g} N m (VDI 2736 flank)")
+            ax.plot(
+                [r["speed_rpm"] for r in sel],
+                vdi,
+                "x--",
+                color=ax.lines[-1].get_color(),
+                alpha=0.6,
+                label=f"{t:g} N m (VDI 2736 flank)",
+            )
     ax.set_xlabel("pinion speed (rpm)")
-    ax.set_ylabel("steady maximum surface temperature (°C)" if key.endswith("steady_C")
-                  else "maximum surface temperature at the end (°C)")
+    ax.set_ylabel(
+        "steady maximum surface temperature (°C)"
+        if key.endswith("steady_C")
+        else "maximum surface temperature at the end (°C)"
+    )
     ax.set_title("Operating temperature over speed and torque")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)

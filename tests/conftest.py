@@ -18,10 +18,10 @@ from pathlib import Path
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-import pytest  # noqa: E402
-from mpi4py import MPI  # noqa: E402
+import pytest
+from mpi4py import MPI
 
-import gearfem  # noqa: E402,F401  (orders dolfinx_solver first)
+import gearfem  # noqa: F401  (orders dolfinx_solver first)
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = ROOT.parent / "shared"

@@ -32,15 +32,32 @@ def draw(name: str, rng: np.random.Generator, margin: float = 0.3) -> float:
     return p.from_unit(rng.uniform(a, b))
 
 
-def synthetic(full, effects: dict[str, float], rng: np.random.Generator, noise_K: float = 1.0,
-              ambient_C: tuple[float, float] = (18.0, 28.0), speeds=SPEEDS_RPM, torque_Nm: float = TORQUE_NM,
-              quantities=QUANTITIES, end_only: bool = False) -> Dataset:
+def synthetic(
+    full,
+    effects: dict[str, float],
+    rng: np.random.Generator,
+    noise_K: float = 1.0,
+    ambient_C: tuple[float, float] = (18.0, 28.0),
+    speeds=SPEEDS_RPM,
+    torque_Nm: float = TORQUE_NM,
+    quantities=QUANTITIES,
+    end_only: bool = False,
+) -> Dataset:
     rows = []
     for sp in speeds:
         amb = float(np.round(rng.uniform(*ambient_C), 1))
         res = full.run(sp, torque_Nm, amb, effects)
         for q in quantities:
-            for t in ((None,) if end_only else (*full.times_s, None)):
-                rows.append(Measurement(sp, torque_Nm, t, q, float(res[(q, t)] + rng.normal(0.0, noise_K)),
-                                        noise_K, amb))
+            for t in (None,) if end_only else (*full.times_s, None):
+                rows.append(
+                    Measurement(
+                        sp,
+                        torque_Nm,
+                        t,
+                        q,
+                        float(res[(q, t)] + rng.normal(0.0, noise_K)),
+                        noise_K,
+                        amb,
+                    )
+                )
     return Dataset(tuple(rows), "synthetic")

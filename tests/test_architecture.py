@@ -35,8 +35,14 @@ def _tool(name: str) -> str:
 
 def _lint_imports(root: Path) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(root))
-    return subprocess.run([_tool("lint-imports"), "--config", str(ROOT / "pyproject.toml"), "--no-cache"],
-                          cwd=root, env=env, capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [_tool("lint-imports"), "--config", str(ROOT / "pyproject.toml"), "--no-cache"],
+        cwd=root,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 def test_layers_are_kept():
@@ -46,7 +52,9 @@ def test_layers_are_kept():
 
 
 def test_upward_imports_break_the_layers(tmp_path):
-    shutil.copytree(ROOT / "gearfem", tmp_path / "gearfem", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(
+        ROOT / "gearfem", tmp_path / "gearfem", ignore=shutil.ignore_patterns("__pycache__")
+    )
     violations = {
         "core/params.py": "from gearfem import pipeline  # deliberate upward import\n",
         "cycle/options.py": "import dolfinx  # deliberate DOLFINx import in an option module\n",
@@ -66,6 +74,11 @@ def test_upward_imports_break_the_layers(tmp_path):
 
 @pytest.mark.parametrize("args", [["check"], ["format", "--check"]], ids=["lint", "format"])
 def test_ruff_clean(args):
-    res = subprocess.run([_tool("ruff"), *args, "--no-cache", "."], cwd=ROOT, capture_output=True, text=True,
-                         timeout=300)
+    res = subprocess.run(
+        [_tool("ruff"), *args, "--no-cache", "."],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stdout[-5000:] + res.stderr[-2000:]

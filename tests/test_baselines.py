@@ -28,8 +28,15 @@ from gearfem.core.errors import ParameterError
 from gearfem.core.materials import Material
 
 # the S30 pair of [Fer2018] (SI)
-S30 = dict(z1=30, z2=30, module_m=2e-3, pressure_angle_deg=20.0, tip_radius1_m=32e-3,
-           tip_radius2_m=32e-3, centre_distance_m=60e-3)
+S30 = dict(
+    z1=30,
+    z2=30,
+    module_m=2e-3,
+    pressure_angle_deg=20.0,
+    tip_radius1_m=32e-3,
+    tip_radius2_m=32e-3,
+    centre_distance_m=60e-3,
+)
 S30_GEO = (30, 30, 2e-3, 20.0, 32e-3, 32e-3, 60e-3)
 # the thesis pair (Doll 2015, thesis_gear.toml; addendum 1 m assumed)
 THESIS_GEO = (30, 30, 2e-3, 30.0, 32e-3, 32e-3, 60e-3)
@@ -53,8 +60,17 @@ def _hand_contact_ratios(z1, z2, m, alpha_deg, ra1, ra2, a):
 
 def _s30_temperature(H_V, k):
     v_t = math.pi * 0.060 * 1000.0 / 60.0
-    return B.vdi2736_temperature_C(ambient_C=20.0, power_W=1047.2, mu=0.28, loss_factor=H_V, teeth=30,
-                                   face_width_m=15e-3, pitch_line_speed_m_s=v_t, module_m=2e-3, k_theta=k)
+    return B.vdi2736_temperature_C(
+        ambient_C=20.0,
+        power_W=1047.2,
+        mu=0.28,
+        loss_factor=H_V,
+        teeth=30,
+        face_width_m=15e-3,
+        pitch_line_speed_m_s=v_t,
+        module_m=2e-3,
+        k_theta=k,
+    )
 
 
 def test_vdi2736_published_example_with_HV_0140():
@@ -82,13 +98,24 @@ def test_vdi2736_published_example_from_printed_power_loss():
 
 def test_vdi2736_unit_handling_and_scaling():
     """The bracket uses b, m in mm and v in m/s: check against the formula written in those units."""
-    base = dict(ambient_C=23.0, power_W=500.0, mu=0.4, loss_factor=0.12, teeth=40, face_width_m=0.01,
-                pitch_line_speed_m_s=5.0, module_m=1.5e-3, k_theta=2148.0)
+    base = dict(
+        ambient_C=23.0,
+        power_W=500.0,
+        mu=0.4,
+        loss_factor=0.12,
+        teeth=40,
+        face_width_m=0.01,
+        pitch_line_speed_m_s=5.0,
+        module_m=1.5e-3,
+        k_theta=2148.0,
+    )
     rise = B.vdi2736_temperature_C(**base) - 23.0
     hand = 500.0 * 0.4 * 0.12 * 2148.0 / (10.0 * 40 * (5.0 * 1.5) ** 0.75)
     assert rise == pytest.approx(hand, rel=1e-12)
     # housing term R/A (K/W) and duty cycle ED^0.64
-    t = B.vdi2736_temperature_C(**base, housing_resistance_K_m2_W=0.03, housing_area_m2=0.02, duty_cycle=0.5)
+    t = B.vdi2736_temperature_C(
+        **base, housing_resistance_K_m2_W=0.03, housing_area_m2=0.02, duty_cycle=0.5
+    )
     assert t - 23.0 == pytest.approx((hand + 500 * 0.4 * 0.12 * 0.03 / 0.02) * 0.5**0.64, rel=1e-12)
     with pytest.raises(ParameterError, match="housing_area_m2"):
         B.vdi2736_temperature_C(**base, housing_resistance_K_m2_W=0.03)
@@ -101,7 +128,7 @@ def test_tooth_loss_factor_S30_matches_ohlendorf_and_published():
     H = B.tooth_loss_factor(*S30_GEO)
     e1, e2 = _hand_contact_ratios(*S30_GEO)
     closed = math.pi * (1 + 1) / (30 * 1) * (1 - (e1 + e2) + e1**2 + e2**2)
-    assert H == pytest.approx(closed, rel=1e-12)
+    assert pytest.approx(closed, rel=1e-12) == H
     assert abs(H - 0.1494) <= 0.00005
     assert e1 + e2 == pytest.approx(1.65, abs=0.005)  # printed eps_alpha 1.65
 
@@ -146,8 +173,9 @@ def test_mao_from_the_energy_balance():
     E_f15 = E_f + 0.5 * E_f / 2  # 2.17
     V = 2 * math.pi * h * (r_out**2 - r**2)  # 2.18
     dT = E_f15 / (omega * V * B.AIR_SPECIFIC_HEAT_25C_J_kgK * B.AIR_DENSITY_25C_kg_m3)  # 2.19
-    got = B.mao_bulk_temperature_rise_K(mu=mu, torque_Nm=T, teeth=Z, face_width_m=h, tip_radius_m=r_out,
-                                        reference_radius_m=r)
+    got = B.mao_bulk_temperature_rise_K(
+        mu=mu, torque_Nm=T, teeth=Z, face_width_m=h, tip_radius_m=r_out, reference_radius_m=r
+    )
     assert got == pytest.approx(dT, rel=1e-12)
     # by hand: 0.625*0.5*8 / (1.184*1007*30*0.012934*(0.032^2-0.030^2)) = 2.5 / 0.057366 = 43.58 K
     assert got == pytest.approx(43.58, abs=0.01)
@@ -156,12 +184,22 @@ def test_mao_from_the_energy_balance():
 def test_mao_dimensional_consistency():
     """Delta T depends on T / (rho c_p L^3) only: scaling every length by 3 and the torque by 27
     leaves it unchanged; doubling rho c_p halves it; it does not depend on speed (no speed input)."""
-    kw = dict(mu=0.3, torque_Nm=5.0, teeth=25, face_width_m=0.01, tip_radius_m=0.026, reference_radius_m=0.025)
+    kw = dict(
+        mu=0.3,
+        torque_Nm=5.0,
+        teeth=25,
+        face_width_m=0.01,
+        tip_radius_m=0.026,
+        reference_radius_m=0.025,
+    )
     d0 = B.mao_bulk_temperature_rise_K(**kw)
-    scaled = dict(kw, torque_Nm=5.0 * 27, face_width_m=0.03, tip_radius_m=0.078, reference_radius_m=0.075)
+    scaled = dict(
+        kw, torque_Nm=5.0 * 27, face_width_m=0.03, tip_radius_m=0.078, reference_radius_m=0.075
+    )
     assert B.mao_bulk_temperature_rise_K(**scaled) == pytest.approx(d0, rel=1e-12)
-    assert B.mao_bulk_temperature_rise_K(**kw, air_density_kg_m3=2 * B.AIR_DENSITY_25C_kg_m3) == pytest.approx(
-        d0 / 2, rel=1e-12)
+    assert B.mao_bulk_temperature_rise_K(
+        **kw, air_density_kg_m3=2 * B.AIR_DENSITY_25C_kg_m3
+    ) == pytest.approx(d0 / 2, rel=1e-12)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -193,16 +231,30 @@ def test_involute_radii_along_the_line_of_action():
 
 def test_agma_equals_hertz_at_the_pitch_point():
     """Thesis eq. 4.1 with W_t equals Hertz p0 with w = W_t / (b cos phi), R_i = r_i sin(phi)."""
-    for zp, zg, phi, (Ep, nup, Eg, nug) in ((30, 30, 30.0, (3.7e9, 0.4, 3.7e9, 0.4)),
-                                             (17, 51, 20.0, (210e9, 0.3, 3.0e9, 0.35))):
+    for zp, zg, phi, (Ep, nup, Eg, nug) in (
+        (30, 30, 30.0, (3.7e9, 0.4, 3.7e9, 0.4)),
+        (17, 51, 20.0, (210e9, 0.3, 3.0e9, 0.35)),
+    ):
         m, b, Wt = 2e-3, 12e-3, 300.0
         Dp = m * zp
-        sH = B.agma_pitch_contact_stress_Pa(tangential_load_N=Wt, pitch_diameter_m=Dp, face_width_m=b,
-                                            pressure_angle_deg=phi, speed_ratio=zg / zp, youngs_pinion_Pa=Ep,
-                                            poisson_pinion=nup, youngs_gear_Pa=Eg, poisson_gear=nug)
+        sH = B.agma_pitch_contact_stress_Pa(
+            tangential_load_N=Wt,
+            pitch_diameter_m=Dp,
+            face_width_m=b,
+            pressure_angle_deg=phi,
+            speed_ratio=zg / zp,
+            youngs_pinion_Pa=Ep,
+            poisson_pinion=nup,
+            youngs_gear_Pa=Eg,
+            poisson_gear=nug,
+        )
         sp = math.sin(math.radians(phi))
-        _, p0 = B.hertz_line_contact(Wt / (b * math.cos(math.radians(phi))), Dp / 2 * sp, m * zg / 2 * sp,
-                                     B.effective_modulus_Pa(Ep, nup, Eg, nug))
+        _, p0 = B.hertz_line_contact(
+            Wt / (b * math.cos(math.radians(phi))),
+            Dp / 2 * sp,
+            m * zg / 2 * sp,
+            B.effective_modulus_Pa(Ep, nup, Eg, nug),
+        )
         assert sH == pytest.approx(float(p0), rel=1e-12)
 
 
@@ -215,12 +267,15 @@ def _duhamel_max(shape):
     """max over x of int_{-1}^{x} g(x') / sqrt(x - x') dx' for a band source of mean flux 1 on [-1, 1]
     (surface temperature of a semi-infinite body passing under it, in units of
     q_mean sqrt(a / v) / (b sqrt(pi)))."""
+
     def I(x):
         if x <= 1.0:  # substitute x' = x - t^2
             return integrate.quad(lambda t: 2 * shape(x - t * t), 0, math.sqrt(x + 1), limit=200)[0]
         return integrate.quad(lambda xp: shape(xp) / math.sqrt(x - xp), -1, 1, limit=200)[0]
-    res = optimize.minimize_scalar(lambda x: -I(x), bounds=(-0.5, 1.0), method="bounded",
-                                   options={"xatol": 1e-10})
+
+    res = optimize.minimize_scalar(
+        lambda x: -I(x), bounds=(-0.5, 1.0), method="bounded", options={"xatol": 1e-10}
+    )
     return -res.fun
 
 
@@ -228,7 +283,9 @@ def test_blok_form_factors_from_the_duhamel_integral():
     """FF = max integral / sqrt(2 pi) with the full width w = 2a: 2/sqrt(pi) for a uniform flux,
     1.1115 for the semi-elliptic flux (Blok's rounded 1.11)."""
     uni = _duhamel_max(lambda x: 1.0 if abs(x) <= 1 else 0.0) / math.sqrt(2 * math.pi)
-    ell = _duhamel_max(lambda x: 4 / math.pi * math.sqrt(max(0.0, 1 - x * x))) / math.sqrt(2 * math.pi)
+    ell = _duhamel_max(lambda x: 4 / math.pi * math.sqrt(max(0.0, 1 - x * x))) / math.sqrt(
+        2 * math.pi
+    )
     assert uni == pytest.approx(B.BLOK_FORM_FACTOR_UNIFORM, rel=1e-6)
     assert ell == pytest.approx(1.1115, abs=5e-4)
     assert abs(B.BLOK_FORM_FACTOR_SEMI_ELLIPTIC - ell) / ell < 0.002
@@ -252,13 +309,28 @@ def test_blok_partition_gives_equal_temperatures():
     assert t1 == pytest.approx(t2, rel=1e-12) and theta == pytest.approx(t1, rel=1e-12)
     # equal materials: the thesis's eq. 2.5 form
     th = float(B.blok_flash_temperature_K(mu, w, a, v1, v2, b1, b1))
-    assert th == pytest.approx(1.11 * mu * w * abs(math.sqrt(v1) - math.sqrt(v2)) / (b1 * math.sqrt(2 * a)), rel=1e-12)
+    assert th == pytest.approx(
+        1.11 * mu * w * abs(math.sqrt(v1) - math.sqrt(v2)) / (b1 * math.sqrt(2 * a)), rel=1e-12
+    )
 
 
 def _flash(**over):
-    kw = dict(z1=30, z2=30, module_m=2e-3, pressure_angle_deg=30.0, tip_radius1_m=32e-3, tip_radius2_m=32e-3,
-              centre_distance_m=60e-3, face_width_m=12.934e-3, torque1_Nm=8.0, speed1_rpm=1000.0, mu=0.5,
-              material1=Material(), material2=Material(), n_points=101)
+    kw = dict(
+        z1=30,
+        z2=30,
+        module_m=2e-3,
+        pressure_angle_deg=30.0,
+        tip_radius1_m=32e-3,
+        tip_radius2_m=32e-3,
+        centre_distance_m=60e-3,
+        face_width_m=12.934e-3,
+        torque1_Nm=8.0,
+        speed1_rpm=1000.0,
+        mu=0.5,
+        material1=Material(),
+        material2=Material(),
+        n_points=101,
+    )
     kw.update(over)
     return B.flash_temperature_along_path(**kw)
 
@@ -269,7 +341,9 @@ def test_flash_zero_at_pitch_point_and_symmetric_for_equal_gears():
     assert c.s_m[i0] == pytest.approx(0.0, abs=1e-15)
     assert c.flash_K[i0] == pytest.approx(0.0, abs=1e-9)
     np.testing.assert_allclose(c.speed1_m_s[i0], c.speed2_m_s[i0], rtol=1e-12)
-    np.testing.assert_allclose(c.flash_K, c.flash_K[::-1], rtol=1e-9, atol=1e-9)  # z1 = z2, eps_1 = eps_2
+    np.testing.assert_allclose(
+        c.flash_K, c.flash_K[::-1], rtol=1e-9, atol=1e-9
+    )  # z1 = z2, eps_1 = eps_2
     assert c.max_K > 0 and c.min_peclet > 5.0  # Blok's thin-layer (high Peclet) regime
 
 
@@ -328,8 +402,10 @@ def _trochoid_critical_section(z, m, alpha_deg, x, hfP, rho):
 
     ps = np.linspace(-0.6, 0.6, 1201) * 17.0 / max(z, 17)
     vals = np.array([angle(p) for p in ps])
-    roots = [optimize.brentq(angle, ps[i], ps[i + 1], xtol=1e-13)
-             for i in np.where(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]]
+    roots = [
+        optimize.brentq(angle, ps[i], ps[i + 1], xtol=1e-13)
+        for i in np.where(np.sign(vals[:-1]) != np.sign(vals[1:]))[0]
+    ]
     pts = [f(p) for p in roots]
     k = int(np.argmin([pt[0] if pt[0] > 0 else np.inf for pt in pts]))
     p = roots[k]
@@ -340,9 +416,16 @@ def _trochoid_critical_section(z, m, alpha_deg, x, hfP, rho):
     return 2 * pts[k][0], R, pts[k]
 
 
-@pytest.mark.parametrize("z, alpha, x, rho_coef", [(17, 20.0, 0.0, 0.38), (30, 20.0, 0.0, 0.25),
-                                                   (60, 20.0, 0.3, 0.38), (19, 20.0, 0.5, 0.25),
-                                                   (30, 30.0, -0.0635, 0.1)])
+@pytest.mark.parametrize(
+    "z, alpha, x, rho_coef",
+    [
+        (17, 20.0, 0.0, 0.38),
+        (30, 20.0, 0.0, 0.25),
+        (60, 20.0, 0.3, 0.38),
+        (19, 20.0, 0.5, 0.25),
+        (30, 30.0, -0.0635, 0.1),
+    ],
+)
 def test_root_section_matches_generated_trochoid(z, alpha, x, rho_coef):
     """s_Fn and rho_F of the ISO formulas equal the 30-degree tangent of the numerically generated
     fillet, and h_Fe equals the moment arm from intersecting the load line with the centre line."""
@@ -356,13 +439,17 @@ def test_root_section_matches_generated_trochoid(z, alpha, x, rho_coef):
     al = math.radians(alpha)
     rb = m * z * math.cos(al) / 2
     a_en = math.acos(rb / ra)
-    s_tip = 2 * ra * ((math.pi / 2 + 2 * x * math.tan(al)) / z + B._inv(al) - B._inv(a_en))  # tooth thickness
+    s_tip = (
+        2 * ra * ((math.pi / 2 + 2 * x * math.tan(al)) / z + B._inv(al) - B._inv(a_en))
+    )  # tooth thickness
     g = s_tip / (2 * ra)
     L = ra * np.array([math.sin(g), math.cos(g)])
     T = rb * np.array([math.sin(g - a_en), math.cos(g - a_en)])
     y_int = L[1] - L[0] * (L[1] - T[1]) / (L[0] - T[0])
     assert got.h_Fe_m == pytest.approx(y_int - P[1], rel=1e-6)
-    assert got.alpha_Fen_deg == pytest.approx(math.degrees(math.atan2(L[1] - T[1], L[0] - T[0])), rel=1e-9)
+    assert got.alpha_Fen_deg == pytest.approx(
+        math.degrees(math.atan2(L[1] - T[1], L[0] - T[0])), rel=1e-9
+    )
 
 
 def _rack_tip_factors(alpha_deg, x, hfP, rho, ha=1.0):
@@ -370,7 +457,10 @@ def _rack_tip_factors(alpha_deg, x, hfP, rho, ha=1.0):
     flanks, circular fillet of the tool tip radius, load at the tip normal to the flank."""
     al = math.radians(alpha_deg)
     E = math.pi / 4 - hfP * math.tan(al) - (1 - math.sin(al)) * rho / math.cos(al)
-    xc, yc = math.pi / 2 - E, x - hfP + rho  # fillet centre (tooth centre line x = 0, reference line y = 0)
+    xc, yc = (
+        math.pi / 2 - E,
+        x - hfP + rho,
+    )  # fillet centre (tooth centre line x = 0, reference line y = 0)
     P = (xc - rho * math.cos(math.radians(30)), yc - rho * math.sin(math.radians(30)))
     yL = ha + x
     xL = math.pi / 4 - (yL - x) * math.tan(al)
@@ -384,10 +474,12 @@ def _rack_tip_factors(alpha_deg, x, hfP, rho, ha=1.0):
 @pytest.mark.parametrize("alpha, x, rho", [(20.0, 0.0, 0.38), (20.0, 0.3, 0.25), (25.0, -0.2, 0.3)])
 def test_root_factors_approach_the_rack_values(alpha, x, rho):
     z = 1_000_000
-    got = B.root_form_factors(z, 1e-3, alpha, x, (z / 2 + 1 + x) * 1e-3, rack_fillet_coef=rho, load_at="tip")
+    got = B.root_form_factors(
+        z, 1e-3, alpha, x, (z / 2 + 1 + x) * 1e-3, rack_fillet_coef=rho, load_at="tip"
+    )
     YF, YS = _rack_tip_factors(alpha, x, 1.25, rho)
-    assert got.Y_F == pytest.approx(YF, rel=1e-4)
-    assert got.Y_S == pytest.approx(YS, rel=1e-4)
+    assert pytest.approx(YF, rel=1e-4) == got.Y_F
+    assert pytest.approx(YS, rel=1e-4) == got.Y_S
     assert got.rho_F_m == pytest.approx(rho * 1e-3, rel=1e-4)
 
 
@@ -414,8 +506,13 @@ def test_root_factors_against_published_s30_report():
     eps = B._pair(*S30_GEO).eps_alpha
     Ye = B.vdi2736_contact_ratio_factor(eps)
     assert abs(Ye - 0.704) <= 0.0005
-    sF = B.root_stress_Pa(tangential_force_N=10.0 / 0.030, face_width_m=15e-3, module_m=2e-3, factors=f,
-                          contact_ratio_factor=Ye)
+    sF = B.root_stress_Pa(
+        tangential_force_N=10.0 / 0.030,
+        face_width_m=15e-3,
+        module_m=2e-3,
+        factors=f,
+        contact_ratio_factor=Ye,
+    )
     assert abs(sF / 1e6 - 32.17) <= 0.005 + 0.01  # printed rounding plus that of the three factors
 
 
@@ -424,24 +521,31 @@ def test_root_factors_against_din3990_implementation():
     z = 19 / 104, x = 0.5 / 0.15, rack 20 deg, h_fP = 1.25 m, rho_fP = 0.25 m, tip load. It prints
     Y_Fa = 2.2463 / 2.1617, Y_Sa = 1.9147 / 2.0088; its s_Fn differs from the generated trochoid by
     5e-5 (an unconverged theta iteration there), hence the 2e-4 tolerance."""
-    for z, x, ra, YFa, YSa in ((19, 0.5, 44e-3, 2.246336378902072, 1.9147262565947287),
-                               (104, 0.15, 212.6e-3, 2.1616566798058514, 2.008781657562889)):
+    for z, x, ra, YFa, YSa in (
+        (19, 0.5, 44e-3, 2.246336378902072, 1.9147262565947287),
+        (104, 0.15, 212.6e-3, 2.1616566798058514, 2.008781657562889),
+    ):
         f = B.root_form_factors(z, 4e-3, 20.0, x, ra, rack_fillet_coef=0.25, load_at="tip")
-        assert f.Y_F == pytest.approx(YFa, rel=2e-4)
-        assert f.Y_S == pytest.approx(YSa, rel=2e-4)
+        assert pytest.approx(YFa, rel=2e-4) == f.Y_F
+        assert pytest.approx(YSa, rel=2e-4) == f.Y_S
 
 
 def test_root_rack_limits_and_validation():
     assert B.max_rack_fillet_coef(30.0, 1.25) == pytest.approx(
-        (math.pi / 4 - 1.25 * math.tan(math.pi / 6)) * math.cos(math.pi / 6) / 0.5, rel=1e-12)
-    with pytest.raises(ParameterError, match="rack_fillet_coef"):  # 0.38 m does not fit a 30-deg rack
+        (math.pi / 4 - 1.25 * math.tan(math.pi / 6)) * math.cos(math.pi / 6) / 0.5, rel=1e-12
+    )
+    with pytest.raises(
+        ParameterError, match="rack_fillet_coef"
+    ):  # 0.38 m does not fit a 30-deg rack
         B.root_form_factors(30, 2e-3, 30.0, 0.0, 32e-3, rack_fillet_coef=0.38, load_at="tip")
     with pytest.raises(ParameterError, match="pressure_angle_deg"):
         B.root_form_factors(30, 2e-3, 32.0, 0.0, 32e-3, rack_fillet_coef=0.05, load_at="tip")
     with pytest.raises(ParameterError, match="contact_ratio"):
         B.root_form_factors(30, 2e-3, 20.0, 0.0, 32e-3)
     x = B.profile_shift_from_thickness(2.995e-3, 2e-3, 30.0)
-    assert 2e-3 * (math.pi / 2 + 2 * x * math.tan(math.pi / 6)) == pytest.approx(2.995e-3, rel=1e-12)
+    assert 2e-3 * (math.pi / 2 + 2 * x * math.tan(math.pi / 6)) == pytest.approx(
+        2.995e-3, rel=1e-12
+    )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -450,21 +554,39 @@ def test_root_rack_limits_and_validation():
 
 
 def _summary(**over):
-    kw = dict(speed_rpm=1000.0, torque_Nm=8.0, mu=0.5, teeth1=30, teeth2=30, module_m=2e-3,
-              pressure_angle_deg=30.0, face_width_m=12.934e-3, tip_radius1_m=32e-3, tip_radius2_m=32e-3,
-              centre_distance_m=60e-3, ambient_C=23.0,
-              options=B.BaselineOptions(rack_fillet_coef=B.max_rack_fillet_coef(30.0)))
+    kw = dict(
+        speed_rpm=1000.0,
+        torque_Nm=8.0,
+        mu=0.5,
+        teeth1=30,
+        teeth2=30,
+        module_m=2e-3,
+        pressure_angle_deg=30.0,
+        face_width_m=12.934e-3,
+        tip_radius1_m=32e-3,
+        tip_radius2_m=32e-3,
+        centre_distance_m=60e-3,
+        ambient_C=23.0,
+        options=B.BaselineOptions(rack_fillet_coef=B.max_rack_fillet_coef(30.0)),
+    )
     kw.update(over)
     return B.baseline_summary(**kw)
 
 
-@pytest.mark.parametrize("over, name", [({"mu": 2.5}, "mu"), ({"mu": -0.1}, "mu"),
-                                        ({"torque_Nm": 0.0}, "torque_Nm"), ({"speed_rpm": -5.0}, "speed_rpm"),
-                                        ({"pressure_angle_deg": 50.0}, "pressure_angle_deg"),
-                                        ({"pressure_angle_deg": 0.0}, "pressure_angle_deg"),
-                                        ({"teeth1": 30.5}, "teeth1"),
-                                        ({"tip_radius1_m": 29e-3}, "tip_radius1_m"),
-                                        ({"centre_distance_m": 50e-3}, "centre_distance_m")])
+@pytest.mark.parametrize(
+    "over, name",
+    [
+        ({"mu": 2.5}, "mu"),
+        ({"mu": -0.1}, "mu"),
+        ({"torque_Nm": 0.0}, "torque_Nm"),
+        ({"speed_rpm": -5.0}, "speed_rpm"),
+        ({"pressure_angle_deg": 50.0}, "pressure_angle_deg"),
+        ({"pressure_angle_deg": 0.0}, "pressure_angle_deg"),
+        ({"teeth1": 30.5}, "teeth1"),
+        ({"tip_radius1_m": 29e-3}, "tip_radius1_m"),
+        ({"centre_distance_m": 50e-3}, "centre_distance_m"),
+    ],
+)
 def test_bad_inputs_raise_parameter_error(over, name):
     with pytest.raises(ParameterError) as err:
         _summary(**over)
@@ -488,6 +610,8 @@ def test_summary_of_the_thesis_bench_points():
     for key in ("vdi2736_flank1_C", "vdi2736_root1_C"):
         assert B.temperature_rise_ratio(a, b, key) == pytest.approx(2**-0.75, rel=1e-12)
     assert B.temperature_rise_ratio(a, b, "mao_bulk1_C") == pytest.approx(0.5, rel=1e-12)
-    assert a["friction_power_W"] == pytest.approx(0.5 * a["tooth_loss_factor_HV"] * a["power_W"], rel=1e-12)
+    assert a["friction_power_W"] == pytest.approx(
+        0.5 * a["tooth_loss_factor_HV"] * a["power_W"], rel=1e-12
+    )
     assert a["agma_pitch_sigma_H_Pa"] == pytest.approx(a["hertz_pitch_p0_Pa"], rel=1e-12)
     assert all(math.isfinite(v) for v in a.values())

@@ -31,13 +31,17 @@ from gearfem.core.facets import FacetReference
 def test_facet_nodes_are_the_facet_element_nodes(cell):
     """Cell-local facet node lists reproduce the basix facet element's reference points."""
     ref = FacetReference.create(cell, 2)
-    cell_pts = basix.create_element(basix.ElementFamily.P, cell, 2, basix.LagrangeVariant.equispaced).points
+    cell_pts = basix.create_element(
+        basix.ElementFamily.P, cell, 2, basix.LagrangeVariant.equispaced
+    ).points
     facet_pts = ref.element.points
     for f, nodes in enumerate(ref.facet_nodes):
         # the facet's affine map from its vertex positions in the reference cell
         v = cell_pts[nodes[: ref.num_vertices]]
         mapped = v[0] + facet_pts[:, :1] * (v[1] - v[0]) + facet_pts[:, 1:2] * (v[2] - v[0])
-        if ref.num_vertices == 4:  # bilinear: add the twist term (zero for the reference cube faces)
+        if (
+            ref.num_vertices == 4
+        ):  # bilinear: add the twist term (zero for the reference cube faces)
             mapped += (facet_pts[:, :1] * facet_pts[:, 1:2]) * (v[3] - v[2] - v[1] + v[0])
         np.testing.assert_allclose(cell_pts[nodes], mapped, atol=1e-14, err_msg=f"facet {f}")
 
@@ -82,7 +86,9 @@ def test_segmentation_of_a_facet_by_a_tiling_recovers_its_area():
     master += rng.normal(0, 1e-3, master.shape) * np.array([0, 0, 1])  # slightly warped
     P = len(master)
     pts, wts = basix.make_quadrature(basix.CellType.triangle, 4)
-    pair, xi, w = segment(ref, np.repeat(slave[None], P, axis=0), master, np.asarray(pts), np.asarray(wts))
+    pair, xi, w = segment(
+        ref, np.repeat(slave[None], P, axis=0), master, np.asarray(pts), np.asarray(wts)
+    )
     assert w.sum() == pytest.approx(0.5, rel=1e-12)  # reference-triangle area
     # and the points integrate a quadratic exactly: ∫ xi1^2 over the reference triangle = 1/12
     assert np.sum(w * xi[:, 0] ** 2) == pytest.approx(1.0 / 12.0, rel=1e-12)
@@ -99,8 +105,11 @@ def _uniform_pressure(case) -> tuple[float, float, float]:
     prob = case.problem
     comm = prob.comm
     p = np.concatenate([pts.pressure for pts in prob.last_points[0]])
-    return (comm.allreduce(p.min(initial=np.inf), op=MPI.MIN), comm.allreduce(p.max(initial=-np.inf), op=MPI.MAX),
-            summary(prob).normal_force_N[2])
+    return (
+        comm.allreduce(p.min(initial=np.inf), op=MPI.MIN),
+        comm.allreduce(p.max(initial=-np.inf), op=MPI.MAX),
+        summary(prob).normal_force_N[2],
+    )
 
 
 @pytest.mark.mpi
@@ -110,11 +119,17 @@ def test_patch_test_uniform_pressure_non_matching(comms, hexahedra):
     delta, E, eps, H = 1e-3, 1.0, 100.0, 1.0
     p_exact = delta / (H / E + 1.0 / eps)
     for comm in comms:
-        case = block_case(comm, _PATCH, compression_m=delta, youngs_modulus_Pa=E, hexahedra=hexahedra)
+        case = block_case(
+            comm, _PATCH, compression_m=delta, youngs_modulus_Pa=E, hexahedra=hexahedra
+        )
         case.problem.solve("patch")
         pmin, pmax, fz = _uniform_pressure(case)
-        assert pmin == pytest.approx(p_exact, rel=1e-10) and pmax == pytest.approx(p_exact, rel=1e-10)
-        assert fz == pytest.approx(-p_exact * 1.0, rel=1e-10)  # on the lower block: downwards, area 1
+        assert pmin == pytest.approx(p_exact, rel=1e-10) and pmax == pytest.approx(
+            p_exact, rel=1e-10
+        )
+        assert fz == pytest.approx(
+            -p_exact * 1.0, rel=1e-10
+        )  # on the lower block: downwards, area 1
 
 
 def test_patch_test_is_frame_invariant():
@@ -124,8 +139,12 @@ def test_patch_test_is_frame_invariant():
     # Unlike the unrotated case (linear once in contact: exact after two Newton steps), here the
     # projection points move between iterates, so the uniformity is that of the Newton tolerance:
     # solve to 1e-12 of the internal force norm (roundoff is reached near 1e-13).
-    opts = ContactOptions(method="penalty", penalty_Pa_m=100.0, newton_rtol=1e-12, newton_atol_N=0.0)
-    case = block_case(MPI.COMM_WORLD, opts, compression_m=delta, motion_angle_rad=math.radians(30.0))
+    opts = ContactOptions(
+        method="penalty", penalty_Pa_m=100.0, newton_rtol=1e-12, newton_atol_N=0.0
+    )
+    case = block_case(
+        MPI.COMM_WORLD, opts, compression_m=delta, motion_angle_rad=math.radians(30.0)
+    )
     case.problem.solve("rotated patch")
     pmin, pmax, _ = _uniform_pressure(case)
     assert pmin == pytest.approx(p_exact, rel=1e-10) and pmax == pytest.approx(p_exact, rel=1e-10)
@@ -140,7 +159,9 @@ def test_sliding_block_gross_slip_traction_is_mu_p_and_balances_the_support():
     the held top of the sliding block reacts exactly the force the interface transmits."""
     mu = 0.3
     opts = ContactOptions(method="penalty", penalty_Pa_m=100.0, friction_coefficient=mu)
-    case = block_case(MPI.COMM_WORLD, opts, compression_m=1e-3, upper_velocity_m_s=(1.0, 0.0, 0.0), clamped=True)
+    case = block_case(
+        MPI.COMM_WORLD, opts, compression_m=1e-3, upper_velocity_m_s=(1.0, 0.0, 0.0), clamped=True
+    )
     prob = case.problem
     prob.solve("sliding")
     total_t = total_p = 0.0
@@ -157,7 +178,9 @@ def test_sliding_block_gross_slip_traction_is_mu_p_and_balances_the_support():
         total_p += float(np.sum(pts.dA[on] * pts.pressure[on]))
     assert total_t == pytest.approx(mu * total_p, rel=1e-9)
     s = summary(prob)
-    assert -s.normal_force_N[2] > 0 and s.tangential_force_N[0] > 0  # lower block pushed down, dragged +x
+    assert (
+        -s.normal_force_N[2] > 0 and s.tangential_force_N[0] > 0
+    )  # lower block pushed down, dragged +x
     # equilibrium of the upper block, supported only at its top: the internal force there (K u on
     # the Dirichlet rows) balances what the interface applies to it, i.e. minus the force on the lower
     # block
@@ -224,8 +247,11 @@ def test_augmented_lagrangian_meets_tolerance_and_matches_stiff_penalty():
         rep = case.problem.solve(name)
         if name == "al":
             tol = case.problem.interfaces[0].penetration_tolerance()
-            assert tol == pytest.approx(tol_rel * min(float(ps.slave.local.size.min()) for ps in
-                                                      case.problem.interfaces[0].passes), rel=0.5)
+            assert tol == pytest.approx(
+                tol_rel
+                * min(float(ps.slave.local.size.min()) for ps in case.problem.interfaces[0].passes),
+                rel=0.5,
+            )
             assert rep.uzawa_iterations > 1 and rep.constraint_penetration_m <= tol
         forces[name] = -summary(case.problem).normal_force_N[1] / case.thickness_m
         r = compare_hertz(case)
@@ -244,7 +270,7 @@ def test_hertz_one_and_two_ranks_agree(comms):
         r = compare_hertz(case)
         results.append((r.force_per_length_N_m, r.p0_fe_Pa, r.a_fe_m))
     (F1, p1, a1), (F2, p2, a2) = results
-    assert F2 == pytest.approx(F1, rel=1e-8)
+    assert pytest.approx(F1, rel=1e-8) == F2
     assert p2 == pytest.approx(p1, rel=1e-8)
     assert a2 == pytest.approx(a1, rel=1e-8)
 
@@ -256,8 +282,12 @@ def test_hertz_one_and_two_ranks_agree(comms):
 
 @pytest.mark.parametrize(
     "kwargs, name",
-    [({"friction_coefficient": 2.5}, "contact.friction_coefficient"), ({"method": "lagrange"}, "contact.method"),
-     ({"penalty_factor": 0.0}, "contact.penalty_factor"), ({"quadrature_degree": 0}, "contact.quadrature_degree")],
+    [
+        ({"friction_coefficient": 2.5}, "contact.friction_coefficient"),
+        ({"method": "lagrange"}, "contact.method"),
+        ({"penalty_factor": 0.0}, "contact.penalty_factor"),
+        ({"quadrature_degree": 0}, "contact.quadrature_degree"),
+    ],
 )
 def test_bad_contact_options_name_the_parameter(kwargs, name):
     with pytest.raises(ParameterError, match=name.replace(".", r"\.")):
@@ -265,7 +295,9 @@ def test_bad_contact_options_name_the_parameter(kwargs, name):
 
 
 def test_joined_bodies_and_non_convergence_are_reported():
-    case = block_case(MPI.COMM_WORLD, ContactOptions(method="penalty", penalty_Pa_m=100.0, newton_max_it=1))
+    case = block_case(
+        MPI.COMM_WORLD, ContactOptions(method="penalty", penalty_Pa_m=100.0, newton_max_it=1)
+    )
     itf = case.problem.interfaces[0]
     with pytest.raises(GearfemError, match="share"):
         ContactInterface(itf.a, itf.a, itf.options, {"lower": 1.0})

@@ -21,7 +21,8 @@ def test_hertz_pressure_is_the_ellipse_carrying_the_force():
     integral, _ = quad(lambda x: float(hertz_pressure(x, a, p0)), -a, a)
     assert integral == pytest.approx(P, rel=1e-9)
     assert hertz_pressure(np.array([0.0, 0.5 * a, a, 1.5 * a, -2 * a]), a, p0) == pytest.approx(
-        [p0, p0 * math.sqrt(0.75), 0.0, 0.0, 0.0], rel=1e-14, abs=0.0)
+        [p0, p0 * math.sqrt(0.75), 0.0, 0.0, 0.0], rel=1e-14, abs=0.0
+    )
 
 
 @pytest.mark.mpi
@@ -32,7 +33,9 @@ def test_gathered_points_carry_the_contact_force_and_agree_on_1_and_2_ranks(comm
     opts = ContactOptions(method="penalty", penalty_Pa_m=100.0, friction_coefficient=mu)
     tables = []
     for comm in comms:
-        case = block_case(comm, opts, compression_m=1e-3, upper_velocity_m_s=(1.0, 0.0, 0.0), clamped=True)
+        case = block_case(
+            comm, opts, compression_m=1e-3, upper_velocity_m_s=(1.0, 0.0, 0.0), clamped=True
+        )
         prob = case.problem
         prob.solve("sliding")
         t = gather_points(prob)
@@ -47,7 +50,9 @@ def test_gathered_points_carry_the_contact_force_and_agree_on_1_and_2_ranks(comm
         np.testing.assert_allclose(f_normal, s.normal_force_N, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(f_shear, s.tangential_force_N, rtol=1e-12, atol=1e-15)
         on = t.pressure > 0.0
-        np.testing.assert_allclose(np.linalg.norm(t.shear[on], axis=1), mu * t.pressure[on], rtol=1e-9)
+        np.testing.assert_allclose(
+            np.linalg.norm(t.shear[on], axis=1), mu * t.pressure[on], rtol=1e-9
+        )
         np.testing.assert_allclose(np.einsum("pd,pd->p", t.shear, t.normal), 0.0, atol=1e-15)
         # the interface is the plane z = 0 before deformation; the compressed blocks have moved
         np.testing.assert_allclose(t.x_reference[:, 2], 0.0, atol=1e-14)

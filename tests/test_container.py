@@ -38,7 +38,9 @@ def _instructions() -> list[tuple[str, str]]:
 def test_base_image_is_pinned_to_the_dolfinx_the_pip_route_uses():
     froms = [rest for word, rest in _instructions() if word == "FROM"]
     assert froms == ["ghcr.io/fenics/dolfinx/dolfinx:v0.11.0"]
-    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"
+    ]
     (pin,) = [d for d in extras["fenics"] if d.startswith("dolfinx-solver-real")]
     assert re.search(r"==\s*0\.11(\.\*)?$", pin), pin
 
@@ -61,16 +63,39 @@ def test_dev_sh_setup_takes_the_image_route(tmp_path):
     base = getattr(sys, "_base_executable", sys.executable)
     # the image also puts its MPI library on LD_LIBRARY_PATH; here it lives in this venv's lib/
     libdir = str(Path(sys.prefix) / "lib")
-    env = dict(os.environ, GEARFEM_PYTHON=base, GEARFEM_VENV=str(tmp_path / "venv"), PYTHONPATH=site,
-               LD_LIBRARY_PATH=os.pathsep.join(filter(None, [libdir, os.environ.get("LD_LIBRARY_PATH")])))
-    r = subprocess.run([bash, str(ROOT / "dev.sh"), "setup"], cwd=ROOT, env=env, capture_output=True,
-                       text=True, timeout=900)
+    env = dict(
+        os.environ,
+        GEARFEM_PYTHON=base,
+        GEARFEM_VENV=str(tmp_path / "venv"),
+        PYTHONPATH=site,
+        LD_LIBRARY_PATH=os.pathsep.join(filter(None, [libdir, os.environ.get("LD_LIBRARY_PATH")])),
+    )
+    r = subprocess.run(
+        [bash, str(ROOT / "dev.sh"), "setup"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     assert "DOLFINx found" in r.stderr and "gearfem[test]" in r.stderr
     py = tmp_path / "venv" / "bin" / "python"
-    freeze = subprocess.run([str(py), "-m", "pip", "list", "--local", "--format=freeze"], env=env,
-                            capture_output=True, text=True, timeout=120).stdout
-    assert "dolfinx-solver-real" not in freeze and "mpich" not in freeze  # the image's DOLFINx is used
-    info = subprocess.run([str(tmp_path / "venv" / "bin" / "gearfem"), "info"], env=env,
-                          capture_output=True, text=True, timeout=120)
+    freeze = subprocess.run(
+        [str(py), "-m", "pip", "list", "--local", "--format=freeze"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    ).stdout
+    assert (
+        "dolfinx-solver-real" not in freeze and "mpich" not in freeze
+    )  # the image's DOLFINx is used
+    info = subprocess.run(
+        [str(tmp_path / "venv" / "bin" / "gearfem"), "info"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert info.returncode == 0 and "dolfinx" in info.stdout, info.stderr[-2000:]

@@ -25,20 +25,36 @@ from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
 from gearfem.cycle.cache import load, save
 from gearfem.geometry.options import MeshOptions
 
-TINY = MeshOptions(teeth_in_model=4, refined_teeth=3, layers=2, size_flank_mm=0.35, size_tip_mm=0.35,
-                   size_root_mm=0.45, size_tooth_mm=1.5, size_body_mm=5.0)
+TINY = MeshOptions(
+    teeth_in_model=4,
+    refined_teeth=3,
+    layers=2,
+    size_flank_mm=0.35,
+    size_tip_mm=0.35,
+    size_root_mm=0.45,
+    size_tooth_mm=1.5,
+    size_body_mm=5.0,
+)
 POSITIONS = 12
 
 
 def _case(torque: float, mu: float, mesh: MeshOptions = TINY, **cycle) -> Case:
-    c = Case(mesh=mesh, contact=ContactOptions(friction_coefficient=mu),
-             cycle=CycleOptions(positions_per_pitch=POSITIONS, check_periodicity=True, **cycle))
+    c = Case(
+        mesh=mesh,
+        contact=ContactOptions(friction_coefficient=mu),
+        cycle=CycleOptions(positions_per_pitch=POSITIONS, check_periodicity=True, **cycle),
+    )
     return c.with_operating(torque_Nm=torque)
 
 
 def _model(case: Case, comm=MPI.COMM_WORLD) -> GearContactModel:
-    return GearContactModel(pipeline.pair_mesh(case, comm), case.materials, case.contact, case.operating.torque_Nm,
-                            case.cycle)
+    return GearContactModel(
+        pipeline.pair_mesh(case, comm),
+        case.materials,
+        case.contact,
+        case.operating.torque_Nm,
+        case.cycle,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +99,10 @@ def test_frictionless_torque_balance_contact_ratio_and_periodicity(low_torque):
     sharp = GearPair(dataclasses.replace(Case().geometry, tip_round_coefficient=0.0)).contact_ratio
     res = r.contact_ratio_resolution
     assert r.theoretical_contact_ratio - res <= r.effective_contact_ratio() <= sharp + res, (
-        r.effective_contact_ratio(), r.theoretical_contact_ratio, sharp)
+        r.effective_contact_ratio(),
+        r.theoretical_contact_ratio,
+        sharp,
+    )
     _check_periodic(r)
 
 
@@ -96,7 +115,10 @@ def test_friction_energy_balance_load_sharing_and_root_stress(loaded, low_torque
     friction = r.mean_friction_power_W_per_rad_s()
     assert friction > 0 and loss == pytest.approx(friction, rel=0.015)
     # the soft polymer teeth share the load over a longer path than the rigid geometry gives
-    assert r.effective_contact_ratio() > low_torque.effective_contact_ratio() + 2 * r.contact_ratio_resolution
+    assert (
+        r.effective_contact_ratio()
+        > low_torque.effective_contact_ratio() + 2 * r.contact_ratio_resolution
+    )
     _check_periodic(r)
     # root stress: same order as ISO 6336-3 method B for the thesis pair at 8 N m
     base = pipeline.baselines(_case(8.0, 0.5))
@@ -106,7 +128,9 @@ def test_friction_energy_balance_load_sharing_and_root_stress(loaded, low_torque
     # each gear gets its share of the friction heat per revolution (tooth heat × teeth)
     z = 30
     for b in ("pinion", "wheel"):
-        assert z * r.tooth_heat_W_per_rad_s(b) == pytest.approx(r.heat_fraction[b] * friction, rel=1e-12)
+        assert z * r.tooth_heat_W_per_rad_s(b) == pytest.approx(
+            r.heat_fraction[b] * friction, rel=1e-12
+        )
         assert 0.9 < r.info[f"{b}_flank_heat_raw_over_share"] < 1.1  # before normalisation
 
 
@@ -124,11 +148,16 @@ def test_pitch_point_pressure_matches_thesis_hertz():
     pair, mat = m.pair, case.material
     dp = 2 * pair.pinion.operating_pitch_radius_m
     p0 = agma_pitch_contact_stress_Pa(
-        tangential_load_N=2 * case.operating.torque_Nm / dp, pitch_diameter_m=dp,
+        tangential_load_N=2 * case.operating.torque_Nm / dp,
+        pitch_diameter_m=dp,
         face_width_m=case.geometry.face_width_mm * 1e-3,
-        pressure_angle_deg=math.degrees(pair.operating_pressure_angle_rad), speed_ratio=1.0,
-        youngs_pinion_Pa=mat.youngs_modulus_Pa, poisson_pinion=mat.poissons_ratio,
-        youngs_gear_Pa=mat.youngs_modulus_Pa, poisson_gear=mat.poissons_ratio)
+        pressure_angle_deg=math.degrees(pair.operating_pressure_angle_rad),
+        speed_ratio=1.0,
+        youngs_pinion_Pa=mat.youngs_modulus_Pa,
+        poisson_pinion=mat.poissons_ratio,
+        youngs_gear_Pa=mat.youngs_modulus_Pa,
+        poisson_gear=mat.poissons_ratio,
+    )
     assert p_max == pytest.approx(p0, rel=0.10)
 
 
@@ -148,7 +177,9 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     comm.barrier()
     back = load(tmp_out / "cyc")
     np.testing.assert_array_equal(back.te_m, loaded.te_m)
-    np.testing.assert_array_equal(back.fields["wheel"].u_max_J_m3, loaded.fields["wheel"].u_max_J_m3)
+    np.testing.assert_array_equal(
+        back.fields["wheel"].u_max_J_m3, loaded.fields["wheel"].u_max_J_m3
+    )
     assert back.tooth_load_N.keys() == loaded.tooth_load_N.keys()
     assert back.effective_contact_ratio() == loaded.effective_contact_ratio()
     # the flank heat on the thermal mesh of one gear: (teeth modelled) × (heat per tooth) × ω
@@ -159,8 +190,12 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     src = cycle_heat_sources(dom, gm, "pinion", back, SourceOptions(), case.material, speed)
     from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE
 
-    ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.facet_tags,
-                     metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE})(dom.tags(src.flux_surfaces))
+    ds = ufl.Measure(
+        "ds",
+        domain=dom.mesh,
+        subdomain_data=dom.facet_tags,
+        metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE},
+    )(dom.tags(src.flux_surfaces))
     heat = comm.allreduce(fem.assemble_scalar(fem.form(src.flank_flux_W_m2 * ds)), op=MPI.SUM)
     omega = 2 * math.pi * speed / 60
     assert heat == pytest.approx(4 * back.tooth_heat_W_per_rad_s("pinion") * omega, rel=1e-10)
@@ -173,24 +208,31 @@ def test_cycle_one_and_two_ranks_agree(comms):
     """Two positions at 2 N m with friction on 1 rank and on all ranks."""
     out = []
     for comm in comms:
-        case = dataclasses.replace(_case(2.0, 0.5), cycle=CycleOptions(positions_per_pitch=POSITIONS,
-                                                                       pitches=2.0 / POSITIONS))
+        case = dataclasses.replace(
+            _case(2.0, 0.5),
+            cycle=CycleOptions(positions_per_pitch=POSITIONS, pitches=2.0 / POSITIONS),
+        )
         r = solve_cycle(_model(case, comm))
         out.append(r)
     a, b = out
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=1e-6)
     np.testing.assert_allclose(b.pinion_torque_Nm, a.pinion_torque_Nm, rtol=1e-6)
-    np.testing.assert_allclose(b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-5)
+    np.testing.assert_allclose(
+        b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-5
+    )
     for k in a.tooth_load_N:
         np.testing.assert_allclose(b.tooth_load_N[k], a.tooth_load_N[k], rtol=1e-6, atol=1e-9)
 
 
-@pytest.mark.parametrize("change, name", [
-    ({"torque": 0.0}, "operating.torque_Nm"),
-    ({"torque": 40.0}, "operating.torque_Nm"),  # beyond the backlash: coast flanks would touch
-    ({"mu": 2.5}, "contact.friction_coefficient"),
-    ({"positions": 1}, "cycle.positions_per_pitch"),
-])
+@pytest.mark.parametrize(
+    "change, name",
+    [
+        ({"torque": 0.0}, "operating.torque_Nm"),
+        ({"torque": 40.0}, "operating.torque_Nm"),  # beyond the backlash: coast flanks would touch
+        ({"mu": 2.5}, "contact.friction_coefficient"),
+        ({"positions": 1}, "cycle.positions_per_pitch"),
+    ],
+)
 def test_bad_cycle_inputs_name_the_parameter(change, name):
     with pytest.raises(ParameterError, match=name.replace(".", r"\.")):
         torque = change.get("torque", 8.0)
@@ -199,4 +241,6 @@ def test_bad_cycle_inputs_name_the_parameter(change, name):
         case = Case(mesh=TINY, contact=contact, cycle=cyc)
         if torque <= 0:
             case.with_operating(torque_Nm=torque)
-        GearContactModel(pipeline.pair_mesh(case, MPI.COMM_WORLD), case.materials, contact, torque, cyc)
+        GearContactModel(
+            pipeline.pair_mesh(case, MPI.COMM_WORLD), case.materials, contact, torque, cyc
+        )

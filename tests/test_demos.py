@@ -17,10 +17,20 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _run_demo(name: str, args: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
-               MPLBACKEND="Agg")
-    return subprocess.run([sys.executable, str(ROOT / "demos" / name), *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=600, check=False)
+    env = dict(
+        os.environ,
+        PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+        MPLBACKEND="Agg",
+    )
+    return subprocess.run(
+        [sys.executable, str(ROOT / "demos" / name), *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
 
 
 def test_hertz_contact_demo(tmp_path):
@@ -52,7 +62,7 @@ def test_hertz_contact_demo(tmp_path):
 
     with open(out / "hertz_pressure.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    col = lambda k: np.array([float(r[k]) for r in rows])  # noqa: E731
+    col = lambda k: np.array([float(r[k]) for r in rows])
     k, w, ty, p = col("pass"), col("weight_m2"), col("traction_y_Pa"), col("pressure_Pa")
     # force on the lower body: its slave traction in pass 0 plus the reaction of pass 1's slave
     force = np.sum(w[k == 0] * ty[k == 0]) - np.sum(w[k == 1] * ty[k == 1])
@@ -60,4 +70,6 @@ def test_hertz_contact_demo(tmp_path):
     assert p.max() == pytest.approx(s["fe"]["p0_Pa"], rel=1e-9)
     xa = col("x_ref_m") / s["hertz"]["a_m"]
     expected = s["hertz"]["p0_Pa"] * np.sqrt(np.clip(1.0 - xa**2, 0.0, None))
-    np.testing.assert_allclose(col("p_hertz_Pa"), expected, rtol=1e-8, atol=1e-12 * s["hertz"]["p0_Pa"])
+    np.testing.assert_allclose(
+        col("p_hertz_Pa"), expected, rtol=1e-8, atol=1e-12 * s["hertz"]["p0_Pa"]
+    )

@@ -24,7 +24,7 @@ from gearfem.diagnose import vv20
 from gearfem.diagnose.candidates import LIBRARY, by_name
 
 sys.path.insert(0, str(Path(__file__).parent))
-import diagnose_generator as G  # noqa: E402
+import diagnose_generator as G
 
 from gearfem.coupling.heat_sources import friction_temperature_factor
 
@@ -33,9 +33,12 @@ ROOT = Path(__file__).resolve().parent.parent
 
 # ---------------------------------------------------------------- data format and V&V 20 (fast)
 
+
 def test_csv_reader_roundtrip_and_errors(tmp_path):
-    text = ("# comment\nspeed_rpm,torque_Nm,time_s,quantity,value_C,uncertainty_K,ambient_C\n"
-            "1000,8,,max_surface,110,3,21\n1000,8,300,max_surface,90,3,21\n2000,4,,mean_bulk,49,2,21\n")
+    text = (
+        "# comment\nspeed_rpm,torque_Nm,time_s,quantity,value_C,uncertainty_K,ambient_C\n"
+        "1000,8,,max_surface,110,3,21\n1000,8,300,max_surface,90,3,21\n2000,4,,mean_bulk,49,2,21\n"
+    )
     d = ddata.parse_csv(text)
     assert len(d) == 3 and d.points == ((1000.0, 8.0, 21.0), (2000.0, 4.0, 21.0))
     assert d.measurements[0].time_s is None and d.measurements[1].time_s == 300.0
@@ -57,29 +60,41 @@ def test_csv_reader_roundtrip_and_errors(tmp_path):
 
 
 def test_curve_weights_count_at_most_two():
-    rows = tuple(ddata.Measurement(1000, 8, t, "max_surface", 100.0, 1.0, 20.0) for t in (10.0, 20.0, 30.0, 40.0))
+    rows = tuple(
+        ddata.Measurement(1000, 8, t, "max_surface", 100.0, 1.0, 20.0)
+        for t in (10.0, 20.0, 30.0, 40.0)
+    )
     d = ddata.Dataset(rows)
     assert d.n_effective() == 2 and np.allclose(d.series_weights(), 0.5)
 
 
 def test_thesis_bench_conversion(shared_data):
     d = ddata.read_csv(shared_data / "testbench" / "thesis_testbench.csv")
-    assert [(m.speed_rpm, m.torque_Nm, m.value_C, m.ambient_C, m.time_s) for m in d.measurements] == [
-        (1000.0, 8.0, 110.0, 21.0, None), (2000.0, 4.0, 49.0, 21.0, None)]
+    assert [
+        (m.speed_rpm, m.torque_Nm, m.value_C, m.ambient_C, m.time_s) for m in d.measurements
+    ] == [(1000.0, 8.0, 110.0, 21.0, None), (2000.0, 4.0, 49.0, 21.0, None)]
     # FLIR E40: max(2 K, 2 %) combined with 2 K
     assert d.measurements[0].uncertainty_K == pytest.approx(math.hypot(2.2, 2.0))
     assert d.measurements[1].uncertainty_K == pytest.approx(math.hypot(2.0, 2.0))
 
 
 def test_vv20_arithmetic():
-    c = vv20.Comparison(S=np.array([120.0, 50.0]), D=np.array([110.0, 49.0]), u_num=np.array([3.0, 0.0]),
-                        u_input=np.array([0.0, 4.0]), u_D=np.array([4.0, 3.0]))
+    c = vv20.Comparison(
+        S=np.array([120.0, 50.0]),
+        D=np.array([110.0, 49.0]),
+        u_num=np.array([3.0, 0.0]),
+        u_input=np.array([0.0, 4.0]),
+        u_D=np.array([4.0, 3.0]),
+    )
     assert np.allclose(c.E, [10.0, 1.0]) and np.allclose(c.u_val, [5.0, 5.0])
     assert list(c.resolved) == [False, False]  # 10 = 2 x 5 is not beyond k u_val
     c3 = dataclasses.replace(c, S=np.array([120.1, 60.1]))
     assert list(c3.resolved) == [True, True]
-    u, parts = vv20.input_uncertainty(lambda a: np.array([1.0, 2.0]) * a, np.array([0.0, 0.0]),
-                                      {"k": (3.0, 1.0), "cp": (4.0, 1.0)})
+    u, parts = vv20.input_uncertainty(
+        lambda a: np.array([1.0, 2.0]) * a,
+        np.array([0.0, 0.0]),
+        {"k": (3.0, 1.0), "cp": (4.0, 1.0)},
+    )
     assert np.allclose(u, [5.0, 10.0]) and set(parts) == {"k", "cp"}
 
 
@@ -87,7 +102,11 @@ def test_candidate_priors_and_nodes():
     for c in LIBRARY:
         p = c.parameter
         nodes = c.nodes()
-        assert p.null in nodes and min(nodes) == pytest.approx(p.lo) and max(nodes) == pytest.approx(p.hi)
+        assert (
+            p.null in nodes
+            and min(nodes) == pytest.approx(p.lo)
+            and max(nodes) == pytest.approx(p.hi)
+        )
         assert p.from_unit(p.to_unit(0.5 * (p.lo + p.hi))) == pytest.approx(0.5 * (p.lo + p.hi))
         with pytest.raises(ParameterError):
             c.apply(None, p.hi + abs(p.hi) + 1.0)
@@ -96,6 +115,7 @@ def test_candidate_priors_and_nodes():
 
 
 # ---------------------------------------------------------------- hidden effects (full model + surrogate)
+
 
 @pytest.fixture(scope="session")
 def models():
@@ -151,8 +171,9 @@ def test_confuser_not_identifiable(models):
     apart a little. The verdict must say so rather than pick one."""
     full, sur = models
     rng = np.random.default_rng(11)
-    data = G.synthetic(full, {"friction_scale": 0.6}, rng, quantities=("max_surface",), end_only=True,
-                       noise_K=2.0)
+    data = G.synthetic(
+        full, {"friction_scale": 0.6}, rng, quantities=("max_surface",), end_only=True, noise_K=2.0
+    )
     r = _diagnose(sur, data)
     assert r["verdict"]["kind"] == "not identifiable", r["verdict"]["text"]
     named = {n for c in [r["chosen"], *r["verdict"]["competitors"]] for n in c}
@@ -178,6 +199,7 @@ def test_pair_found_and_confirmed_on_full_model(models):
 
 # ---------------------------------------------------------------- mu(T) on the friction flux
 
+
 def test_friction_temperature_options():
     from gearfem.coupling.options import SourceOptions
 
@@ -201,9 +223,17 @@ def test_friction_temperature_reduces_friction_heat_within_bounds(models, tmp_pa
     runs = {}
     for b in (0.0, beta):
         case = full.point_case(1000.0, 8.0, 23.0, {"friction_temperature": b} if b else {})
-        case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=()))
-        runs[b] = pipeline.thermal(case, tmp_path / f"b{b}", MPI.COMM_SELF, cycle_result=full.cycle(8.0),
-                                   write_fields=False, write_plot=False)
+        case = dataclasses.replace(
+            case, thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=())
+        )
+        runs[b] = pipeline.thermal(
+            case,
+            tmp_path / f"b{b}",
+            MPI.COMM_SELF,
+            cycle_result=full.cycle(8.0),
+            write_fields=False,
+            write_plot=False,
+        )
     f0 = runs[0.0]["final_balance_W"]["friction_W"]
     s = runs[beta]
     f = s["final_balance_W"]["friction_W"]

@@ -21,19 +21,23 @@ from gearfem.core.params import from_dict, require_range, to_dict
 def _run_python(code: str, tmp_path) -> subprocess.CompletedProcess:
     env = dict(os.environ)
     env["PYTHONPATH"] = str(tmp_path) + os.pathsep + env.get("PYTHONPATH", "")
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
 
 
 def test_import_without_dolfinx_says_how_to_install(tmp_path):
     # A sitecustomize that makes `dolfinx` (and the wheel bootstrap) unimportable.
-    (tmp_path / "sitecustomize.py").write_text(textwrap.dedent("""
+    (tmp_path / "sitecustomize.py").write_text(
+        textwrap.dedent("""
         import sys
         class _Block:
             def find_spec(self, name, path=None, target=None):
                 if name.split('.')[0] in ('dolfinx', 'dolfinx_solver'):
                     raise ImportError('blocked for test: ' + name)
         sys.meta_path.insert(0, _Block())
-    """))
+    """)
+    )
     r = _run_python("import gearfem", tmp_path)
     assert r.returncode != 0
     assert "gearfem needs DOLFINx" in r.stderr
@@ -44,14 +48,16 @@ def test_import_with_old_dolfinx_is_refused(tmp_path):
     pkg = tmp_path / "dolfinx"
     pkg.mkdir()
     (pkg / "__init__.py").write_text("__version__ = '0.9.0'\n")
-    (tmp_path / "sitecustomize.py").write_text(textwrap.dedent("""
+    (tmp_path / "sitecustomize.py").write_text(
+        textwrap.dedent("""
         import sys
         class _Block:
             def find_spec(self, name, path=None, target=None):
                 if name.split('.')[0] == 'dolfinx_solver':
                     raise ImportError('blocked for test')
         sys.meta_path.insert(0, _Block())
-    """))
+    """)
+    )
     r = _run_python("import gearfem", tmp_path)
     assert r.returncode != 0
     assert "DOLFINx >= 0.10, found 0.9.0" in r.stderr
@@ -97,8 +103,12 @@ def test_from_dict_round_trip_and_unknown_key():
 
 
 def test_convergence_error_carries_reason_and_step():
-    err = ConvergenceError("contact Newton", "DIVERGED_LINE_SEARCH (-6)", step="pinion angle 3.0 deg", iteration=7)
-    assert "DIVERGED_LINE_SEARCH" in str(err) and "3.0 deg" in str(err) and "iteration 7" in str(err)
+    err = ConvergenceError(
+        "contact Newton", "DIVERGED_LINE_SEARCH (-6)", step="pinion angle 3.0 deg", iteration=7
+    )
+    assert (
+        "DIVERGED_LINE_SEARCH" in str(err) and "3.0 deg" in str(err) and "iteration 7" in str(err)
+    )
 
 
 def test_log_level_from_environment(monkeypatch):
@@ -110,7 +120,10 @@ def test_log_level_from_environment(monkeypatch):
     with pytest.raises(ParameterError, match="GEARFEM_LOG_LEVEL"):
         resolve_level()
     logger = setup_logging("WARNING")
-    assert logger.level == logging.WARNING and len([h for h in logger.handlers if getattr(h, "_gearfem", False)]) == 1
+    assert (
+        logger.level == logging.WARNING
+        and len([h for h in logger.handlers if getattr(h, "_gearfem", False)]) == 1
+    )
 
 
 def test_info_reports_versions(capsys):
@@ -132,8 +145,9 @@ def _unit_cube_volume_and_moment(comm: MPI.Comm) -> tuple[float, float]:
     import ufl
     from dolfinx import fem
 
-    mesh = dolfinx.mesh.create_box(comm, [np.zeros(3), np.array([2.0, 1.0, 0.5])], [6, 5, 4],
-                                   dolfinx.mesh.CellType.tetrahedron)
+    mesh = dolfinx.mesh.create_box(
+        comm, [np.zeros(3), np.array([2.0, 1.0, 0.5])], [6, 5, 4], dolfinx.mesh.CellType.tetrahedron
+    )
     x = ufl.SpatialCoordinate(mesh)
     vol = comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=mesh))), op=MPI.SUM)
     mom = comm.allreduce(fem.assemble_scalar(fem.form(x[0] * x[0] * ufl.dx)), op=MPI.SUM)

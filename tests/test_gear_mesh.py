@@ -22,8 +22,14 @@ from gearfem.geometry.mesh import analytic_areas_mm2, body_volumes_m3, build_gea
 from gearfem.geometry.options import TOOTH_KINDS, MeshOptions
 
 THESIS = GearPairGeometry()
-COARSE = MeshOptions(size_flank_mm=0.3, size_tip_mm=0.3, size_root_mm=0.3, size_tooth_mm=0.8, size_body_mm=3.0,
-                     layers=2)
+COARSE = MeshOptions(
+    size_flank_mm=0.3,
+    size_tip_mm=0.3,
+    size_root_mm=0.3,
+    size_tooth_mm=0.8,
+    size_body_mm=3.0,
+    layers=2,
+)
 
 
 @pytest.fixture(scope="module")
@@ -62,13 +68,19 @@ def _to_tooth_frame(gm, body: str, k: int, X: np.ndarray) -> np.ndarray:
 def _max_profile_edge(gm, name: str) -> float:
     """Largest in-plane (constant z) edge of the facets of a group [m] (the profile-direction size)."""
     f = gm.facets(name)
-    g = dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False)[:, :3] if len(f) else np.empty((0, 3), dtype=np.int32)
+    g = (
+        dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False)[:, :3]
+        if len(f)
+        else np.empty((0, 3), dtype=np.int32)
+    )
     x = gm.mesh.geometry.x
     h = 0.0
     for a, b in ((0, 1), (1, 2), (0, 2)):
         same_z = np.abs(x[g[:, a], 2] - x[g[:, b], 2]) < 1e-12
         if np.any(same_z):
-            h = max(h, float(np.max(np.linalg.norm(x[g[same_z, a], :2] - x[g[same_z, b], :2], axis=1))))
+            h = max(
+                h, float(np.max(np.linalg.norm(x[g[same_z, a], :2] - x[g[same_z, b], :2], axis=1)))
+            )
     return gm.mesh.comm.allreduce(h, op=MPI.MAX)
 
 
@@ -76,7 +88,9 @@ def _expected_names(options: MeshOptions, full: bool = False) -> set[str]:
     names = set()
     for body in options.bodies:
         names.add(body)
-        names |= {f"{body}_tooth{k}_{kind}" for k in range(options.teeth_in_model) for kind in TOOTH_KINDS}
+        names |= {
+            f"{body}_tooth{k}_{kind}" for k in range(options.teeth_in_model) for kind in TOOTH_KINDS
+        }
         names |= {f"{body}_side_front", f"{body}_side_back", f"{body}_bore"}
         if not full:
             names |= {f"{body}_cut_start", f"{body}_cut_end"}
@@ -106,7 +120,9 @@ def _check_groups(gm, full: bool = False) -> None:
     for name, (dim, tag) in gm.physical_groups.items():
         tags = gm.facet_tags if dim == 2 else gm.cell_tags
         local = tags.find(tag)
-        count = comm.allreduce(int(np.count_nonzero(local < n_owned)) if dim == 2 else len(local), op=MPI.SUM)
+        count = comm.allreduce(
+            int(np.count_nonzero(local < n_owned)) if dim == 2 else len(local), op=MPI.SUM
+        )
         assert count > 0, f"group {name} is empty"
     # one value per facet, and exactly the exterior facets are tagged
     ft = gm.facet_tags
@@ -129,7 +145,10 @@ def test_named_groups_complete_disjoint_and_non_empty(default_mesh):
 def test_group_name_api(default_mesh):
     gm = default_mesh
     assert gm.names(body="wheel", kind="root") == [f"wheel_tooth{k}_root" for k in range(8)]
-    assert gm.names(tooth=4, kind="drive_flank") == ["pinion_tooth4_drive_flank", "wheel_tooth4_drive_flank"]
+    assert gm.names(tooth=4, kind="drive_flank") == [
+        "pinion_tooth4_drive_flank",
+        "wheel_tooth4_drive_flank",
+    ]
     assert gm.names(body="pinion", kind="volume") == ["pinion"]
     assert gm.reference_tooth("pinion") == 4 and gm.reference_tooth("wheel") == 3
     assert np.allclose(gm.center("wheel"), [0.06, 0.0, 0.0])
@@ -158,16 +177,26 @@ def test_p2_nodes_lie_on_the_exact_tooth_outline(default_mesh):
     pair = GearPair(THESIS)
     for body in gm.bodies:
         prof = pair.profile(body)
-        root_exact = np.vstack([prof.root_points("coast", 20000, 2000), prof.root_points("drive", 20000, 2000)])
+        root_exact = np.vstack(
+            [prof.root_points("coast", 20000, 2000), prof.root_points("drive", 20000, 2000)]
+        )
         for k in (0, gm.reference_tooth(body), 7):
             f = gm.facets(f"{body}_tooth{k}_drive_flank")
             if len(f):
-                assert dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False).shape[1] == 6  # curved P2 facets
+                assert (
+                    dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False).shape[1] == 6
+                )  # curved P2 facets
             for side in ("drive", "coast"):
-                xy = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_{side}_flank"]))
+                xy = _to_tooth_frame(
+                    gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_{side}_flank"])
+                )
                 assert prof.distance_to_flank(xy, side).max() < 1e-9  # metres
-                assert np.hypot(*xy.T).max() <= prof.tip_form_radius_m * (1 + 1e-12)  # the involute ends there
-            _check_tip_nodes(prof, gm, _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_tip"])))
+                assert np.hypot(*xy.T).max() <= prof.tip_form_radius_m * (
+                    1 + 1e-12
+                )  # the involute ends there
+            _check_tip_nodes(
+                prof, gm, _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_tip"]))
+            )
             root = _to_tooth_frame(gm, body, k, _global_nodes(gm, [f"{body}_tooth{k}_root"]))
             d = np.min(np.linalg.norm(root[:, None, :] - root_exact[None, ::4, :], axis=2), axis=1)
             assert d.max() < 2e-7  # dense polyline (1e-7 m spacing) vs spline
@@ -204,8 +233,10 @@ def _drive_contact_check(gm, pinion_angle_rad: float) -> None:
     dist = prof.distance_to_flank(xy, "drive")
     penetrating = inside & (theta < prof.half_thickness_angle(np.maximum(r, prof.base_radius_m)))
     assert np.all(dist[penetrating] < 1e-9), "wheel nodes inside the pinion tooth"
-    h = max(_max_profile_edge(gm, f"pinion_tooth{kp}_drive_flank"),
-            _max_profile_edge(gm, f"wheel_tooth{kw}_drive_flank"))
+    h = max(
+        _max_profile_edge(gm, f"pinion_tooth{kp}_drive_flank"),
+        _max_profile_edge(gm, f"wheel_tooth{kw}_drive_flank"),
+    )
     S = float(pair.contact_parameter(pinion_angle_rad))
     aw = pair.operating_pressure_angle_rad
     rho1 = pair.pinion.operating_pitch_radius_m * math.sin(aw) + S
@@ -241,11 +272,17 @@ def test_coast_side_clearance_is_the_normal_backlash(default_mesh):
     d = pair.pinion.distance_to_flank(xy, "coast")
     i = int(np.argmin(d))
     jn = pair.backlash_normal_m
-    h = max(_max_profile_edge(gm, f"wheel_tooth{kw}_coast_flank"),
-            _max_profile_edge(gm, f"pinion_tooth{kp + 1}_coast_flank"))
+    h = max(
+        _max_profile_edge(gm, f"wheel_tooth{kw}_coast_flank"),
+        _max_profile_edge(gm, f"pinion_tooth{kp + 1}_coast_flank"),
+    )
     rb = pair.pinion.base_radius_m
-    rho_w = math.sqrt(np.sum((W[i, :2] - gm.center("wheel")[:2]) ** 2) - rb**2)  # wheel flank curvature radius there
-    rho_p = math.sqrt(np.sum(xy[i] ** 2) - rb**2) - jn  # pinion flank, at most j_n lower along the normal
+    rho_w = math.sqrt(
+        np.sum((W[i, :2] - gm.center("wheel")[:2]) ** 2) - rb**2
+    )  # wheel flank curvature radius there
+    rho_p = (
+        math.sqrt(np.sum(xy[i] ** 2) - rb**2) - jn
+    )  # pinion flank, at most j_n lower along the normal
     bound = 0.5 * (h / 4) ** 2 * (1 / rho_w + 1 / rho_p)
     assert jn - 1e-9 <= d[i] <= jn + bound
 
@@ -279,7 +316,9 @@ def test_no_penetration_and_positive_gap_elsewhere(default_mesh):
     gm = default_mesh
     for body, other in (("pinion", "wheel"), ("wheel", "pinion")):
         X = _global_nodes(gm, gm.names(body=body)[1:])
-        dist, _ = cKDTree(_exact_body_outline(gm, other)).query(X[:, :2])  # dense polyline, 1 um spacing
+        dist, _ = cKDTree(_exact_body_outline(gm, other)).query(
+            X[:, :2]
+        )  # dense polyline, 1 um spacing
         coarse = _exact_body_outline(gm, other, spacing=1e-4)  # polygon within 5 um of the curves
         inside = MplPath(coarse).contains_points(X[:, :2])
         assert not np.any(inside & (dist > 1e-5)), f"{body} nodes inside the {other}"
@@ -294,7 +333,9 @@ def test_no_penetration_and_positive_gap_elsewhere(default_mesh):
 @pytest.mark.mpi
 def test_mesh_report(default_mesh):
     rep = mesh_report(default_mesh)
-    assert rep["counts"]["dofs_p2_vector"] == 3 * rep["counts"]["nodes"]  # P2 geometry nodes = P2 dofs
+    assert (
+        rep["counts"]["dofs_p2_vector"] == 3 * rep["counts"]["nodes"]
+    )  # P2 geometry nodes = P2 dofs
     assert rep["quality"]["min_scaled_jacobian"] > 0.0  # no inverted (curved) cell
     assert rep["element"]["cell_type"] == "Tetrahedron 10"
     for name, g in rep["groups"].items():
@@ -305,18 +346,26 @@ def test_mesh_report(default_mesh):
     gm = default_mesh
     one = dolfinx.fem.Constant(gm.mesh, 1.0)
     for name in ("pinion_tooth4_drive_flank", "wheel_tooth3_root", "pinion_bore"):
-        a = gm.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * gm.ds(name))), op=MPI.SUM)
+        a = gm.mesh.comm.allreduce(
+            dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * gm.ds(name))), op=MPI.SUM
+        )
         assert a * 1e6 == pytest.approx(rep["groups"][name]["area_mm2"], rel=1e-9)
 
 
 @pytest.mark.mpi
 def test_one_and_two_ranks_give_the_same_mesh(cache, comms):
     results = []
-    for comm in reversed(comms):  # world first: rank 0 builds, then every rank reads the cache serially
+    for comm in reversed(
+        comms
+    ):  # world first: rank 0 builds, then every rank reads the cache serially
         gm = build_gear_mesh(THESIS, COARSE, comm, cache_dir=cache)
         one = dolfinx.fem.Constant(gm.mesh, 1.0)
-        areas = [comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * gm.ds(n))), op=MPI.SUM)
-                 for n in ("pinion_tooth4_drive_flank", "wheel_cut_end")]
+        areas = [
+            comm.allreduce(
+                dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * gm.ds(n))), op=MPI.SUM
+            )
+            for n in ("pinion_tooth4_drive_flank", "wheel_cut_end")
+        ]
         results.append((body_volumes_m3(gm), areas, gm.mesh.topology.index_map(3).size_global))
     (v2, a2, n2), (v1, a1, n1) = results
     assert n1 == n2
@@ -336,11 +385,17 @@ def test_hex_variant(cache):
         exact = pair.profile(body).body_area_m2(8) * pair.face_width_m
         assert abs(v - exact) / exact < 1e-5
     f = gm.facets("pinion_tooth4_drive_flank")
-    assert dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False).shape[1] == 9  # 9-node curved quads
+    assert (
+        dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False).shape[1] == 9
+    )  # 9-node curved quads
     xy = _to_tooth_frame(gm, "pinion", 4, _global_nodes(gm, ["pinion_tooth4_drive_flank"]))
     assert pair.pinion.distance_to_flank(xy, "drive").max() < 1e-9
     for k in (0, 4):
-        _check_tip_nodes(pair.pinion, gm, _to_tooth_frame(gm, "pinion", k, _global_nodes(gm, [f"pinion_tooth{k}_tip"])))
+        _check_tip_nodes(
+            pair.pinion,
+            gm,
+            _to_tooth_frame(gm, "pinion", k, _global_nodes(gm, [f"pinion_tooth{k}_tip"])),
+        )
     # no quadrilateral corner on a tangent curve junction (tip round / land / flank): such a corner
     # is 180 degrees once curved and its scaled Jacobian ~ 1e-4 (what blossom recombination gave)
     assert gm.build_info["quality"]["min_scaled_jacobian"] > 0.2
@@ -358,14 +413,20 @@ def test_full_gear_is_closed(cache):
     # closed surface: the integral of the normal over the whole boundary vanishes
     n = ufl.FacetNormal(gm.mesh)
     ds = gm.ds(*gm.names(body="pinion")[1:])
-    total_area = gm.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * ds)), op=MPI.SUM)
+    total_area = gm.mesh.comm.allreduce(
+        dolfinx.fem.assemble_scalar(dolfinx.fem.form(1.0 * ds)), op=MPI.SUM
+    )
     for i in range(3):
-        ni = gm.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(n[i] * ds)), op=MPI.SUM)
+        ni = gm.mesh.comm.allreduce(
+            dolfinx.fem.assemble_scalar(dolfinx.fem.form(n[i] * ds)), op=MPI.SUM
+        )
         assert abs(ni) < 1e-10 * total_area
 
 
 def test_single_body_mesh(cache):
-    gm = build_gear_mesh(THESIS, dataclasses.replace(COARSE, bodies=("wheel",)), MPI.COMM_WORLD, cache_dir=cache)
+    gm = build_gear_mesh(
+        THESIS, dataclasses.replace(COARSE, bodies=("wheel",)), MPI.COMM_WORLD, cache_dir=cache
+    )
     assert set(gm.physical_groups) == _expected_names(gm.options)
     assert all(n.startswith("wheel") for n in gm.physical_groups)
 

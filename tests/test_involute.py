@@ -80,8 +80,14 @@ def test_radii_and_thickness_at_pitch_circle(pair):
 
 
 def test_thickness_input_holds_at_non_standard_center_distance():
-    g = dataclasses.replace(THESIS, teeth_pinion=24, teeth_wheel=36, center_distance_mm=60.6, tooth_thickness_mm=2.9,
-                            root_fillet_coefficient=0.04)
+    g = dataclasses.replace(
+        THESIS,
+        teeth_pinion=24,
+        teeth_wheel=36,
+        center_distance_mm=60.6,
+        tooth_thickness_mm=2.9,
+        root_fillet_coefficient=0.04,
+    )
     pr = GearPair(g)
     a_w = math.acos((24 + 36) * 1.0 * math.cos(30 * DEG) / 60.6)  # r_b1 + r_b2 = a cos(a_w)
     assert pr.operating_pressure_angle_rad == pytest.approx(a_w, rel=1e-14)
@@ -96,7 +102,9 @@ def test_base_pitch_and_backlash(pair):
     # thesis_gear.toml: 6.283 - 2 x 2.995 = 0.293 mm circular backlash at 60 mm centre distance
     assert pair.backlash_circular_m == pytest.approx(math.pi * m - 2 * 2.995e-3, rel=1e-12)
     assert pair.backlash_circular_m * 1e3 == pytest.approx(0.293, abs=5e-4)
-    assert pair.backlash_normal_m == pytest.approx(pair.backlash_circular_m * math.cos(a), rel=1e-14)
+    assert pair.backlash_normal_m == pytest.approx(
+        pair.backlash_circular_m * math.cos(a), rel=1e-14
+    )
 
 
 def test_involute_normals_are_tangent_to_base_circle(pair):
@@ -161,7 +169,9 @@ def test_fillet_is_the_envelope_of_the_generating_rack(pair):
     for phi in np.linspace(-0.13, 0.13, 261):
         for u_c in (x_c, -x_c):  # both tip rounds of the rack tooth centred on the gap
             c_rack = np.array([r - (hf - rho), u_c + r * phi])
-            c = np.array([[math.cos(phi), math.sin(phi)], [-math.sin(phi), math.cos(phi)]]) @ c_rack  # R(-phi)
+            c = (
+                np.array([[math.cos(phi), math.sin(phi)], [-math.sin(phi), math.cos(phi)]]) @ c_rack
+            )  # R(-phi)
             min_d.append(np.min(np.hypot(*(outline - c).T)))
     min_d = np.array(min_d)
     assert min_d.min() > rho - 2e-9  # no interference (polyline chord error ~1e-10 m)
@@ -175,19 +185,27 @@ def test_tooth_sector_area_against_polar_integrals(geometry):
     radius rho about C from Q to P_e) rho^2 dphi / 2 + C x (P_e - Q) / 2, root pieces by fan."""
     p = GearPair(geometry).pinion
     rb, ra, rho = p.base_radius_m, p.tip_radius_m, p.tip_round_radius_m
-    xi = lambda r: math.sqrt((r / rb) ** 2 - 1.0)  # noqa: E731
+    xi = lambda r: math.sqrt((r / rb) ** 2 - 1.0)
     # the involute ends at r_Fa = r_b sqrt(1 + xi_e^2), xi_e = (rho + sqrt((r_a - rho)^2 - r_b^2)) / r_b
     L = math.sqrt((ra - rho) ** 2 - rb**2)
     r_fa = rb * math.hypot(1.0, (rho + L) / rb)
     flank = rb**2 * (xi(r_fa) ** 3 - xi(p.form_radius_m) ** 3) / 6.0  # one flank, |d theta|
-    theta_c = p.half_thickness_angle(r_fa) - math.atan(xi(r_fa)) + math.atan2(L, rb)  # beta_e + atan(L / r_b)
+    theta_c = (
+        p.half_thickness_angle(r_fa) - math.atan(xi(r_fa)) + math.atan2(L, rb)
+    )  # beta_e + atan(L / r_b)
     land = ra**2 * theta_c
     C = (ra - rho) * np.array([math.cos(theta_c), math.sin(theta_c)])
     Q = ra * np.array([math.cos(theta_c), math.sin(theta_c)])
-    P_e = r_fa * np.array([math.cos(p.half_thickness_angle(r_fa)), math.sin(p.half_thickness_angle(r_fa))])
-    dphi = 0.5 * math.pi - math.atan2(L, rb)  # the round turns from the radial direction to the flank normal
-    cross = lambda a, b: a[0] * b[1] - a[1] * b[0]  # noqa: E731
-    one_round = 0.5 * rho**2 * dphi + 0.5 * cross(C, P_e - Q)  # drive round, counter-clockwise Q -> P_e
+    P_e = r_fa * np.array(
+        [math.cos(p.half_thickness_angle(r_fa)), math.sin(p.half_thickness_angle(r_fa))]
+    )
+    dphi = 0.5 * math.pi - math.atan2(
+        L, rb
+    )  # the round turns from the radial direction to the flank normal
+    cross = lambda a, b: a[0] * b[1] - a[1] * b[0]
+    one_round = 0.5 * rho**2 * dphi + 0.5 * cross(
+        C, P_e - Q
+    )  # drive round, counter-clockwise Q -> P_e
     root = p.root_points("coast", n_fillet=20000, n_land=2000)
     x, y = root[:, 0], root[:, 1]
     root_area = 0.5 * np.sum(x[:-1] * y[1:] - x[1:] * y[:-1])  # fan from the origin
@@ -197,9 +215,13 @@ def test_tooth_sector_area_against_polar_integrals(geometry):
     assert p.tooth_sector_area_m2(p.bore_radius_m) == pytest.approx(total - bore, rel=1e-8)
     if rho > 0:  # the rounds remove the corners of the sharp tooth: exactly this much area
         sharp = GearPair(dataclasses.replace(geometry, tip_round_coefficient=0.0)).pinion
-        corner = 0.5 * ra**2 * (sharp.tip_land_half_angle_rad - theta_c) + rb**2 * (xi(ra) ** 3 - xi(r_fa) ** 3) / 6
-        assert sharp.tooth_sector_area_m2() - p.tooth_sector_area_m2() == pytest.approx(2 * (corner - one_round),
-                                                                                         rel=1e-6)
+        corner = (
+            0.5 * ra**2 * (sharp.tip_land_half_angle_rad - theta_c)
+            + rb**2 * (xi(ra) ** 3 - xi(r_fa) ** 3) / 6
+        )
+        assert sharp.tooth_sector_area_m2() - p.tooth_sector_area_m2() == pytest.approx(
+            2 * (corner - one_round), rel=1e-6
+        )
 
 
 # --- tip rounds ----------------------------------------------------------------------------------
@@ -209,7 +231,7 @@ def _round_center_angle_by_search(prof, rho):
     """Polar angle of the point at radius r_a - rho whose distance from the exact drive involute
     is rho (inside the tooth), by bisection on the distance alone (independent of the closed form)."""
     d = prof.tip_radius_m - rho
-    f = lambda th: prof.distance_to_flank(np.array([[d * math.cos(th), d * math.sin(th)]]))[0] - rho  # noqa: E731
+    f = lambda th: prof.distance_to_flank(np.array([[d * math.cos(th), d * math.sin(th)]]))[0] - rho
     lo, hi = -0.1, prof.half_thickness_angle(d)  # far inside (distance > rho) .. on the flank (0)
     for _ in range(200):
         mid = 0.5 * (lo + hi)
@@ -224,15 +246,24 @@ def test_tip_round_is_tangent_to_the_involute_and_the_tip_circle(coef):
         rho, ra = prof.tip_round_radius_m, prof.tip_radius_m
         assert rho == pytest.approx(coef * 2e-3, rel=1e-15)
         C = prof.tip_round_center("drive")
-        assert np.linalg.norm(C) == pytest.approx(ra - rho, rel=1e-14)  # inside the tip circle, touching it
-        assert math.atan2(C[1], C[0]) == pytest.approx(_round_center_angle_by_search(prof, rho), abs=1e-12)
+        assert np.linalg.norm(C) == pytest.approx(
+            ra - rho, rel=1e-14
+        )  # inside the tip circle, touching it
+        assert math.atan2(C[1], C[0]) == pytest.approx(
+            _round_center_angle_by_search(prof, rho), abs=1e-12
+        )
         assert prof.distance_to_flank(C[None, :])[0] == pytest.approx(rho, rel=1e-10)
         # the involute ends at the foot of C: distance rho, tangent perpendicular to P_e - C
         rb, h = prof.base_radius_m, 1e-6
         s_e = 0.5 * (prof.tip_form_radius_m**2 - rb * rb) / rb
-        r_of = lambda s: math.sqrt(rb * rb + 2.0 * rb * s)  # noqa: E731  (arc length s from the base circle)
-        end = prof.involute_points(3, r0=r_of(s_e - h), r1=r_of(s_e + h))  # equally spaced in arc length
-        P_e, t = end[1], (end[2] - end[0]) / np.linalg.norm(end[2] - end[0])  # central difference: O((h/R)^2)
+        r_of = lambda s: math.sqrt(rb * rb + 2.0 * rb * s)
+        end = prof.involute_points(
+            3, r0=r_of(s_e - h), r1=r_of(s_e + h)
+        )  # equally spaced in arc length
+        P_e, t = (
+            end[1],
+            (end[2] - end[0]) / np.linalg.norm(end[2] - end[0]),
+        )  # central difference: O((h/R)^2)
         assert np.hypot(*P_e) == pytest.approx(prof.tip_form_radius_m, rel=1e-13)
         assert np.linalg.norm(P_e - C) == pytest.approx(rho, rel=1e-10)
         assert abs(np.dot(t, (P_e - C) / rho)) < 1e-7  # the radius C P_e is normal to the involute
@@ -242,11 +273,22 @@ def test_tip_round_is_tangent_to_the_involute_and_the_tip_circle(coef):
         tp = prof.tip_pieces(2000)
         assert np.array_equal(tp["round_coast"][0], o["coast_flank"][-1])
         assert np.array_equal(tp["round_drive"][-1], o["drive_flank"][0])
-        chain = [o["coast_flank"], tp["round_coast"], tp["land"], tp["round_drive"], o["drive_flank"]]
+        chain = [
+            o["coast_flank"],
+            tp["round_coast"],
+            tp["land"],
+            tp["round_drive"],
+            o["drive_flank"],
+        ]
         for a, b in zip(chain[:-1], chain[1:]):
             assert np.array_equal(a[-1], b[0])
             t1, t2 = a[-1] - a[-2], b[1] - b[0]
-            assert math.degrees(math.acos(min(1.0, np.dot(t1, t2) / np.linalg.norm(t1) / np.linalg.norm(t2)))) < 0.05
+            assert (
+                math.degrees(
+                    math.acos(min(1.0, np.dot(t1, t2) / np.linalg.norm(t1) / np.linalg.norm(t2)))
+                )
+                < 0.05
+            )
         assert np.allclose(np.hypot(*tp["land"].T), ra, rtol=1e-15)
         for side in ("coast", "drive"):
             d = np.linalg.norm(tp["round_" + side] - prof.tip_round_center(side), axis=1)
@@ -254,7 +296,9 @@ def test_tip_round_is_tangent_to_the_involute_and_the_tip_circle(coef):
         # the rounds lie inside the sharp tooth (they only remove its corners)
         rnd = tp["round_drive"][1:-1]
         r = np.hypot(*rnd.T)
-        assert np.all(r < ra) and np.all(np.arctan2(rnd[:, 1], rnd[:, 0]) < prof.half_thickness_angle(r))
+        assert np.all(r < ra) and np.all(
+            np.arctan2(rnd[:, 1], rnd[:, 0]) < prof.half_thickness_angle(r)
+        )
         assert prof.tip_land_width_m == pytest.approx(2 * ra * math.atan2(C[1], C[0]), rel=1e-14)
 
 
@@ -271,7 +315,7 @@ def test_tip_round_limit_is_where_the_land_vanishes():
     distance rho from the involute (solved here by bisection on that condition alone)."""
     prof = GearPair(THESIS).pinion
     ra = prof.tip_radius_m
-    f = lambda rho: prof.distance_to_flank(np.array([[ra - rho, 0.0]]))[0] - rho  # noqa: E731
+    f = lambda rho: prof.distance_to_flank(np.array([[ra - rho, 0.0]]))[0] - rho
     lo, hi = 1e-5, 1e-3
     for _ in range(100):
         mid = 0.5 * (lo + hi)
@@ -279,7 +323,12 @@ def test_tip_round_limit_is_where_the_land_vanishes():
     assert prof.max_tip_round_radius_m == pytest.approx(lo, rel=1e-9)
     assert prof.max_tip_round_radius_m / 2e-3 == pytest.approx(0.2449, abs=5e-5)  # documented value
     limit = prof.max_tip_round_radius_m / 2e-3
-    assert GearPair(dataclasses.replace(THESIS, tip_round_coefficient=limit * (1 - 1e-6))).pinion.tip_land_width_m > 0
+    assert (
+        GearPair(
+            dataclasses.replace(THESIS, tip_round_coefficient=limit * (1 - 1e-6))
+        ).pinion.tip_land_width_m
+        > 0
+    )
     with pytest.raises(ParameterError) as err:
         dataclasses.replace(THESIS, tip_round_coefficient=limit * (1 + 1e-6))
     assert err.value.name == "geometry.tip_round_coefficient"
@@ -302,7 +351,10 @@ def _closed_form_contact_ratio(z1, z2, m, alpha, ha=1.0, a=None, rho=0.0):
     a0 = m * (z1 + z2) / 2
     a = a0 if a is None else a
     rb1, rb2 = m * z1 / 2 * math.cos(alpha), m * z2 / 2 * math.cos(alpha)
-    ra1, ra2 = _tip_form_radius(rb1, m * z1 / 2 + ha * m, rho), _tip_form_radius(rb2, m * z2 / 2 + ha * m, rho)
+    ra1, ra2 = (
+        _tip_form_radius(rb1, m * z1 / 2 + ha * m, rho),
+        _tip_form_radius(rb2, m * z2 / 2 + ha * m, rho),
+    )
     aw = math.acos((rb1 + rb2) / a)
     pb = math.pi * m * math.cos(alpha)
     return (math.sqrt(ra1**2 - rb1**2) + math.sqrt(ra2**2 - rb2**2) - a * math.sin(aw)) / pb
@@ -310,31 +362,47 @@ def _closed_form_contact_ratio(z1, z2, m, alpha, ha=1.0, a=None, rho=0.0):
 
 def test_contact_ratio_of_the_thesis_pair(pair):
     sharp = GearPair(SHARP)
-    assert sharp.contact_ratio == pytest.approx(_closed_form_contact_ratio(30, 30, 2.0, 30 * DEG), rel=1e-13)
+    assert sharp.contact_ratio == pytest.approx(
+        _closed_form_contact_ratio(30, 30, 2.0, 30 * DEG), rel=1e-13
+    )
     assert sharp.contact_ratio == pytest.approx(1.35, abs=0.005)  # issue: "about 1.35"
     # tip rounds of 0.1 m = 0.2 mm: the involutes end at r_Fa = 31.916 mm
     eps = _closed_form_contact_ratio(30, 30, 2.0, 30 * DEG, rho=0.2)
     assert pair.contact_ratio == pytest.approx(eps, rel=1e-13)
-    assert pair.pinion.tip_form_radius_m == pytest.approx(_tip_form_radius(25.98076e-3, 32e-3, 0.2e-3), rel=1e-6)
+    assert pair.pinion.tip_form_radius_m == pytest.approx(
+        _tip_form_radius(25.98076e-3, 32e-3, 0.2e-3), rel=1e-6
+    )
     # to first order the round shortens each half of the path by rho (r_a / sqrt(r_a^2 - r_b^2) - 1)
     ra, rb, pb = 32.0, 30 * math.cos(30 * DEG), math.pi * 2 * math.cos(30 * DEG)
     d_eps = 2 * 0.2 * (ra / math.sqrt(ra**2 - rb**2) - 1) / pb
-    assert sharp.contact_ratio - pair.contact_ratio == pytest.approx(d_eps, rel=0.02)  # O(rho^2) rest
+    assert sharp.contact_ratio - pair.contact_ratio == pytest.approx(
+        d_eps, rel=0.02
+    )  # O(rho^2) rest
     assert pair.eps_1 == pytest.approx(pair.eps_2, rel=1e-14)  # 1:1 pair
 
 
 def test_contact_ratio_of_an_unequal_pair():
-    g = GearPairGeometry(teeth_pinion=20, teeth_wheel=47, pressure_angle_deg=20.0, tooth_thickness_mm=3.0,
-                         root_fillet_coefficient=0.38, bore_radius_mm=10.0, center_distance_mm=67.4)
+    g = GearPairGeometry(
+        teeth_pinion=20,
+        teeth_wheel=47,
+        pressure_angle_deg=20.0,
+        tooth_thickness_mm=3.0,
+        root_fillet_coefficient=0.38,
+        bore_radius_mm=10.0,
+        center_distance_mm=67.4,
+    )
     pr = GearPair(g)
     rho = 0.1 * 2.0  # default tip rounds
-    assert pr.contact_ratio == pytest.approx(_closed_form_contact_ratio(20, 47, 2.0, 20 * DEG, a=67.4, rho=rho),
-                                             rel=1e-13)
+    assert pr.contact_ratio == pytest.approx(
+        _closed_form_contact_ratio(20, 47, 2.0, 20 * DEG, a=67.4, rho=rho), rel=1e-13
+    )
     # parts: eps_1 (pinion addendum, recess), eps_2 (wheel addendum, approach)
     rb1 = 20 * math.cos(20 * DEG)
     ra1 = _tip_form_radius(rb1, 22.0, rho)
     aw = pr.operating_pressure_angle_rad
-    eps1 = (math.sqrt(ra1**2 - rb1**2) - 67.4 * 20 / 67 * math.sin(aw)) / (math.pi * 2 * math.cos(20 * DEG))
+    eps1 = (math.sqrt(ra1**2 - rb1**2) - 67.4 * 20 / 67 * math.sin(aw)) / (
+        math.pi * 2 * math.cos(20 * DEG)
+    )
     assert pr.eps_1 == pytest.approx(eps1, rel=1e-12)
 
 
@@ -344,14 +412,20 @@ def test_path_of_contact_ends_where_the_involutes_end(geometry):
     path = pair.path_of_contact()
     a = pair.center_distance_m
     assert np.linalg.norm(path.end_xy) == pytest.approx(pair.pinion.tip_form_radius_m, rel=1e-14)
-    assert np.linalg.norm(path.start_xy - [a, 0]) == pytest.approx(pair.wheel.tip_form_radius_m, rel=1e-14)
+    assert np.linalg.norm(path.start_xy - [a, 0]) == pytest.approx(
+        pair.wheel.tip_form_radius_m, rel=1e-14
+    )
     if geometry is SHARP:
         assert pair.pinion.tip_form_radius_m == pair.pinion.tip_radius_m
     t1, t2 = pair.line_of_action_tangent_points()
     assert np.linalg.norm(t1) == pytest.approx(pair.pinion.base_radius_m)
     assert np.dot(t1, path.direction) == pytest.approx(0.0, abs=1e-16)  # tangent to the base circle
-    t1_to_p = pair.pinion.base_radius_m * math.tan(pair.operating_pressure_angle_rad)  # = r_w1 sin(a_w)
-    assert np.allclose(t1 + (t2 - t1) / np.linalg.norm(t2 - t1) * t1_to_p, path.pitch_xy, atol=1e-14)
+    t1_to_p = pair.pinion.base_radius_m * math.tan(
+        pair.operating_pressure_angle_rad
+    )  # = r_w1 sin(a_w)
+    assert np.allclose(
+        t1 + (t2 - t1) / np.linalg.norm(t2 - t1) * t1_to_p, path.pitch_xy, atol=1e-14
+    )
     assert path.length_m == pytest.approx(pair.contact_ratio * pair.base_pitch_m, rel=1e-14)
 
 
@@ -395,7 +469,9 @@ def test_sliding_velocity_from_the_rotations(pair):
     g = GearPairGeometry(teeth_pinion=24, teeth_wheel=36, bore_radius_mm=12.0)
     pr = GearPair(g)
     path = pr.path_of_contact()
-    tangent = np.array([path.direction[1], -path.direction[0]])  # perpendicular to the line of action
+    tangent = np.array(
+        [path.direction[1], -path.direction[0]]
+    )  # perpendicular to the line of action
     w1, w2 = 1.0, -24 / 36  # rad/s, counter-clockwise positive
     a = pr.center_distance_m
     for S in np.linspace(-path.approach_m, path.recess_m, 7):
@@ -406,7 +482,9 @@ def test_sliding_velocity_from_the_rotations(pair):
         assert np.dot(v1, -tangent) == pytest.approx(float(vt1), abs=1e-15)
         assert np.dot(v2, -tangent) == pytest.approx(float(vt2), abs=1e-15)
         assert np.dot(v1 - v2, -tangent) == pytest.approx(float(pr.sliding_velocity(S)), abs=1e-15)
-        assert np.dot(v1 - v2, path.direction) == pytest.approx(0.0, abs=1e-15)  # no normal velocity
+        assert np.dot(v1 - v2, path.direction) == pytest.approx(
+            0.0, abs=1e-15
+        )  # no normal velocity
 
 
 # --- bad input -----------------------------------------------------------------------------------
@@ -419,13 +497,22 @@ def test_sliding_velocity_from_the_rotations(pair):
         (dict(teeth_wheel=2.5), "geometry.teeth_wheel"),
         (dict(pressure_angle_deg=40.0), "geometry.pressure_angle_deg"),
         (dict(pressure_angle_deg=5.0), "geometry.pressure_angle_deg"),
-        (dict(tooth_thickness_mm=3.2), "geometry.tooth_thickness_mm"),  # > half the pitch (3.1416): no backlash
+        (
+            dict(tooth_thickness_mm=3.2),
+            "geometry.tooth_thickness_mm",
+        ),  # > half the pitch (3.1416): no backlash
         (dict(tooth_thickness_mm=0.0), "geometry.tooth_thickness_mm"),
         (dict(bore_radius_mm=27.5), "geometry.bore_radius_mm"),  # on the root circle
         (dict(bore_radius_mm=-1.0), "geometry.bore_radius_mm"),
-        (dict(root_fillet_coefficient=0.38), "geometry.root_fillet_coefficient"),  # does not fit a 30 deg rack
+        (
+            dict(root_fillet_coefficient=0.38),
+            "geometry.root_fillet_coefficient",
+        ),  # does not fit a 30 deg rack
         (dict(tip_round_coefficient=-0.05), "geometry.tip_round_coefficient"),
-        (dict(tip_round_coefficient=0.25), "geometry.tip_round_coefficient"),  # two rounds > the 0.513 mm tip
+        (
+            dict(tip_round_coefficient=0.25),
+            "geometry.tip_round_coefficient",
+        ),  # two rounds > the 0.513 mm tip
         (dict(module_mm=0.0), "geometry.module_mm"),
         (dict(face_width_mm=-12.0), "geometry.face_width_mm"),
         (dict(addendum_coefficient=1.3), "geometry.addendum_coefficient"),  # pointed teeth
@@ -444,8 +531,13 @@ def test_undercut_is_refused():
     # 20 deg rack, dedendum 1.25 m, small tip radius: limit z = 2 (h_f - rho (1 - sin a)) / (m sin^2 a)
     a = 20 * DEG
     z_lim = 2 * (1.25 - 0.1 * (1 - math.sin(a))) / math.sin(a) ** 2  # 20.6
-    kw = dict(pressure_angle_deg=20.0, root_fillet_coefficient=0.1, addendum_coefficient=0.8,
-              bore_radius_mm=5.0, tooth_thickness_mm=2.9)
+    kw = dict(
+        pressure_angle_deg=20.0,
+        root_fillet_coefficient=0.1,
+        addendum_coefficient=0.8,
+        bore_radius_mm=5.0,
+        tooth_thickness_mm=2.9,
+    )
     ok = GearPairGeometry(teeth_pinion=math.ceil(z_lim), teeth_wheel=30, **kw)
     assert GearPair(ok).pinion.undercut_margin_m > 0
     with pytest.raises(ParameterError) as err:

@@ -26,7 +26,9 @@ def test_package_data_equals_shared_originals(shared_data):
     pkg = resources.files("gearfem") / "data"
     for sub in ("peek450g", "testbench"):
         for f in (shared_data / sub).iterdir():
-            assert filecmp.cmp(f, pkg / sub / f.name, shallow=False), f"{sub}/{f.name} differs from shared copy"
+            assert filecmp.cmp(f, pkg / sub / f.name, shallow=False), (
+                f"{sub}/{f.name} differs from shared copy"
+            )
 
 
 def test_default_material_is_the_data_file():

@@ -18,8 +18,16 @@ from mpi4py import MPI
 from gearfem.core.errors import ParameterError
 from gearfem.study import StudyOptions, load_study, run_study, study_from_dict
 
-SMALL_MESH = {"teeth_in_model": 2, "refined_teeth": 2, "layers": 1, "size_flank_mm": 0.8, "size_tip_mm": 0.8,
-              "size_root_mm": 0.8, "size_tooth_mm": 2.0, "size_body_mm": 6.0}
+SMALL_MESH = {
+    "teeth_in_model": 2,
+    "refined_teeth": 2,
+    "layers": 1,
+    "size_flank_mm": 0.8,
+    "size_tip_mm": 0.8,
+    "size_root_mm": 0.8,
+    "size_tooth_mm": 2.0,
+    "size_body_mm": 6.0,
+}
 
 
 def _study(points=((1000.0, 8.0), (2000.0, 4.0)), parallel="auto", duration=120.0, heat=2.0):
@@ -32,17 +40,20 @@ def _study(points=((1000.0, 8.0), (2000.0, 4.0)), parallel="auto", duration=120.
     }
 
 
-@pytest.mark.parametrize("change, name", [
-    ({"study": None}, "study"),
-    ({"study": {"speeds_rpm": [1000.0]}}, r"study\.speeds_rpm"),
-    ({"study": {"speeds_rpm": [-5.0], "torques_Nm": [8.0]}}, r"study\.speeds_rpm\[0\]"),
-    ({"study": {"speeds_rpm": [1000.0], "torques_Nm": [0.0]}}, r"study\.torques_Nm\[0\]"),
-    ({"study": {"points": [[1000.0]]}}, r"study\.points\[0\]"),
-    ({"study": {"points": [[1000.0, 8.0]], "parallel": "threads"}}, r"study\.parallel"),
-    ({"study": {"points": [[1000.0, 8.0]], "speed": 3}}, r"study\.speed"),
-    ({"study": {}}, "study"),
-    ({"thermal": {"duration_s": -1.0}}, r"thermal\.duration_s"),
-])
+@pytest.mark.parametrize(
+    "change, name",
+    [
+        ({"study": None}, "study"),
+        ({"study": {"speeds_rpm": [1000.0]}}, r"study\.speeds_rpm"),
+        ({"study": {"speeds_rpm": [-5.0], "torques_Nm": [8.0]}}, r"study\.speeds_rpm\[0\]"),
+        ({"study": {"speeds_rpm": [1000.0], "torques_Nm": [0.0]}}, r"study\.torques_Nm\[0\]"),
+        ({"study": {"points": [[1000.0]]}}, r"study\.points\[0\]"),
+        ({"study": {"points": [[1000.0, 8.0]], "parallel": "threads"}}, r"study\.parallel"),
+        ({"study": {"points": [[1000.0, 8.0]], "speed": 3}}, r"study\.speed"),
+        ({"study": {}}, "study"),
+        ({"thermal": {"duration_s": -1.0}}, r"thermal\.duration_s"),
+    ],
+)
 def test_bad_study_files_name_the_parameter(change, name):
     data = _study()
     for k, v in change.items():
@@ -55,14 +66,26 @@ def test_bad_study_files_name_the_parameter(change, name):
 
 
 def test_grid_and_points_give_each_operating_point_once(tmp_path):
-    opts = StudyOptions(speeds_rpm=(1000.0, 2000.0), torques_Nm=(4.0, 8.0), points=((1000.0, 8.0), (500.0, 2.0)))
-    assert opts.operating_points() == [(1000.0, 4.0), (2000.0, 4.0), (1000.0, 8.0), (2000.0, 8.0), (500.0, 2.0)]
+    opts = StudyOptions(
+        speeds_rpm=(1000.0, 2000.0), torques_Nm=(4.0, 8.0), points=((1000.0, 8.0), (500.0, 2.0))
+    )
+    assert opts.operating_points() == [
+        (1000.0, 4.0),
+        (2000.0, 4.0),
+        (1000.0, 8.0),
+        (2000.0, 8.0),
+        (500.0, 2.0),
+    ]
     f = tmp_path / "s.toml"
-    f.write_text('[study]\nspeeds_rpm = [1000.0]\ntorques_Nm = [8.0, 4.0]\n[operating]\nspeed_rpm = 1.0\n')
+    f.write_text(
+        "[study]\nspeeds_rpm = [1000.0]\ntorques_Nm = [8.0, 4.0]\n[operating]\nspeed_rpm = 1.0\n"
+    )
     study = load_study(f)
     # the operating point of every case is the study's (in the file's order), the rest the case file's
-    assert [(c.operating.speed_rpm, c.operating.torque_Nm) for _, c in study.cases()] == [(1000.0, 8.0),
-                                                                                          (1000.0, 4.0)]
+    assert [(c.operating.speed_rpm, c.operating.torque_Nm) for _, c in study.cases()] == [
+        (1000.0, 8.0),
+        (1000.0, 4.0),
+    ]
     assert study.torques() == [4.0, 8.0]
     with pytest.raises(ParameterError, match="study file"):
         load_study(tmp_path / "missing.toml")
@@ -86,7 +109,9 @@ def test_study_runs_collects_and_resumes(parallel, tmp_out, comm):
         # the prescribed heat reaches the model: per gear, the flank heat given in the file
         assert r["friction_W"] == pytest.approx(2.0, rel=1e-6)
         assert r["max_surface_end_C"] > c.thermal.ambient_C
-        assert r["power_W"] == pytest.approx(c.operating.torque_Nm * c.operating.speed_rpm * 3.141592653589793 / 30)
+        assert r["power_W"] == pytest.approx(
+            c.operating.torque_Nm * c.operating.speed_rpm * 3.141592653589793 / 30
+        )
     assert (out / "study.json").exists() and (out / "temperature_histories.png").exists()
     with (out / "results.csv").open() as fh:
         assert [r["label"] for r in csv.DictReader(fh)] == labels

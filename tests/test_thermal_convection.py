@@ -40,7 +40,9 @@ def test_correlations_by_hand_at_1000_rpm():
 def test_sutherland_air_against_tabulated_values():
     """nu(25 C) vs the thesis's 1.557e-5 m^2/s; mu and k at 300 and 400 K vs Incropera & DeWitt Table A.4
     (mu 184.6e-7 / 230.1e-7 Pa s, k 0.0263 / 0.0338 W/(m K))."""
-    assert conv.air_kinematic_viscosity_m2_s(298.15) == pytest.approx(conv.THESIS_AIR_NU_m2_s, rel=0.005)
+    assert conv.air_kinematic_viscosity_m2_s(298.15) == pytest.approx(
+        conv.THESIS_AIR_NU_m2_s, rel=0.005
+    )
     assert conv.air_viscosity_Pa_s(300.0) == pytest.approx(184.6e-7, rel=0.01)
     assert conv.air_viscosity_Pa_s(400.0) == pytest.approx(230.1e-7, rel=0.01)
     assert conv.air_conductivity_W_mK(300.0) == pytest.approx(0.0263, rel=0.01)
@@ -56,7 +58,9 @@ def test_reynolds_range_warning(caplog):
     assert sum("outside the correlation's range" in r.message for r in caplog.records) == 2
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="gearfem.thermal.convection"):
-        c = thesis_convection(4000.0, radii, AirProperties(), 298.15)  # Re_s ~ 21000 > 17200, Re_t ~ 48000
+        c = thesis_convection(
+            4000.0, radii, AirProperties(), 298.15
+        )  # Re_s ~ 21000 > 17200, Re_t ~ 48000
     assert not c.sides_in_range and not c.teeth_in_range
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="gearfem.thermal.convection"):
@@ -64,7 +68,8 @@ def test_reynolds_range_warning(caplog):
     assert c.teeth_in_range and c.sides_in_range and not caplog.records
     # extrapolated, not clamped
     assert thesis_convection(100.0, radii, AirProperties(), 298.15).h_teeth_W_m2K == pytest.approx(
-        c.h_teeth_W_m2K * 0.1**0.571)
+        c.h_teeth_W_m2K * 0.1**0.571
+    )
 
 
 def test_boundary_from_options_overrides_and_factors():
@@ -72,11 +77,24 @@ def test_boundary_from_options_overrides_and_factors():
     radii = GearRadii.thesis_gear()
     base = ThermalBoundary.from_options(ThermalOptions(), mat, 1000.0, radii)
     assert base.teeth.h_W_m2K == pytest.approx(base.convection.h_teeth_W_m2K)
-    assert base.teeth.emissivity == 0.9 and base.teeth.fluid_K == pytest.approx(23.0 + ZERO_CELSIUS_K)
+    assert base.teeth.emissivity == 0.9 and base.teeth.fluid_K == pytest.approx(
+        23.0 + ZERO_CELSIUS_K
+    )
     assert base.bore is None
-    b = ThermalBoundary.from_options(ThermalOptions(h_teeth_factor=0.5, h_sides_W_m2K=12.0, h_sides_factor=2.0,
-                                                    bore_h_W_m2K=100.0, bore_C=40.0, emissivity=0.5,
-                                                    ambient_C=21.0), mat, 1000.0, radii)
+    b = ThermalBoundary.from_options(
+        ThermalOptions(
+            h_teeth_factor=0.5,
+            h_sides_W_m2K=12.0,
+            h_sides_factor=2.0,
+            bore_h_W_m2K=100.0,
+            bore_C=40.0,
+            emissivity=0.5,
+            ambient_C=21.0,
+        ),
+        mat,
+        1000.0,
+        radii,
+    )
     assert b.teeth.h_W_m2K == pytest.approx(0.5 * base.teeth.h_W_m2K)
     assert b.sides.h_W_m2K == pytest.approx(24.0)
     assert b.bore.h_W_m2K == 100.0 and b.bore.fluid_K == pytest.approx(40.0 + ZERO_CELSIUS_K)
@@ -87,7 +105,9 @@ def test_boundary_from_options_overrides_and_factors():
     film = ThermalBoundary.from_options(ThermalOptions(air_properties="film"), mat, 1000.0, radii)
     T = 373.15
     Tf = 0.5 * (T + 296.15)
-    expect = conv.h_teeth_W_m2K(1000.0, radii, conv.air_kinematic_viscosity_m2_s(Tf), conv.air_conductivity_W_mK(Tf))
+    expect = conv.h_teeth_W_m2K(
+        1000.0, radii, conv.air_kinematic_viscosity_m2_s(Tf), conv.air_conductivity_W_mK(Tf)
+    )
     assert film.teeth.h(T) == pytest.approx(expect)
 
 

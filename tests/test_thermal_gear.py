@@ -22,8 +22,15 @@ from gearfem.thermal import (
 from gearfem.thermal.lumped import gear_radii
 from gearfem.thermal.source_terms import prescribed_heat_sources
 
-COARSE = MeshOptions(size_flank_mm=0.3, size_tip_mm=0.3, size_root_mm=0.3, size_tooth_mm=0.8, size_body_mm=3.0,
-                     layers=2, teeth_in_model=2)
+COARSE = MeshOptions(
+    size_flank_mm=0.3,
+    size_tip_mm=0.3,
+    size_root_mm=0.3,
+    size_tooth_mm=0.8,
+    size_body_mm=3.0,
+    layers=2,
+    teeth_in_model=2,
+)
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +46,9 @@ def _problem(gm, flanks="drive", degree=2, prefix="gear_", **opts):
     o = ThermalOptions(degree=degree, **opts)
     prof = gm.pair.profile("pinion")
     bnd = ThermalBoundary.from_options(o, mat, 1000.0, gear_radii(prof))
-    src = prescribed_heat_sources(PrescribedSources(flank_heat_per_gear_W=40.0, flanks=flanks), dom, mat, 1000.0, prof.teeth)
+    src = prescribed_heat_sources(
+        PrescribedSources(flank_heat_per_gear_W=40.0, flanks=flanks), dom, mat, 1000.0, prof.teeth
+    )
     return ThermalProblem(dom, mat, src, bnd, o, petsc_options_prefix=prefix)
 
 
@@ -61,7 +70,9 @@ def test_domain_from_pair_and_single_body_meshes(cache):
         assert areas["sides"] == pytest.approx(2 * exact["pinion_side_front"] * 1e-6, rel=1e-4)
         assert areas["bore"] == pytest.approx(exact["pinion_bore"] * 1e-6, rel=1e-4)
         assert areas["cuts"] == pytest.approx(2 * exact["pinion_cut_start"] * 1e-6, rel=1e-4)
-        assert prob.volume_m3 == pytest.approx(exact["pinion_side_front"] * g.face_width_mm * 1e-9, rel=1e-4)
+        assert prob.volume_m3 == pytest.approx(
+            exact["pinion_side_front"] * g.face_width_mm * 1e-9, rel=1e-4
+        )
         assert rec.balance.friction_W == pytest.approx(40.0 * 2 / 30, rel=1e-12)
         assert rec.balance.relative_imbalance < 1e-9
 
@@ -72,15 +83,29 @@ def test_sector_with_adiabatic_cuts_equals_full_gear_for_symmetric_heating(cache
     the two P2 solutions (different meshes) differ by far less than P1 and P2 on the same mesh (an
     estimate of the P1 discretisation error, an upper bound of the P2 one)."""
     g = GearPairGeometry(teeth_pinion=16, teeth_wheel=16, bore_radius_mm=8.0)
-    uniform = dataclasses.replace(COARSE, refined_teeth=0, bodies=("pinion",))  # every tooth meshed alike
-    full = build_gear_mesh(g, dataclasses.replace(uniform, teeth_in_model=16), MPI.COMM_WORLD, cache_dir=cache)
+    uniform = dataclasses.replace(
+        COARSE, refined_teeth=0, bodies=("pinion",)
+    )  # every tooth meshed alike
+    full = build_gear_mesh(
+        g, dataclasses.replace(uniform, teeth_in_model=16), MPI.COMM_WORLD, cache_dir=cache
+    )
     sector = build_gear_mesh(g, uniform, MPI.COMM_WORLD, cache_dir=cache)
     T = {}
     for name, gm, degree in (("full", full, 2), ("sector", sector, 2), ("sector_p1", sector, 1)):
-        with _problem(gm, flanks="both", degree=degree, prefix=f"sym_{name}_", mode="steady") as prob:
+        with _problem(
+            gm, flanks="both", degree=degree, prefix=f"sym_{name}_", mode="steady"
+        ) as prob:
             assert (prob.domain.model_fraction == 1.0) == (name == "full")
             T[name] = prob.solve_steady().temperatures_K
-    keys = ("mean_bulk", "flank_mean", "coast_flank_mean", "root_mean", "tip_mean", "flank_max", "root_max")
+    keys = (
+        "mean_bulk",
+        "flank_mean",
+        "coast_flank_mean",
+        "root_mean",
+        "tip_mean",
+        "flank_max",
+        "root_max",
+    )
     diff = max(abs(T["sector"][k] - T["full"][k]) for k in keys)
     p1_error = max(abs(T["sector"][k] - T["sector_p1"][k]) for k in keys)
     assert diff <= 0.1 * p1_error, (diff, p1_error)  # measured: 0.16 K against 22 K
@@ -89,7 +114,7 @@ def test_sector_with_adiabatic_cuts_equals_full_gear_for_symmetric_heating(cache
 
 @pytest.mark.mpi
 def test_cli_case_runs_and_writes(cache, tmp_out):
-    case_text = f"""
+    case_text = """
     [mesh]
     size_flank_mm = 0.3
     size_tip_mm = 0.3

@@ -17,24 +17,30 @@ from gearfem.thermal import HeatSources, PrescribedSources, ThermalDomain, Therm
 from gearfem.thermal.source_terms import prescribed_heat_sources
 
 
-@pytest.mark.parametrize("kw, name", [
-    ({"degree": 3}, "thermal.degree"),
-    ({"emissivity": 1.2}, "thermal.emissivity"),
-    ({"dt_initial_s": 1000.0, "dt_max_s": 500.0}, "thermal.dt_initial_s"),
-    ({"dt_min_s": 10.0, "dt_max_s": 1.0}, "thermal.dt_max_s"),
-    ({"duration_s": 0.0}, "thermal.duration_s"),
-    ({"output_times_s": (900.0, 9000.0)}, "thermal.output_times_s[1]"),
-    ({"output_times_s": (900.0, 800.0)}, "thermal.output_times_s[1]"),
-    ({"time_error_K": -1.0}, "thermal.time_error_K"),
-    ({"bore_C": 40.0}, "thermal.bore_C"),
-    ({"h_teeth_W_m2K": -5.0}, "thermal.h_teeth_W_m2K"),
-    ({"h_sides_factor": -1.0}, "thermal.h_sides_factor"),
-    ({"convection": "vdi"}, "thermal.convection"),
-    ({"air_properties": "film", "air_conductivity_W_mK": 0.03}, "thermal.air_conductivity_W_mK"),
-    ({"mode": "quasi"}, "thermal.mode"),
-    ({"ambient_C": -300.0}, "thermal.ambient_C"),
-    ({"linear_solver": "jacobi"}, "thermal.linear_solver"),
-])
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        ({"degree": 3}, "thermal.degree"),
+        ({"emissivity": 1.2}, "thermal.emissivity"),
+        ({"dt_initial_s": 1000.0, "dt_max_s": 500.0}, "thermal.dt_initial_s"),
+        ({"dt_min_s": 10.0, "dt_max_s": 1.0}, "thermal.dt_max_s"),
+        ({"duration_s": 0.0}, "thermal.duration_s"),
+        ({"output_times_s": (900.0, 9000.0)}, "thermal.output_times_s[1]"),
+        ({"output_times_s": (900.0, 800.0)}, "thermal.output_times_s[1]"),
+        ({"time_error_K": -1.0}, "thermal.time_error_K"),
+        ({"bore_C": 40.0}, "thermal.bore_C"),
+        ({"h_teeth_W_m2K": -5.0}, "thermal.h_teeth_W_m2K"),
+        ({"h_sides_factor": -1.0}, "thermal.h_sides_factor"),
+        ({"convection": "vdi"}, "thermal.convection"),
+        (
+            {"air_properties": "film", "air_conductivity_W_mK": 0.03},
+            "thermal.air_conductivity_W_mK",
+        ),
+        ({"mode": "quasi"}, "thermal.mode"),
+        ({"ambient_C": -300.0}, "thermal.ambient_C"),
+        ({"linear_solver": "jacobi"}, "thermal.linear_solver"),
+    ],
+)
 def test_bad_thermal_options(kw, name):
     with pytest.raises(ParameterError) as err:
         ThermalOptions(**kw)
@@ -59,12 +65,15 @@ def test_options_from_toml_and_back():
     assert src.flank_heat_per_gear_W == 40.0
 
 
-@pytest.mark.parametrize("kw, name", [
-    ({"flank_heat_per_gear_W": -1.0}, "sources.flank_heat_per_gear_W"),
-    ({"flanks": "tip"}, "sources.flanks"),
-    ({"loading_frequency": "mesh"}, "sources.loading_frequency"),
-    ({"u_max_J_m3": -2.0}, "sources.u_max_J_m3"),
-])
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        ({"flank_heat_per_gear_W": -1.0}, "sources.flank_heat_per_gear_W"),
+        ({"flanks": "tip"}, "sources.flanks"),
+        ({"loading_frequency": "mesh"}, "sources.loading_frequency"),
+        ({"u_max_J_m3": -2.0}, "sources.u_max_J_m3"),
+    ],
+)
 def test_bad_prescribed_sources(kw, name):
     with pytest.raises(ParameterError) as err:
         PrescribedSources(**kw)
@@ -93,7 +102,15 @@ def test_domain_checks():
     with pytest.raises(ParameterError, match="without a role"):
         ThermalDomain(msh, ft, groups, teeth=dom.teeth, sides=dom.sides, bore=dom.bore)
     with pytest.raises(ParameterError, match="more than one role"):
-        ThermalDomain(msh, ft, groups, teeth=dom.teeth + ("pinion_bore",), sides=dom.sides, bore=dom.bore, cuts=dom.cuts)
+        ThermalDomain(
+            msh,
+            ft,
+            groups,
+            teeth=dom.teeth + ("pinion_bore",),
+            sides=dom.sides,
+            bore=dom.bore,
+            cuts=dom.cuts,
+        )
     with pytest.raises(ParameterError, match="domain.teeth"):
         ThermalDomain(msh, ft, groups, teeth=("nope",), sides=dom.sides)
     with pytest.raises(ParameterError, match="wheel_tooth"):
@@ -111,12 +128,20 @@ def test_domain_checks():
 def test_prescribed_flank_heat_is_scaled_to_the_sector():
     """40 W per gear on a 2-of-30-tooth sector: the drive flanks of the sector receive 40 * 2/30 W."""
     dom = sector_domain(MPI.COMM_SELF, teeth=2, total_teeth=30)
-    src = prescribed_heat_sources(PrescribedSources(flank_heat_per_gear_W=40.0), dom, Material(), 1000.0, 30)
+    src = prescribed_heat_sources(
+        PrescribedSources(flank_heat_per_gear_W=40.0), dom, Material(), 1000.0, 30
+    )
     import ufl
 
     ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.facet_tags)
     area = fem.assemble_scalar(fem.form(1.0 * ds(dom.tags(dom.flux_surfaces))))
     assert src.flank_flux_W_m2 * area == pytest.approx(40.0 * 2 / 30)
     assert src.u_max is None
-    src = prescribed_heat_sources(PrescribedSources(u_max_J_m3=1e4, loading_frequency="tooth_pass"), dom, Material(), 1200.0, 30)
+    src = prescribed_heat_sources(
+        PrescribedSources(u_max_J_m3=1e4, loading_frequency="tooth_pass"),
+        dom,
+        Material(),
+        1200.0,
+        30,
+    )
     assert src.loading_frequency_Hz == pytest.approx(600.0) and np.all(src.u_max.x.array == 1e4)

@@ -25,8 +25,12 @@ from gearfem.thermal.source_terms import prescribed_heat_sources
 def _problem(comm, **kw):
     dom = sector_domain(comm, teeth=2)
     mat = Material()
-    opts = ThermalOptions(**({"duration_s": 60.0, "output_times_s": (30.0,), "dt_initial_s": 0.5} | kw))
-    src = prescribed_heat_sources(PrescribedSources(flank_heat_per_gear_W=40.0, u_max_J_m3=1e5), dom, mat, 1000.0, 30)
+    opts = ThermalOptions(
+        **({"duration_s": 60.0, "output_times_s": (30.0,), "dt_initial_s": 0.5} | kw)
+    )
+    src = prescribed_heat_sources(
+        PrescribedSources(flank_heat_per_gear_W=40.0, u_max_J_m3=1e5), dom, mat, 1000.0, 30
+    )
     bnd = ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear())
     return ThermalProblem(dom, mat, src, bnd, opts, petsc_options_prefix="out_")
 
@@ -40,20 +44,35 @@ def test_run_writes_complete_outputs(tmp_out):
         with open(out / "thermal_history.csv") as fh:
             rows = list(csv.DictReader(fh))
         assert len(rows) == len(records) and float(rows[-1]["time_s"]) == 60.0
-        for col in ("T_max_surface_C", "T_mean_bulk_C", "T_flank_mean_C", "T_flank_max_C", "T_root_mean_C",
-                    "T_root_max_C", "generated_W", "stored_W", "convected_W", "radiated_W", "imbalance_W"):
+        for col in (
+            "T_max_surface_C",
+            "T_mean_bulk_C",
+            "T_flank_mean_C",
+            "T_flank_max_C",
+            "T_root_mean_C",
+            "T_root_max_C",
+            "generated_W",
+            "stored_W",
+            "convected_W",
+            "radiated_W",
+            "imbalance_W",
+        ):
             assert col in rows[0]
         last = rows[-1]
         gen = float(last["generated_W"])
         assert gen == pytest.approx(float(last["hysteresis_W"]) + float(last["friction_W"]))
         assert abs(float(last["imbalance_W"])) < 1e-8 * gen
         s = json.loads((out / "thermal_summary.json").read_text())
-        assert s["complete"] and s["steps"] == len(records) - 1 and s["ranks"] == MPI.COMM_WORLD.size
+        assert (
+            s["complete"] and s["steps"] == len(records) - 1 and s["ranks"] == MPI.COMM_WORLD.size
+        )
         assert s["model_fraction"] == pytest.approx(2 / 30)
         assert (out / "thermal_history.png").stat().st_size > 0
         assert (out / "temperature.bp").is_dir()
         assert not (out / "thermal_history.csv.partial").exists()
-    assert summ["final_temperatures_C"]["flank_max"] > summ["final_temperatures_C"]["mean_bulk"] > 23.0
+    assert (
+        summ["final_temperatures_C"]["flank_max"] > summ["final_temperatures_C"]["mean_bulk"] > 23.0
+    )
 
 
 def test_failed_run_leaves_no_summary(tmp_path, monkeypatch):

@@ -13,14 +13,30 @@ from gearfem.thermal import GearRadii, HeatSources, ThermalBoundary, ThermalOpti
 def _run(comm, linear_solver):
     dom = sector_domain(comm, teeth=2, n=(4, 8, 3))
     mat = Material()
-    opts = ThermalOptions(duration_s=300.0, dt_initial_s=0.25, time_error_K=0.05, output_times_s=(100.0,),
-                          linear_solver=linear_solver)
+    opts = ThermalOptions(
+        duration_s=300.0,
+        dt_initial_s=0.25,
+        time_error_K=0.05,
+        output_times_s=(100.0,),
+        linear_solver=linear_solver,
+    )
     u = fem.Function(fem.functionspace(dom.mesh, ("DG", 0)))
     u.x.array[:] = 3.0e5
-    src = HeatSources(u_max=u, loading_frequency_Hz=1000.0 / 60.0, hysteresis=mat.hysteresis_table(),
-                      flank_flux_W_m2=4.0e4, flux_surfaces=dom.flux_surfaces)
-    with ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear()),
-                        opts, petsc_options_prefix=f"par_{comm.size}_{linear_solver}_") as prob:
+    src = HeatSources(
+        u_max=u,
+        loading_frequency_Hz=1000.0 / 60.0,
+        hysteresis=mat.hysteresis_table(),
+        flank_flux_W_m2=4.0e4,
+        flux_surfaces=dom.flux_surfaces,
+    )
+    with ThermalProblem(
+        dom,
+        mat,
+        src,
+        ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear()),
+        opts,
+        petsc_options_prefix=f"par_{comm.size}_{linear_solver}_",
+    ) as prob:
         return prob.integrate(), prob.num_dofs
 
 

@@ -25,7 +25,9 @@ def test_bdf2_exact_for_quadratics(w):
     a = bdf2_coefficients(h, h1)
     y = np.polynomial.Polynomial([1.3, -0.4, 2.1])
     t1, t0, tm = 5.0, 5.0 - h, 5.0 - h - h1
-    assert (a[0] * y(t1) + a[1] * y(t0) + a[2] * y(tm)) / h == pytest.approx(y.deriv()(t1), rel=1e-12)
+    assert (a[0] * y(t1) + a[1] * y(t0) + a[2] * y(tm)) / h == pytest.approx(
+        y.deriv()(t1), rel=1e-12
+    )
     assert bdf2_coefficients(h, None) == (1.0, -1.0, 0.0)
     assert bdf2_error_constant(1.0, 1.0) == pytest.approx(2.0 / 9.0)
 
@@ -47,7 +49,7 @@ def _bdf2_step_linear(lam, y0, ym, h, h1):
 def test_estimator_matches_true_local_error(ratios):
     """For y' = -y from exact history, estimate / true local error -> 1 as h -> 0, with error O(h)."""
     lam = 1.0
-    y = lambda t: math.exp(-lam * t)  # noqa: E731
+    y = lambda t: math.exp(-lam * t)
     devs = []
     for h in (0.04, 0.02, 0.01):
         h1 = h / ratios[0]
@@ -61,7 +63,9 @@ def test_estimator_matches_true_local_error(ratios):
         true = yb - y(t1)
         devs.append(abs(est / true - 1.0))
     assert devs[-1] < 0.05
-    assert devs[0] / devs[-1] == pytest.approx(4.0, rel=0.35)  # first order in h: halving twice -> /4
+    assert devs[0] / devs[-1] == pytest.approx(
+        4.0, rel=0.35
+    )  # first order in h: halving twice -> /4
 
 
 def test_controller_grows_and_shrinks_within_limits():

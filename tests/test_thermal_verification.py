@@ -38,8 +38,12 @@ ALL_EDGES = ("left", "right", "bottom", "top")
 
 
 def _l2(comm, expr) -> float:
-    return math.sqrt(comm.allreduce(fem.assemble_scalar(fem.form(expr**2 * ufl.dx(metadata={"quadrature_degree": 8}))),
-                                    op=MPI.SUM))
+    return math.sqrt(
+        comm.allreduce(
+            fem.assemble_scalar(fem.form(expr**2 * ufl.dx(metadata={"quadrature_degree": 8}))),
+            op=MPI.SUM,
+        )
+    )
 
 
 def _mms_sources(dom, mat, T_exact, dT_dt=None):
@@ -58,22 +62,33 @@ def _mms_sources(dom, mat, T_exact, dT_dt=None):
     def g(x, t):
         T = T_exact(x, t)
         h = ufl.conditional(ufl.gt(abs(n[0]), 0.5), H_TEETH, H_SIDES)
-        return h * (T - TA) + EPS * SIGMA * (T**4 - TA**4) + table_ufl(k, T) * ufl.dot(ufl.grad(T), n)
+        return (
+            h * (T - TA) + EPS * SIGMA * (T**4 - TA**4) + table_ufl(k, T) * ufl.dot(ufl.grad(T), n)
+        )
 
     return HeatSources(volumetric_W_m3=q, flank_flux_W_m2=g, flux_surfaces=ALL_EDGES)
 
 
 def _mms_options(**kw):
-    return ThermalOptions(h_teeth_W_m2K=H_TEETH, h_sides_W_m2K=H_SIDES, emissivity=EPS,
-                          ambient_C=TA - ZERO_CELSIUS_K, **kw)
+    return ThermalOptions(
+        h_teeth_W_m2K=H_TEETH,
+        h_sides_W_m2K=H_SIDES,
+        emissivity=EPS,
+        ambient_C=TA - ZERO_CELSIUS_K,
+        **kw,
+    )
 
 
 @pytest.mark.parametrize("degree, sizes, order", [(1, (8, 16, 32), 2.0), (2, (4, 8, 16), 3.0)])
 @pytest.mark.parametrize("k_of_T", [False, True])
 def test_mms_spatial_order(degree, sizes, order, k_of_T):
     """Steady manufactured solution: L2 error falls as h^(p+1) (rates from three meshes)."""
-    mat = Material(density_kg_m3=1.0, specific_heat_J_kgK=1.0, thermal_conductivity_W_mK=2.0,
-                   conductivity_table=((0.0, 200.0), (1.5, 3.0)) if k_of_T else None)
+    mat = Material(
+        density_kg_m3=1.0,
+        specific_heat_J_kgK=1.0,
+        thermal_conductivity_W_mK=2.0,
+        conductivity_table=((0.0, 200.0), (1.5, 3.0)) if k_of_T else None,
+    )
 
     def T_exact(x, t):
         return 330.0 + 40.0 * ufl.sin(1.5 * x[0] + 0.5) * ufl.cos(2.0 * x[1])
@@ -82,8 +97,14 @@ def test_mms_spatial_order(degree, sizes, order, k_of_T):
     for n in sizes:
         dom = square_domain(MPI.COMM_WORLD, n)
         opts = _mms_options(degree=degree, mode="steady")
-        prob = ThermalProblem(dom, mat, _mms_sources(dom, mat, T_exact), ThermalBoundary.from_options(opts, mat, 0.0, None),
-                              opts, petsc_options_prefix=f"mms_s{degree}{n}_")
+        prob = ThermalProblem(
+            dom,
+            mat,
+            _mms_sources(dom, mat, T_exact),
+            ThermalBoundary.from_options(opts, mat, 0.0, None),
+            opts,
+            petsc_options_prefix=f"mms_s{degree}{n}_",
+        )
         rec = prob.solve_steady()
         assert rec.balance.relative_imbalance < 1e-9
         errors.append(_l2(dom.comm, prob.T - T_exact(ufl.SpatialCoordinate(dom.mesh), 0.0)))
@@ -95,8 +116,12 @@ def test_mms_spatial_order(degree, sizes, order, k_of_T):
 @pytest.mark.parametrize("cp_of_T", [False, True])
 def test_mms_temporal_order(cp_of_T):
     """T = 300 + s(x) sin(2t), s quadratic (exact in P2): the error is the BDF2 time error, order 2."""
-    mat = Material(density_kg_m3=1.0, specific_heat_J_kgK=1.0, thermal_conductivity_W_mK=1.0,
-                   specific_heat_table=((0.0, 100.0), (0.8, 1.6)) if cp_of_T else None)
+    mat = Material(
+        density_kg_m3=1.0,
+        specific_heat_J_kgK=1.0,
+        thermal_conductivity_W_mK=1.0,
+        specific_heat_table=((0.0, 100.0), (0.8, 1.6)) if cp_of_T else None,
+    )
 
     def s(x):
         return 20.0 + 10.0 * x[0] ** 2 + 5.0 * x[1]
@@ -110,10 +135,22 @@ def test_mms_temporal_order(cp_of_T):
     dom = square_domain(MPI.COMM_WORLD, 4)
     errors = []
     for dt in (1 / 32, 1 / 64, 1 / 128, 1 / 256):
-        opts = _mms_options(degree=2, duration_s=1.0, time_stepping="fixed", dt_initial_s=dt, dt_min_s=dt,
-                            initial_C=300.0 - ZERO_CELSIUS_K)
-        prob = ThermalProblem(dom, mat, _mms_sources(dom, mat, T_exact, dT_dt),
-                              ThermalBoundary.from_options(opts, mat, 0.0, None), opts, petsc_options_prefix="mms_t_")
+        opts = _mms_options(
+            degree=2,
+            duration_s=1.0,
+            time_stepping="fixed",
+            dt_initial_s=dt,
+            dt_min_s=dt,
+            initial_C=300.0 - ZERO_CELSIUS_K,
+        )
+        prob = ThermalProblem(
+            dom,
+            mat,
+            _mms_sources(dom, mat, T_exact, dT_dt),
+            ThermalBoundary.from_options(opts, mat, 0.0, None),
+            opts,
+            petsc_options_prefix="mms_t_",
+        )
         recs = prob.integrate()
         assert len(recs) == round(1.0 / dt) + 1 and recs[-1].time_s == 1.0
         assert max(r.balance.relative_imbalance for r in recs[1:]) < 1e-9
@@ -135,11 +172,24 @@ def test_lumped_limit_exponential():
     """High k, uniform source P, convection only: theta(t) = P/(hA) (1 - exp(-hA t / (rho c V)))."""
     dom, mat, vol, area = _lumped_box()
     h, P = 25.0, 4.0
-    opts = ThermalOptions(h_teeth_W_m2K=h, h_sides_W_m2K=h, emissivity=0.0, duration_s=1000.0,
-                          dt_initial_s=0.5, time_error_K=0.01, output_times_s=(100.0, 500.0))
+    opts = ThermalOptions(
+        h_teeth_W_m2K=h,
+        h_sides_W_m2K=h,
+        emissivity=0.0,
+        duration_s=1000.0,
+        dt_initial_s=0.5,
+        time_error_K=0.01,
+        output_times_s=(100.0, 500.0),
+    )
     src = HeatSources(volumetric_W_m3=P / vol)
-    prob = ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
-                          petsc_options_prefix="lumped_")
+    prob = ThermalProblem(
+        dom,
+        mat,
+        src,
+        ThermalBoundary.from_options(opts, mat, 0.0, None),
+        opts,
+        petsc_options_prefix="lumped_",
+    )
     recs = prob.integrate()
     theta_ss = P / (h * area)
     tau = mat.density_kg_m3 * mat.specific_heat_J_kgK * vol / (h * area)
@@ -157,10 +207,22 @@ def test_radiation_only_cooling_matches_ode():
     F(T) = ln((T - a)/(T + a))/(4 a^3) - arctan(T/a)/(2 a^3), a = Ta."""
     dom, mat, vol, area = _lumped_box()
     T0 = 573.15
-    opts = ThermalOptions(convection="none", emissivity=0.9, duration_s=3000.0, initial_C=T0 - ZERO_CELSIUS_K,
-                          dt_initial_s=0.5, time_error_K=0.01)
-    prob = ThermalProblem(dom, mat, HeatSources(), ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
-                          petsc_options_prefix="radiation_")
+    opts = ThermalOptions(
+        convection="none",
+        emissivity=0.9,
+        duration_s=3000.0,
+        initial_C=T0 - ZERO_CELSIUS_K,
+        dt_initial_s=0.5,
+        time_error_K=0.01,
+    )
+    prob = ThermalProblem(
+        dom,
+        mat,
+        HeatSources(),
+        ThermalBoundary.from_options(opts, mat, 0.0, None),
+        opts,
+        petsc_options_prefix="radiation_",
+    )
     recs = prob.integrate()
     a = TA
     C = mat.density_kg_m3 * mat.specific_heat_J_kgK * vol
@@ -185,32 +247,54 @@ def test_heat_balance_closes_every_step():
     radiation, bore heat path): generated = stored + convected + radiated + bore at every step to the
     Newton tolerance, and the heat content change equals the time integral of the net flow."""
     dom = sector_domain(MPI.COMM_WORLD, teeth=2)
-    mat = Material(conductivity_table=((20.0, 150.0), (0.25, 0.30)),
-                   specific_heat_table=((20.0, 150.0), (1100.0, 1900.0)))
-    opts = ThermalOptions(air_properties="film", bore_h_W_m2K=50.0, duration_s=600.0, dt_initial_s=0.25,
-                          time_error_K=0.05)
+    mat = Material(
+        conductivity_table=((20.0, 150.0), (0.25, 0.30)),
+        specific_heat_table=((20.0, 150.0), (1100.0, 1900.0)),
+    )
+    opts = ThermalOptions(
+        air_properties="film",
+        bore_h_W_m2K=50.0,
+        duration_s=600.0,
+        dt_initial_s=0.25,
+        time_error_K=0.05,
+    )
     boundary = ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear())
     assert callable(boundary.teeth.h_W_m2K)
     Q = fem.functionspace(dom.mesh, ("DG", 0))
     u_max = fem.Function(Q)
     u_max.x.array[:] = 2.0e5
-    src = HeatSources(u_max=u_max, loading_frequency_Hz=1000.0 / 60.0, hysteresis=mat.hysteresis_table(),
-                      flank_flux_W_m2=4.0e4, flux_surfaces=dom.flux_surfaces,
-                      flux_temperature_factor=lambda T: 1.0 - 0.002 * (T - TA))
+    src = HeatSources(
+        u_max=u_max,
+        loading_frequency_Hz=1000.0 / 60.0,
+        hysteresis=mat.hysteresis_table(),
+        flank_flux_W_m2=4.0e4,
+        flux_surfaces=dom.flux_surfaces,
+        flux_temperature_factor=lambda T: 1.0 - 0.002 * (T - TA),
+    )
     with ThermalProblem(dom, mat, src, boundary, opts, petsc_options_prefix="balance_") as prob:
         E0 = prob.heat_content_J()
         recs = prob.integrate()
         E1 = prob.heat_content_J()
     b = recs[-1].balance
-    assert b.hysteresis_W > 0 and b.friction_W > 0 and b.convected_W > 0 and b.radiated_W > 0 and b.bore_W > 0
+    assert (
+        b.hysteresis_W > 0
+        and b.friction_W > 0
+        and b.convected_W > 0
+        and b.radiated_W > 0
+        and b.bore_W > 0
+    )
     for r in recs[1:]:
         b = r.balance
         assert abs(b.imbalance_W) <= 0.005 * b.generated_W
         assert abs(b.imbalance_W) <= 1e-8 * b.generated_W  # exact up to the Newton tolerance
     # content check independent of the BDF2 quotient: Delta E = int (gen - losses) dt (trapezoid, from t_1)
     t = np.array([r.time_s for r in recs[1:]])
-    net = np.array([r.balance.generated_W - r.balance.convected_W - r.balance.radiated_W - r.balance.bore_W
-                    for r in recs[1:]])
+    net = np.array(
+        [
+            r.balance.generated_W - r.balance.convected_W - r.balance.radiated_W - r.balance.bore_W
+            for r in recs[1:]
+        ]
+    )
     gen = np.array([r.balance.generated_W for r in recs[1:]])
     dE = E1 - E0
     first = recs[1].balance.stored_W * recs[1].dt_s  # backward-Euler first step
@@ -228,7 +312,9 @@ def test_custom_boundary_object_extension():
     ex = SurfaceExchange(lambda T: h0 + c * (T - amb), amb, 0.0)
     bnd = ThermalBoundary(teeth=ex, sides=ex)
     opts = ThermalOptions(mode="steady")
-    prob = ThermalProblem(dom, mat, HeatSources(volumetric_W_m3=P / vol), bnd, opts, petsc_options_prefix="ext_")
+    prob = ThermalProblem(
+        dom, mat, HeatSources(volumetric_W_m3=P / vol), bnd, opts, petsc_options_prefix="ext_"
+    )
     prob.solve_steady()
     theta = (-h0 + math.sqrt(h0**2 + 4 * c * P / area)) / (2 * c)  # c theta^2 + h0 theta - P/A = 0
     assert prob.temperatures_K()["mean_bulk"] - amb == pytest.approx(theta, rel=1e-4)
@@ -245,10 +331,18 @@ def test_hysteresis_source_uses_local_temperature():
     u.x.array[:] = U
     opts = ThermalOptions(h_teeth_W_m2K=h, h_sides_W_m2K=h, emissivity=0.0, mode="steady")
     src = HeatSources(u_max=u, loading_frequency_Hz=f, hysteresis=H)
-    prob = ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
-                          petsc_options_prefix="hyst_")
+    prob = ThermalProblem(
+        dom,
+        mat,
+        src,
+        ThermalBoundary.from_options(opts, mat, 0.0, None),
+        opts,
+        petsc_options_prefix="hyst_",
+    )
     prob.solve_steady()
-    T_ss = brentq(lambda T: H(T) * U * f * vol - h * area * (T - TA), TA, TA + 50.0)  # the lower root
+    T_ss = brentq(
+        lambda T: H(T) * U * f * vol - h * area * (T - TA), TA, TA + 50.0
+    )  # the lower root
     assert prob.temperatures_K()["mean_bulk"] == pytest.approx(T_ss, abs=1e-3)
 
 
@@ -260,13 +354,23 @@ def test_lumped_estimate_equals_high_conductivity_steady_state():
     dom, mat, vol, area = _lumped_box()
     P = 2.0
     opts = ThermalOptions(h_teeth_W_m2K=20.0, h_sides_W_m2K=30.0, mode="steady")
-    prob = ThermalProblem(dom, mat, HeatSources(volumetric_W_m3=P / vol),
-                          ThermalBoundary.from_options(opts, mat, 0.0, None), opts, petsc_options_prefix="lumpest_")
+    prob = ThermalProblem(
+        dom,
+        mat,
+        HeatSources(volumetric_W_m3=P / vol),
+        ThermalBoundary.from_options(opts, mat, 0.0, None),
+        opts,
+        petsc_options_prefix="lumpest_",
+    )
     rec = prob.solve_steady()
     est = lumped_estimate(prob, rec.balance.generated_W)
-    assert est["area_teeth_m2"] == pytest.approx(4 * 0.02 * 0.01) and est["area_sides_m2"] == pytest.approx(8e-4)
+    assert est["area_teeth_m2"] == pytest.approx(4 * 0.02 * 0.01) and est[
+        "area_sides_m2"
+    ] == pytest.approx(8e-4)
     assert rec.temperatures_K["mean_bulk"] - TA == pytest.approx(est["theta_ss_K"], rel=1e-3)
-    assert est["tau_s"] == pytest.approx(mat.density_kg_m3 * mat.specific_heat_J_kgK * vol * est["theta_ss_K"] / P)
+    assert est["tau_s"] == pytest.approx(
+        mat.density_kg_m3 * mat.specific_heat_J_kgK * vol * est["theta_ss_K"] / P
+    )
 
 
 def test_newton_failure_raises_convergence_error():
@@ -274,11 +378,25 @@ def test_newton_failure_raises_convergence_error():
     from gearfem.core.errors import ConvergenceError
 
     dom, mat, vol, area = _lumped_box()
-    opts = ThermalOptions(convection="none", emissivity=0.9, initial_C=500.0, duration_s=10.0,
-                          time_stepping="fixed", dt_initial_s=5.0, newton_max_it=1, newton_rtol=1e-14,
-                          newton_atol_W=1e-14)
-    prob = ThermalProblem(dom, mat, HeatSources(), ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
-                          petsc_options_prefix="fail_")
+    opts = ThermalOptions(
+        convection="none",
+        emissivity=0.9,
+        initial_C=500.0,
+        duration_s=10.0,
+        time_stepping="fixed",
+        dt_initial_s=5.0,
+        newton_max_it=1,
+        newton_rtol=1e-14,
+        newton_atol_W=1e-14,
+    )
+    prob = ThermalProblem(
+        dom,
+        mat,
+        HeatSources(),
+        ThermalBoundary.from_options(opts, mat, 0.0, None),
+        opts,
+        petsc_options_prefix="fail_",
+    )
     with pytest.raises(ConvergenceError) as err:
         prob.integrate()
     assert "DIVERGED_MAX_IT" in err.value.reason and "t = 5 s" in err.value.step
@@ -292,9 +410,19 @@ def test_flux_function_with_temperature_factor_lumped_steady():
     flux = fem.Function(fem.functionspace(dom.mesh, ("Lagrange", 1)))
     flux.x.array[:] = q0
     opts = ThermalOptions(h_teeth_W_m2K=h, h_sides_W_m2K=h, emissivity=0.0, mode="steady")
-    src = HeatSources(flank_flux_W_m2=flux, flux_surfaces=("outer",), flux_temperature_factor=lambda T: 1.0 - c * (T - TA))
-    prob = ThermalProblem(dom, mat, src, ThermalBoundary.from_options(opts, mat, 0.0, None), opts,
-                          petsc_options_prefix="fluxfn_")
+    src = HeatSources(
+        flank_flux_W_m2=flux,
+        flux_surfaces=("outer",),
+        flux_temperature_factor=lambda T: 1.0 - c * (T - TA),
+    )
+    prob = ThermalProblem(
+        dom,
+        mat,
+        src,
+        ThermalBoundary.from_options(opts, mat, 0.0, None),
+        opts,
+        petsc_options_prefix="fluxfn_",
+    )
     rec = prob.solve_steady()
     P0 = q0 * 4 * 0.02 * 0.01  # the 'outer' faces
     theta = P0 / (h * area + c * P0)

@@ -54,7 +54,9 @@ class ContactPoints:
     pressure: np.ndarray  # Pa
     active: np.ndarray  # bool
     slip_direction: np.ndarray  # (n, 3) ŝ (regularised unit slip direction)
-    slip_velocity: np.ndarray  # (n, 3) v_T, kinematic tangential relative velocity (slave - master), m/s
+    slip_velocity: (
+        np.ndarray
+    )  # (n, 3) v_T, kinematic tangential relative velocity (slave - master), m/s
     traction: np.ndarray  # (n, 3) traction on the slave, Pa
     eps: np.ndarray  # penalty, Pa/m
     slope: np.ndarray  # dp/d(λ − εg): 1 where active (0..1 with pressure smoothing)
@@ -92,8 +94,13 @@ class ContactInterface:
         youngs_modulus_Pa: dict body name -> Young's modulus, used to scale the penalty.
     """
 
-    def __init__(self, a: ContactSurface, b: ContactSurface, options: ContactOptions,
-                 youngs_modulus_Pa: dict[str, float]) -> None:
+    def __init__(
+        self,
+        a: ContactSurface,
+        b: ContactSurface,
+        options: ContactOptions,
+        youngs_modulus_Pa: dict[str, float],
+    ) -> None:
         self.a, self.b, self.options = a, b, options
         shared = np.intersect1d(a.gathered().blocks, b.gathered().blocks)
         if len(shared):
@@ -132,7 +139,9 @@ class ContactInterface:
         return self.options.penetration_tolerance_rel * hmin
 
     # -------------------------------------------------------------------------------------------
-    def _nodes(self, surf: ContactSurface, u_array: np.ndarray, motion: RigidMotion, gathered: bool):
+    def _nodes(
+        self, surf: ContactSurface, u_array: np.ndarray, motion: RigidMotion, gathered: bool
+    ):
         if gathered:
             data = surf.gathered()
             u = surf.gathered_displacement(u_array)
@@ -141,7 +150,9 @@ class ContactInterface:
             u = surf.local_displacement(u_array)
         return data, motion.place(data.X + u)
 
-    def _candidate_pairs(self, ps: _Pass, xs: np.ndarray, xm: np.ndarray, mdata) -> tuple[np.ndarray, np.ndarray]:
+    def _candidate_pairs(
+        self, ps: _Pass, xs: np.ndarray, xm: np.ndarray, mdata
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Slave/master facet pairs that are close and face each other.
 
         A pair is kept when (i) the facets' bounding spheres, grown by the search margin (the
@@ -190,9 +201,15 @@ class ContactInterface:
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
             si, mj = self._candidate_pairs(ps, xs, xm, mdata)
             nv = ps.slave.ref.num_vertices
-            pair, xi, wref = segment(ps.slave.ref, xs[si, :nv], xm[mj, :nv], self._tri_points, self._tri_weights)
+            pair, xi, wref = segment(
+                ps.slave.ref, xs[si, :nv], xm[mj, :nv], self._tri_points, self._tri_weights
+            )
             # master facets overlapping each slave facet (for re-projection across facet edges)
-            used = np.unique(np.stack([si[pair], mj[pair]], axis=1), axis=0) if len(pair) else np.zeros((0, 2), np.int64)
+            used = (
+                np.unique(np.stack([si[pair], mj[pair]], axis=1), axis=0)
+                if len(pair)
+                else np.zeros((0, 2), np.int64)
+            )
             ptr = np.searchsorted(used[:, 0], np.arange(xs.shape[0] + 1))
             self._segments.append([si[pair], mj[pair], xi, wref, None, (ptr, used[:, 1])])
         self.update_slip(u_array, motions)
@@ -210,8 +227,18 @@ class ContactInterface:
         for ps, seg in zip(self.passes, self._segments):
             fs, fm, xi, wref, old, cand = seg
             seg[4] = None
-            pts = self._points(ps, *self._configuration(ps, u_array, motions), fs, fm, xi, wref,
-                               motions[ps.slave.body], motions[ps.master.body], frozen=False, candidates=cand)
+            pts = self._points(
+                ps,
+                *self._configuration(ps, u_array, motions),
+                fs,
+                fm,
+                xi,
+                wref,
+                motions[ps.slave.body],
+                motions[ps.master.body],
+                frozen=False,
+                candidates=cand,
+            )
             if old is not None and len(old) == pts.num_points:
                 on = pts.pressure > 0.0
                 if on.any():
@@ -234,12 +261,40 @@ class ContactInterface:
         out = []
         for ps, (fs, fm, xi, wref, s_hat, cand) in zip(self.passes, self._segments):
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
-            out.append(self._points(ps, *self._configuration(ps, u_array, motions), fs, fm, xi, wref, ms, mm,
-                                    frozen=True, s_hat=s_hat, candidates=cand))
+            out.append(
+                self._points(
+                    ps,
+                    *self._configuration(ps, u_array, motions),
+                    fs,
+                    fm,
+                    xi,
+                    wref,
+                    ms,
+                    mm,
+                    frozen=True,
+                    s_hat=s_hat,
+                    candidates=cand,
+                )
+            )
         return out
 
-    def _points(self, ps: _Pass, sdata, xs, mdata, xm, fs, fm, xi, wref, ms: RigidMotion, mm: RigidMotion,
-                frozen: bool = False, s_hat: np.ndarray | None = None, candidates=None) -> ContactPoints:
+    def _points(
+        self,
+        ps: _Pass,
+        sdata,
+        xs,
+        mdata,
+        xm,
+        fs,
+        fm,
+        xi,
+        wref,
+        ms: RigidMotion,
+        mm: RigidMotion,
+        frozen: bool = False,
+        s_hat: np.ndarray | None = None,
+        candidates=None,
+    ) -> ContactPoints:
         ref_s, ref_m = ps.slave.ref, ps.master.ref
         n = len(fs)
         x, _, _, Ns = evaluate(ref_s, xs[fs], xi)
@@ -247,7 +302,9 @@ class ContactInterface:
         jac = np.linalg.norm(np.cross(T1, T2), axis=1)
         nv = ref_m.num_vertices
         v = xm[fm, :nv]
-        zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[:, 0, :]
+        zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[
+            :, 0, :
+        ]
         zeta, _ = project(ref_m, xm[fm], x, zeta0)
         tol = self.options.projection_tolerance
         valid = ref_m.inside(zeta, tol=tol)
@@ -265,13 +322,18 @@ class ContactInterface:
             bad = np.nonzero(~valid)[0]
             cnt = ptr[fs[bad] + 1] - ptr[fs[bad]]
             rows = np.repeat(bad, cnt)
-            mcand = cm[np.concatenate([np.arange(ptr[f], ptr[f + 1]) for f in fs[bad]])] if len(bad) else \
-                np.zeros(0, np.int64)
+            mcand = (
+                cm[np.concatenate([np.arange(ptr[f], ptr[f + 1]) for f in fs[bad]])]
+                if len(bad)
+                else np.zeros(0, np.int64)
+            )
             keep = mcand != fm[rows]
             rows, mcand = rows[keep], mcand[keep]
             if len(rows):
                 v = xm[mcand, :nv]
-                z0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[rows][:, None, :])[:, 0, :]
+                z0 = _affine_coords(
+                    v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[rows][:, None, :]
+                )[:, 0, :]
                 z, dist = project(ref_m, xm[mcand], x[rows], z0)
                 ok = ref_m.inside(z, tol=tol)
                 rows, mcand, z, dist = rows[ok], mcand[ok], z[ok], dist[ok]
@@ -290,7 +352,9 @@ class ContactInterface:
         lam = coef[fs, 0] + coef[fs, 1] * xi[:, 0] + coef[fs, 2] * xi[:, 1] if n else np.zeros(0)
         trial = np.where(valid, lam - eps * np.where(valid, gap, 0.0), -np.inf)
         delta = self.options.pressure_smoothing_Pa
-        if delta > 0.0:  # C1 ramp p = (t + sqrt(t² + δ²)) / 2 (see ContactOptions.pressure_smoothing_Pa)
+        if (
+            delta > 0.0
+        ):  # C1 ramp p = (t + sqrt(t² + δ²)) / 2 (see ContactOptions.pressure_smoothing_Pa)
             tt = np.where(valid, trial, 0.0)
             root = np.sqrt(tt * tt + delta * delta)
             pressure = np.where(valid, 0.5 * (tt + root), 0.0)
@@ -306,15 +370,38 @@ class ContactInterface:
         vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
         if not (frozen and s_hat is not None):
             vt2 = np.einsum("pd,pd->p", vt, vt)
-            s_hat = vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None] if n else np.zeros((0, 3))
+            s_hat = (
+                vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None]
+                if n
+                else np.zeros((0, 3))
+            )
         else:  # frozen direction, kept in the current tangent plane with its magnitude
             mag = np.linalg.norm(s_hat, axis=1)
             st = s_hat - np.einsum("pd,pd->p", s_hat, normal)[:, None] * normal
             nst = np.linalg.norm(st, axis=1)
             s_hat = st * np.where(nst > 0.0, mag / np.where(nst > 0.0, nst, 1.0), 0.0)[:, None]
         traction = pressure[:, None] * (normal - mu * s_hat)
-        return ContactPoints(ps.slave.name, ps.master.name, fs, fm, xi, zeta, ps.weight * wref * jac, x, normal,
-                             gap, pressure, active, s_hat, vt, traction, eps, slope, Ns, Nm)
+        return ContactPoints(
+            ps.slave.name,
+            ps.master.name,
+            fs,
+            fm,
+            xi,
+            zeta,
+            ps.weight * wref * jac,
+            x,
+            normal,
+            gap,
+            pressure,
+            active,
+            s_hat,
+            vt,
+            traction,
+            eps,
+            slope,
+            Ns,
+            Nm,
+        )
 
     # -------------------------------------------------------------------------------------------
     def assemble(self, points: list[ContactPoints], motions: dict[str, RigidMotion], matrix: bool):
@@ -339,7 +426,10 @@ class ContactInterface:
             free_s = ~sdata.fixed[pts.facet]
             free_m = ~mdata.fixed[pts.mfacet]
             # rho vectors per point: (n, 2, nn, 3)
-            rho = np.stack([pts.Ns[:, :, None] * rho_s[:, None, :], pts.Nm[:, :, None] * rho_m[:, None, :]], axis=1)
+            rho = np.stack(
+                [pts.Ns[:, :, None] * rho_s[:, None, :], pts.Nm[:, :, None] * rho_m[:, None, :]],
+                axis=1,
+            )
             free = np.stack([free_s, free_m], axis=1)
             dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(len(pts.dA), -1)
             rho = np.where(free, rho, 0.0).reshape(len(pts.dA), -1)
@@ -351,7 +441,13 @@ class ContactInterface:
                 act = np.nonzero(pts.active)[0]
                 if len(act) == 0:
                     continue
-                gam = np.stack([pts.Ns[:, :, None] * gam_s[:, None, :], pts.Nm[:, :, None] * gam_m[:, None, :]], axis=1)
+                gam = np.stack(
+                    [
+                        pts.Ns[:, :, None] * gam_s[:, None, :],
+                        pts.Nm[:, :, None] * gam_m[:, None, :],
+                    ],
+                    axis=1,
+                )
                 gam = np.where(free, gam, 0.0).reshape(len(pts.dA), -1)
                 k = len(act)
                 m = dofs.shape[1]
@@ -359,22 +455,29 @@ class ContactInterface:
                 inv = inv.reshape(k, m)
                 ptr = np.repeat(np.arange(k), m)
                 B = sp.csr_matrix((rho[act].ravel(), (ptr, inv.ravel())), shape=(k, len(local_ids)))
-                C = sp.csr_matrix(((gam[act] * (pts.dA[act] * pts.eps[act] * pts.slope[act])[:, None]).ravel(), (ptr, inv.ravel())),
-                                  shape=(k, len(local_ids)))
+                C = sp.csr_matrix(
+                    (
+                        (gam[act] * (pts.dA[act] * pts.eps[act] * pts.slope[act])[:, None]).ravel(),
+                        (ptr, inv.ravel()),
+                    ),
+                    shape=(k, len(local_ids)),
+                )
                 K = (B.T @ C).tocoo()
                 nz = K.data != 0.0
                 rows.append(local_ids[K.row[nz]])
                 cols.append(local_ids[K.col[nz]])
                 vals.append(K.data[nz])
                 del nn
-        cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)  # noqa: E731
+        cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)
         res = (cat(rdofs, np.int64), cat(rvals, np.float64))
         if not matrix:
             return res, None
         return res, (cat(rows, np.int64), cat(cols, np.int64), cat(vals, np.float64))
 
     # -------------------------------------------------------------------------------------------
-    def rotation_terms(self, points: list[ContactPoints], motions: dict[str, RigidMotion], body: str):
+    def rotation_terms(
+        self, points: list[ContactPoints], motions: dict[str, RigidMotion], body: str
+    ):
         """Moment of the contact forces on ``body`` about its motion axis and its linearisation.
 
         With ψ the rotation of ``body`` about its axis, at every contact point β = ∂g/∂ψ
@@ -408,10 +511,20 @@ class ContactInterface:
             dofs_m = 3 * mdata.blocks[pts.mfacet][:, :, None] + np.arange(3)
             free = np.stack([~sdata.fixed[pts.facet], ~mdata.fixed[pts.mfacet]], axis=1)
             dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(len(pts.dA), -1)
-            rho = np.stack([pts.Ns[:, :, None] * (dirn @ Rs)[:, None, :],
-                            -pts.Nm[:, :, None] * (dirn @ Rm)[:, None, :]], axis=1)
-            gam = np.stack([pts.Ns[:, :, None] * (pts.normal @ Rs)[:, None, :],
-                            -pts.Nm[:, :, None] * (pts.normal @ Rm)[:, None, :]], axis=1)
+            rho = np.stack(
+                [
+                    pts.Ns[:, :, None] * (dirn @ Rs)[:, None, :],
+                    -pts.Nm[:, :, None] * (dirn @ Rm)[:, None, :],
+                ],
+                axis=1,
+            )
+            gam = np.stack(
+                [
+                    pts.Ns[:, :, None] * (pts.normal @ Rs)[:, None, :],
+                    -pts.Nm[:, :, None] * (pts.normal @ Rm)[:, None, :],
+                ],
+                axis=1,
+            )
             rho = np.where(free, rho, 0.0).reshape(len(pts.dA), -1)
             gam = np.where(free, gam, 0.0).reshape(len(pts.dA), -1)
             sel = act
@@ -419,8 +532,13 @@ class ContactInterface:
             v_up.append(((w * beta)[:, None] * rho)[sel].ravel())
             d_pu.append(dofs[sel].ravel())
             v_pu.append(((w * mcoef)[:, None] * gam)[sel].ravel())
-        cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)  # noqa: E731
-        return M, kpp, (cat(d_up, np.int64), cat(v_up, np.float64)), (cat(d_pu, np.int64), cat(v_pu, np.float64))
+        cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)
+        return (
+            M,
+            kpp,
+            (cat(d_up, np.int64), cat(v_up, np.float64)),
+            (cat(d_pu, np.int64), cat(v_pu, np.float64)),
+        )
 
     # -------------------------------------------------------------------------------------------
     def update_multipliers(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
@@ -429,11 +547,15 @@ class ContactInterface:
         if self._segments is None:
             self.update_segmentation(u_array, motions)
         for ps, seg in zip(self.passes, self._segments):
-            ms, mm = motions[ps.slave.body], motions[ps.master.body]  # noqa: F841
+            ms, mm = motions[ps.slave.body], motions[ps.master.body]
             sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
             # the facet pairs that overlap in the current segmentation
-            pairs = np.unique(np.stack([seg[0], seg[1]], axis=1), axis=0) if len(seg[0]) else np.zeros((0, 2), np.int64)
+            pairs = (
+                np.unique(np.stack([seg[0], seg[1]], axis=1), axis=0)
+                if len(seg[0])
+                else np.zeros((0, 2), np.int64)
+            )
             si, mj = pairs[:, 0], pairs[:, 1]
             nf, nq = ps.lam.shape
             gaps = np.full((nf, nq), np.inf)
@@ -445,7 +567,9 @@ class ContactInterface:
                 x = evaluate(ps.slave.ref, xs[fs], xi)[0]
                 nv = ps.master.ref.num_vertices
                 v = xm[fm, :nv]
-                zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[:, 0, :]
+                zeta0 = _affine_coords(
+                    v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :]
+                )[:, 0, :]
                 zeta, _ = project(ps.master.ref, xm[fm], x, zeta0)
                 inside = ps.master.ref.inside(zeta, tol=1e-9)
                 xmp, t1, t2, _ = evaluate(ps.master.ref, xm[fm], zeta)
@@ -459,7 +583,9 @@ class ContactInterface:
                 chosen = order[first]
                 gaps.ravel()[key[chosen]] = g[chosen]
             has = np.isfinite(gaps)
-            new = np.where(has, np.maximum(0.0, ps.lam - ps.eps[:, None] * np.where(has, gaps, 0.0)), 0.0)
+            new = np.where(
+                has, np.maximum(0.0, ps.lam - ps.eps[:, None] * np.where(has, gaps, 0.0)), 0.0
+            )
             pen = np.where(has & (new > 0.0), -gaps, 0.0)
             worst = max(worst, float(pen.max(initial=0.0)))
             ps.lam[:] = new

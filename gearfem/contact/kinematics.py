@@ -26,7 +26,9 @@ def evaluate(ref: FacetReference, nodes: np.ndarray, xi: np.ndarray, derivatives
     return out[0], out[1], out[2], tab[0], (out[3], out[4], out[5])
 
 
-def unit_normal(t1: np.ndarray, t2: np.ndarray, orientation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def unit_normal(
+    t1: np.ndarray, t2: np.ndarray, orientation: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Outward unit normal and area scale |t1 × t2| (orientation ±1 per evaluation)."""
     c = np.cross(t1, t2)
     jac = np.linalg.norm(c, axis=1)
@@ -83,7 +85,9 @@ def project(
 # ------------------------------------------------------------------------------------------------
 
 
-def _affine_coords(origin: np.ndarray, e1: np.ndarray, e2: np.ndarray, pts: np.ndarray) -> np.ndarray:
+def _affine_coords(
+    origin: np.ndarray, e1: np.ndarray, e2: np.ndarray, pts: np.ndarray
+) -> np.ndarray:
     """Least-squares coordinates (a, b) with pts ≈ origin + a e1 + b e2; pts (P, k, 3) -> (P, k, 2)."""
     g11 = np.einsum("pd,pd->p", e1, e1)
     g12 = np.einsum("pd,pd->p", e1, e2)
@@ -109,7 +113,9 @@ def _signed_area(poly: np.ndarray, count: np.ndarray) -> np.ndarray:
     return 0.5 * np.sum(np.where(valid, x * yn - xn * y, 0.0), axis=1)
 
 
-def clip_polygons(subject: np.ndarray, clip: np.ndarray, max_vertices: int = 16) -> tuple[np.ndarray, np.ndarray]:
+def clip_polygons(
+    subject: np.ndarray, clip: np.ndarray, max_vertices: int = 16
+) -> tuple[np.ndarray, np.ndarray]:
     """Sutherland–Hodgman clipping of one convex subject polygon by P convex polygons.
 
     Args:
@@ -130,7 +136,9 @@ def clip_polygons(subject: np.ndarray, clip: np.ndarray, max_vertices: int = 16)
         ab = b - a
         out = np.zeros_like(poly)
         ocount = np.zeros(P, dtype=np.int64)
-        side = ab[:, None, 0] * (poly[..., 1] - a[:, None, 1]) - ab[:, None, 1] * (poly[..., 0] - a[:, None, 0])
+        side = ab[:, None, 0] * (poly[..., 1] - a[:, None, 1]) - ab[:, None, 1] * (
+            poly[..., 0] - a[:, None, 0]
+        )
         for i in range(max_vertices):
             active = i < count
             if not active.any():
@@ -182,7 +190,11 @@ def segment(
     P = slave_vertices.shape[0]
     if P == 0:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros(0)
-    o, e1, e2 = slave_vertices[:, 0], slave_vertices[:, 1] - slave_vertices[:, 0], slave_vertices[:, 2] - slave_vertices[:, 0]
+    o, e1, e2 = (
+        slave_vertices[:, 0],
+        slave_vertices[:, 1] - slave_vertices[:, 0],
+        slave_vertices[:, 2] - slave_vertices[:, 0],
+    )
     mpoly = _affine_coords(o, e1, e2, master_vertices[:, ref.vertex_cycle])
     cnt = np.full(P, mpoly.shape[1], dtype=np.int64)
     flip = _signed_area(mpoly, cnt) < 0.0
@@ -199,7 +211,11 @@ def segment(
         p0, p1, p2 = poly[sel, 0], poly[sel, k], poly[sel, k + 1]
         d1, d2 = p1 - p0, p2 - p0
         det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-        xi = p0[:, None, :] + points[None, :, 0:1] * d1[:, None, :] + points[None, :, 1:2] * d2[:, None, :]
+        xi = (
+            p0[:, None, :]
+            + points[None, :, 0:1] * d1[:, None, :]
+            + points[None, :, 1:2] * d2[:, None, :]
+        )
         pair_ids.append(np.repeat(np.nonzero(sel)[0], nq))
         xis.append(xi.reshape(-1, 2))
         ws.append((weights[None, :] * np.abs(det)[:, None]).ravel())

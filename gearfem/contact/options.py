@@ -99,7 +99,13 @@ class ContactOptions:
         require_positive("contact.penalty_factor", self.penalty_factor)
         if self.penalty_Pa_m is not None:
             require_positive("contact.penalty_Pa_m", self.penalty_Pa_m)
-        require_range("contact.penetration_tolerance_rel", self.penetration_tolerance_rel, 0.0, 1.0, lo_open=True)
+        require_range(
+            "contact.penetration_tolerance_rel",
+            self.penetration_tolerance_rel,
+            0.0,
+            1.0,
+            lo_open=True,
+        )
         if self.penetration_tolerance_m is not None:
             require_positive("contact.penetration_tolerance_m", self.penetration_tolerance_m)
         require_int("contact.max_uzawa", self.max_uzawa, 1, 1000)
@@ -109,13 +115,22 @@ class ContactOptions:
         require_positive("contact.slip_regularization_m_s", self.slip_regularization_m_s)
         require_int("contact.quadrature_degree", self.quadrature_degree, 1, 12)
         require_positive("contact.search_distance_rel", self.search_distance_rel)
-        require_range("contact.max_normal_angle_deg", self.max_normal_angle_deg, 0.0, 90.0, lo_open=True)
+        require_range(
+            "contact.max_normal_angle_deg", self.max_normal_angle_deg, 0.0, 90.0, lo_open=True
+        )
         require_range("contact.projection_tolerance", self.projection_tolerance, 0.0, 1.0)
         require_range("contact.newton_rtol", self.newton_rtol, 0.0, 1.0, lo_open=True, hi_open=True)
         require_nonnegative("contact.newton_atol_N", self.newton_atol_N)
         require_range("contact.newton_stall_rtol", self.newton_stall_rtol, 0.0, 1e-2)
         require_int("contact.newton_max_it", self.newton_max_it, 1, 1000)
-        require_range("contact.uzawa_newton_rtol", self.uzawa_newton_rtol, 0.0, 1.0, lo_open=True, hi_open=True)
+        require_range(
+            "contact.uzawa_newton_rtol",
+            self.uzawa_newton_rtol,
+            0.0,
+            1.0,
+            lo_open=True,
+            hi_open=True,
+        )
         require_int("contact.max_krylov_its", self.max_krylov_its, 1, 10000)
         require_int("contact.refactor_krylov_its", self.refactor_krylov_its, 1, 10000)
         require_range("contact.krylov_rtol", self.krylov_rtol, 0.0, 1e-3, lo_open=True)

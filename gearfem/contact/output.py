@@ -80,8 +80,20 @@ def gather_points(problem: ContactProblem, interface: int = 0) -> PointTable:
     for k, (ps, pts) in enumerate(zip(passes, problem.last_points[interface])):
         X = np.einsum("pk,pkd->pd", pts.Ns, ps.slave.local.X[pts.facet])
         X = problem.motions[ps.slave.body].place(X)
-        local.append(np.column_stack([np.full(pts.num_points, float(k)), X, pts.x, pts.normal, pts.gap,
-                                      pts.pressure, pts.traction, pts.dA]))
+        local.append(
+            np.column_stack(
+                [
+                    np.full(pts.num_points, float(k)),
+                    X,
+                    pts.x,
+                    pts.normal,
+                    pts.gap,
+                    pts.pressure,
+                    pts.traction,
+                    pts.dA,
+                ]
+            )
+        )
     mine = np.concatenate(local) if local else np.zeros((0, 16))
     rows = np.concatenate(comm.allgather(mine)) if comm.size > 1 else mine
     if len(rows):
@@ -90,9 +102,15 @@ def gather_points(problem: ContactProblem, interface: int = 0) -> PointTable:
         key = np.round(X / (1e-9 * scale))
         rows = rows[np.lexsort((key[:, 2], key[:, 1], key[:, 0], rows[:, 0]))]
     return PointTable(
-        slaves=tuple(ps.slave.name for ps in passes), pass_index=rows[:, 0].astype(np.int64),
-        x_reference=rows[:, 1:4], x=rows[:, 4:7], normal=rows[:, 7:10], gap=rows[:, 10], pressure=rows[:, 11],
-        traction=rows[:, 12:15], weight=rows[:, 15],
+        slaves=tuple(ps.slave.name for ps in passes),
+        pass_index=rows[:, 0].astype(np.int64),
+        x_reference=rows[:, 1:4],
+        x=rows[:, 4:7],
+        normal=rows[:, 7:10],
+        gap=rows[:, 10],
+        pressure=rows[:, 11],
+        traction=rows[:, 12:15],
+        weight=rows[:, 15],
     )
 
 
@@ -113,9 +131,13 @@ def summary(problem: ContactProblem, interface: int = 0) -> ContactSummary:
     area = comm.allreduce(area, op=MPI.SUM)
     pen_int = comm.allreduce(pen_int, op=MPI.SUM)
     return ContactSummary(
-        tuple(float(v) for v in fn), tuple(float(v) for v in ft), area,
-        comm.allreduce(pmax, op=MPI.MAX), comm.allreduce(pen_max, op=MPI.MAX),
-        pen_int / area if area > 0 else 0.0, comm.allreduce(n, op=MPI.SUM),
+        tuple(float(v) for v in fn),
+        tuple(float(v) for v in ft),
+        area,
+        comm.allreduce(pmax, op=MPI.MAX),
+        comm.allreduce(pen_max, op=MPI.MAX),
+        pen_int / area if area > 0 else 0.0,
+        comm.allreduce(n, op=MPI.SUM),
     )
 
 
@@ -158,7 +180,9 @@ def facet_fields(problem: ContactProblem, interface: int = 0):
     return sub, p, t
 
 
-def write_vtx(problem: ContactProblem, path: str | Path, interface: int = 0, time: float = 0.0) -> Path:
+def write_vtx(
+    problem: ContactProblem, path: str | Path, interface: int = 0, time: float = 0.0
+) -> Path:
     """Write the facet fields of :func:`facet_fields` to a VTX (.bp) folder for ParaView (collective)."""
     from dolfinx.io import VTXWriter
 

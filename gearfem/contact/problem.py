@@ -82,7 +82,9 @@ class SolveReport:
     max_penetration_m: float  # at the integration points, after the last solve
     wall_time_s: float
     linear_solves: int
-    constraint_penetration_m: float = 0.0  # at the multiplier points, where the AL enforces the limit
+    constraint_penetration_m: float = (
+        0.0  # at the multiplier points, where the AL enforces the limit
+    )
     stalled: int = 0  # Newton passes accepted at a stall (ContactOptions.newton_stall_rtol)
 
 
@@ -126,7 +128,9 @@ class ContactProblem:
         self.a = fem.form(ufl.inner(elastic_stress(du, mu, lmbda), ufl.sym(ufl.grad(v))) * ufl.dx)
         self.K_full = fem_petsc.assemble_matrix(self.a)  # for residuals (no BC rows)
         self.K_full.assemble()
-        self.K_bc = fem_petsc.assemble_matrix(self.a, bcs=self.bcs)  # Jacobian base (BC rows: identity)
+        self.K_bc = fem_petsc.assemble_matrix(
+            self.a, bcs=self.bcs
+        )  # Jacobian base (BC rows: identity)
         self.K_bc.assemble()
         self.f_ext = self.K_full.createVecLeft()
         if traction_form is not None:
@@ -208,14 +212,20 @@ class ContactProblem:
                 m, k, (d1, v1), (d2, v2) = itf.rotation_terms(pts, self.motions, ctl.body)
                 M, kpp = M + m, kpp + k
                 if matrix:
-                    st.k_up.setValues(d1.astype(PETSc.IntType), v1, addv=PETSc.InsertMode.ADD_VALUES)
-                    st.k_pu.setValues(d2.astype(PETSc.IntType), v2, addv=PETSc.InsertMode.ADD_VALUES)
+                    st.k_up.setValues(
+                        d1.astype(PETSc.IntType), v1, addv=PETSc.InsertMode.ADD_VALUES
+                    )
+                    st.k_pu.setValues(
+                        d2.astype(PETSc.IntType), v2, addv=PETSc.InsertMode.ADD_VALUES
+                    )
         vecs = [st.R] + ([st.k_up, st.k_pu] if st.k_up is not None else [])
         for v in vecs:
             v.assemblyBegin()
             v.assemblyEnd()
             if len(self._bc_rows):
-                v.setValues(self._bc_rows, np.zeros(len(self._bc_rows)), addv=PETSc.InsertMode.INSERT_VALUES)
+                v.setValues(
+                    self._bc_rows, np.zeros(len(self._bc_rows)), addv=PETSc.InsertMode.INSERT_VALUES
+                )
                 v.assemblyBegin()
                 v.assemblyEnd()
         if ctl is not None:
@@ -261,16 +271,25 @@ class ContactProblem:
             reason = self.ksp.getConvergedReason()
             if reason > 0:
                 its = self.ksp.getIterationNumber()
-                log.debug("%s Newton %d: linear solve %d GMRES its (%s factors)", label, it, its,
-                          "reused" if reuse else "new")
+                log.debug(
+                    "%s Newton %d: linear solve %d GMRES its (%s factors)",
+                    label,
+                    it,
+                    its,
+                    "reused" if reuse else "new",
+                )
                 # factors that needed many iterations are replaced at the next solve
                 self._refactor = its > self.options.refactor_krylov_its
                 return
             if not reuse:
                 break
             reuse = False  # the old factors no longer precondition well enough: refactor
-        raise ConvergenceError("contact linear solve (GMRES + MUMPS LU)", f"{_KSP_REASONS.get(reason, '?')} ({reason})",
-                               step=label, iteration=it)
+        raise ConvergenceError(
+            "contact linear solve (GMRES + MUMPS LU)",
+            f"{_KSP_REASONS.get(reason, '?')} ({reason})",
+            step=label,
+            iteration=it,
+        )
 
     def _force_scale(self, u_vec: PETSc.Vec) -> float:
         """Norm of the internal forces K u (reactions included), or the applied torque over the
@@ -316,8 +335,14 @@ class ContactProblem:
         for it in range(1, o.newton_max_it + 1):
             scale = self._force_scale(u_vec)
             tol = max(rtol * scale, o.newton_atol_N)
-            log.debug("%s Newton %d: |R| = %.3e (tol %.3e)%s", label, it - 1, rnorm, tol,
-                      f", R_psi = {st.R_psi:.3e} N m" if ctl is not None else "")
+            log.debug(
+                "%s Newton %d: |R| = %.3e (tol %.3e)%s",
+                label,
+                it - 1,
+                rnorm,
+                tol,
+                f", R_psi = {st.R_psi:.3e} N m" if ctl is not None else "",
+            )
             if rnorm <= tol and it > 1:
                 self.last_points, self.last_state = st.pts, st
                 return it - 1, rnorm
@@ -334,7 +359,10 @@ class ContactProblem:
                         raise ConvergenceError(
                             "contact Newton (torque control)",
                             f"no rotational contact stiffness of {ctl.body!r} (k = {D:.3e} N m/rad): the body "
-                            "is not in contact; close the gap first (prescribe its angle)", step=label, iteration=it)
+                            "is not in contact; close the gap first (prescribe its angle)",
+                            step=label,
+                            iteration=it,
+                        )
                     dpsi = -(st.R_psi + st.k_pu.dot(du)) / D
                     du.axpy(dpsi, db)
             finally:
@@ -364,26 +392,41 @@ class ContactProblem:
                     st_new.destroy()
                     u0.destroy()
                     self.stalled += 1
-                    log.warning("%s: Newton stalled at |R| = %.3e N (%.1e of the force scale; tolerance %.3e N, "
-                                "stall tolerance %.1e): accepted", label, rnorm, rnorm / scale, tol,
-                                o.newton_stall_rtol)
+                    log.warning(
+                        "%s: Newton stalled at |R| = %.3e N (%.1e of the force scale; tolerance %.3e N, "
+                        "stall tolerance %.1e): accepted",
+                        label,
+                        rnorm,
+                        rnorm / scale,
+                        tol,
+                        o.newton_stall_rtol,
+                    )
                     self.last_points, self.last_state = st.pts, st
                     return it, rnorm
-                log.debug("%s Newton %d: line search did not decrease |R| (alpha=%g)", label, it, alpha)
+                log.debug(
+                    "%s Newton %d: line search did not decrease |R| (alpha=%g)", label, it, alpha
+                )
             elif alpha < 1.0:
                 log.debug("%s Newton %d: line search step %g", label, it, alpha)
             u0.destroy()
             st.destroy()
             st, rnorm = st_new, r_new
             if not np.isfinite(rnorm):
-                raise ConvergenceError("contact Newton", "residual is not finite", step=label, iteration=it)
+                raise ConvergenceError(
+                    "contact Newton", "residual is not finite", step=label, iteration=it
+                )
         scale = self._force_scale(u_vec)
         tol = max(rtol * scale, o.newton_atol_N)
         if rnorm <= tol:
             self.last_points, self.last_state = st.pts, st
             return o.newton_max_it, rnorm
-        raise ConvergenceError("contact Newton", f"DIVERGED_MAX_IT (residual {rnorm:.3e} > tolerance {tol:.3e})",
-                               step=label, iteration=o.newton_max_it, residual=rnorm)
+        raise ConvergenceError(
+            "contact Newton",
+            f"DIVERGED_MAX_IT (residual {rnorm:.3e} > tolerance {tol:.3e})",
+            step=label,
+            iteration=o.newton_max_it,
+            residual=rnorm,
+        )
 
     def solve(self, label: str = "") -> SolveReport:
         """Solve the contact problem at the current BC values and rigid motions (collective)."""
@@ -393,7 +436,11 @@ class ContactProblem:
         o = self.options
         al = o.method == "augmented_lagrangian"
         friction = o.friction_coefficient > 0.0
-        tol = min(itf.penetration_tolerance() for itf in self.interfaces) if (al and self.interfaces) else np.inf
+        tol = (
+            min(itf.penetration_tolerance() for itf in self.interfaces)
+            if (al and self.interfaces)
+            else np.inf
+        )
         # Outer loop: Newton with frozen multipliers and slip directions, then update both
         # (Uzawa for the multipliers; a fixed point for the slip directions) until the penetration
         # and the change of the slip directions are within tolerance. Intermediate Newton solves
@@ -403,28 +450,69 @@ class ContactProblem:
             its, rnorm = self.newton(f"{label} (outer {uz})", rtol=loose)
             total_it += its
             # penetration where the multipliers live (the fixed points; measured before updating them)
-            pen = max((itf.update_multipliers(self.u.x.array, self.motions) for itf in self.interfaces),
-                      default=0.0) if al else 0.0
-            dslip = max((itf.update_slip(self.u.x.array, self.motions) for itf in self.interfaces), default=0.0) \
-                if friction else 0.0
-            log.debug("%s outer %d: max penetration at the multiplier points %.3e m (tol %.3e m), slip direction "
-                      "change %.2e (tol %.2e)", label, uz, pen, tol, dslip, o.slip_tolerance)
+            pen = (
+                max(
+                    (
+                        itf.update_multipliers(self.u.x.array, self.motions)
+                        for itf in self.interfaces
+                    ),
+                    default=0.0,
+                )
+                if al
+                else 0.0
+            )
+            dslip = (
+                max(
+                    (itf.update_slip(self.u.x.array, self.motions) for itf in self.interfaces),
+                    default=0.0,
+                )
+                if friction
+                else 0.0
+            )
+            log.debug(
+                "%s outer %d: max penetration at the multiplier points %.3e m (tol %.3e m), slip direction "
+                "change %.2e (tol %.2e)",
+                label,
+                uz,
+                pen,
+                tol,
+                dslip,
+                o.slip_tolerance,
+            )
             if pen <= tol and dslip <= o.slip_tolerance:
                 constraint_pen = pen
                 break
         else:
-            raise ConvergenceError("contact outer iteration (Uzawa / slip directions)",
-                                   f"max penetration {pen:.3e} m (tolerance {tol:.3e} m), slip direction change "
-                                   f"{dslip:.2e} (tolerance {o.slip_tolerance:.2e}) after {uz} passes",
-                                   step=label, iteration=uz)
+            raise ConvergenceError(
+                "contact outer iteration (Uzawa / slip directions)",
+                f"max penetration {pen:.3e} m (tolerance {tol:.3e} m), slip direction change "
+                f"{dslip:.2e} (tolerance {o.slip_tolerance:.2e}) after {uz} passes",
+                step=label,
+                iteration=uz,
+            )
         if loose > o.newton_rtol or al:  # the last pass: final multipliers, final tolerance
             its, rnorm = self.newton(f"{label} (final)")
             total_it += its
         pen = self.max_penetration() if self.interfaces else 0.0  # at the integration points
-        rep = SolveReport(label, total_it, uz, rnorm, pen, time.perf_counter() - t0, self.linear_solves - ls0,
-                          constraint_pen, self.stalled - st0)
-        log.info("%s: %d Newton iterations, %d Uzawa, max penetration %.3e m, %.2f s", label, total_it, uz, pen,
-                 rep.wall_time_s)
+        rep = SolveReport(
+            label,
+            total_it,
+            uz,
+            rnorm,
+            pen,
+            time.perf_counter() - t0,
+            self.linear_solves - ls0,
+            constraint_pen,
+            self.stalled - st0,
+        )
+        log.info(
+            "%s: %d Newton iterations, %d Uzawa, max penetration %.3e m, %.2f s",
+            label,
+            total_it,
+            uz,
+            pen,
+            rep.wall_time_s,
+        )
         return rep
 
     # -------------------------------------------------------------------------------------------
@@ -447,7 +535,9 @@ class ContactProblem:
         for ps, pts in zip(itf.passes, self.last_points[interface]):
             sign = 1.0 if ps.slave is itf.a else -1.0
             fn += sign * np.einsum("p,pd->d", pts.dA * pts.pressure, pts.normal)
-            ft += sign * np.einsum("p,pd->d", pts.dA, pts.traction - pts.pressure[:, None] * pts.normal)
+            ft += sign * np.einsum(
+                "p,pd->d", pts.dA, pts.traction - pts.pressure[:, None] * pts.normal
+            )
         return self.comm.allreduce(fn, op=MPI.SUM), self.comm.allreduce(ft, op=MPI.SUM)
 
     def contact_moment(self, center: np.ndarray, axis: np.ndarray, interface: int = 0) -> float:

@@ -65,7 +65,9 @@ class RigidMotion:
         a = np.asarray(self.axis, dtype=np.float64)
         a = a / np.linalg.norm(a)
         c = np.asarray(self.center) + np.asarray(self.translation_m)
-        return self.angular_velocity_rad_s * np.cross(a, np.asarray(x) - c) + np.asarray(self.velocity_m_s)
+        return self.angular_velocity_rad_s * np.cross(a, np.asarray(x) - c) + np.asarray(
+            self.velocity_m_s
+        )
 
     def rotated(self, angle_rad: float) -> RigidMotion:
         return dataclasses.replace(self, angle_rad=angle_rad)

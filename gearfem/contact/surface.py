@@ -57,19 +57,26 @@ class ContactSurface:
         name: Name used in messages and outputs.
     """
 
-    def __init__(self, V, facets: np.ndarray, body: str, fixed_mask: np.ndarray, name: str = "") -> None:
+    def __init__(
+        self, V, facets: np.ndarray, body: str, fixed_mask: np.ndarray, name: str = ""
+    ) -> None:
         from dolfinx import fem
 
         mesh = V.mesh
         self.V, self.mesh, self.body, self.name = V, mesh, body, name or body
         tdim = mesh.topology.dim
         if mesh.geometry.cmaps[0].degree != V.element.basix_element.degree:
-            raise ParameterError("displacement degree", V.element.basix_element.degree,
-                                 f"equal to the mesh geometry degree {mesh.geometry.cmaps[0].degree}")
+            raise ParameterError(
+                "displacement degree",
+                V.element.basix_element.degree,
+                f"equal to the mesh geometry degree {mesh.geometry.cmaps[0].degree}",
+            )
         import basix
 
-        cell_type = {"tetrahedron": basix.CellType.tetrahedron, "hexahedron": basix.CellType.hexahedron}[
-            mesh.topology.cell_name()]
+        cell_type = {
+            "tetrahedron": basix.CellType.tetrahedron,
+            "hexahedron": basix.CellType.hexahedron,
+        }[mesh.topology.cell_name()]
         self.ref = FacetReference.create(cell_type, mesh.geometry.cmaps[0].degree)
         mesh.topology.create_connectivity(tdim - 1, tdim)
         n_owned = mesh.topology.index_map(tdim - 1).size_local
@@ -78,7 +85,9 @@ class ContactSurface:
         cf = fem.compute_integration_domains(fem.IntegralType.exterior_facet, mesh.topology, facets)
         cf = np.asarray(cf).reshape(-1, 2)
         if len(cf) != len(facets):
-            raise ParameterError(f"contact surface {self.name!r}", len(facets), "exterior facets only")
+            raise ParameterError(
+                f"contact surface {self.name!r}", len(facets), "exterior facets only"
+            )
         cells, lf = cf[:, 0], cf[:, 1]
         nodes_local = self.ref.facet_nodes[lf]  # (nf, nn)
         gdofs = mesh.geometry.dofmaps[0][cells]
@@ -99,7 +108,14 @@ class ContactSurface:
         V0 = X[:, cyc]
         edges = np.linalg.norm(V0 - np.roll(V0, -1, axis=1), axis=2)
         self.facets = facets
-        self.local = SurfaceData(X, gblocks, fixed, orientation, lblocks, edges.min(axis=1) if len(cells) else np.zeros(0))
+        self.local = SurfaceData(
+            X,
+            gblocks,
+            fixed,
+            orientation,
+            lblocks,
+            edges.min(axis=1) if len(cells) else np.zeros(0),
+        )
         self._gathered: SurfaceData | None = None
         self._counts = None
 
@@ -121,7 +137,11 @@ class ContactSurface:
 
             def cat(a, shape, dtype):
                 parts = comm.allgather(np.ascontiguousarray(a))
-                return np.concatenate(parts).reshape(shape).astype(dtype) if parts else np.zeros(shape, dtype)
+                return (
+                    np.concatenate(parts).reshape(shape).astype(dtype)
+                    if parts
+                    else np.zeros(shape, dtype)
+                )
 
             n = int(self._counts.sum())
             self._gathered = SurfaceData(

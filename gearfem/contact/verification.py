@@ -94,7 +94,9 @@ def two_blocks(
             if hexahedra:
                 for dim, tag in gmsh.model.getBoundary([(3, vol)], recursive=False):
                     for _, c in gmsh.model.getBoundary([(dim, tag)], recursive=False):
-                        gmsh.model.mesh.setTransfiniteCurve(abs(c), max(2, int(round(width / h)) + 1))
+                        gmsh.model.mesh.setTransfiniteCurve(
+                            abs(c), max(2, int(round(width / h)) + 1)
+                        )
                     gmsh.model.mesh.setTransfiniteSurface(tag)
                     gmsh.model.mesh.setRecombine(2, tag)
                 gmsh.model.mesh.setTransfiniteVolume(vol)
@@ -126,8 +128,13 @@ def hertz_cylinders(
     planes y = ±R), ``upper_curved``, ``lower_curved`` (cylindrical faces), ``{body}_front`` (z = 0),
     ``{body}_back`` (z = t).
     """
-    for name, val in (("radius", radius), ("thickness", thickness), ("contact_size", contact_size),
-                      ("far_size", far_size), ("refine_half_width", refine_half_width)):
+    for name, val in (
+        ("radius", radius),
+        ("thickness", thickness),
+        ("contact_size", contact_size),
+        ("far_size", far_size),
+        ("refine_half_width", refine_half_width),
+    ):
         require_positive(name, val)
     require_int("layers", layers, 1, 1000)
     require_int("order", order, 1, 2)
@@ -160,7 +167,9 @@ def hertz_cylinders(
         gmsh.model.mesh.field.setNumber(f_th, "SizeMin", contact_size)
         gmsh.model.mesh.field.setNumber(f_th, "SizeMax", far_size)
         gmsh.model.mesh.field.setNumber(f_th, "DistMin", refine_half_width)
-        gmsh.model.mesh.field.setNumber(f_th, "DistMax", refine_half_width + 4 * (far_size - contact_size) + R / 4)
+        gmsh.model.mesh.field.setNumber(
+            f_th, "DistMax", refine_half_width + 4 * (far_size - contact_size) + R / 4
+        )
         gmsh.model.mesh.field.setAsBackgroundMesh(f_th)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
@@ -183,8 +192,15 @@ def hertz_cylinders(
     return _to_dolfinx(comm, build)
 
 
-def hertz_line_contact(force_per_length_N_m: float, radius1_m: float, radius2_m: float, E1_Pa: float,
-                       nu1: float, E2_Pa: float, nu2: float) -> tuple[float, float]:
+def hertz_line_contact(
+    force_per_length_N_m: float,
+    radius1_m: float,
+    radius2_m: float,
+    E1_Pa: float,
+    nu1: float,
+    E2_Pa: float,
+    nu2: float,
+) -> tuple[float, float]:
     """Hertz line contact of two parallel cylinders: (half-width a in m, peak pressure p0 in Pa).
 
     a = sqrt(4 P' R / (π E*)), p0 = 2 P' / (π a), 1/R = 1/R1 + 1/R2 (R2 = inf for a plane),
@@ -217,7 +233,9 @@ class ContactCase:
     youngs_modulus_Pa: float
     poissons_ratio: float
     thickness_m: float = 1.0
-    timings_s: dict[str, float] = dataclasses.field(default_factory=dict)  # "mesh", "setup": wall times, s
+    timings_s: dict[str, float] = dataclasses.field(
+        default_factory=dict
+    )  # "mesh", "setup": wall times, s
 
     @property
     def comm(self) -> MPI.Comm:
@@ -238,7 +256,9 @@ def _component_bc(V, md, name: str, comp: int, value: float):
 
 
 def _surface(V, md, name: str, body: str, mask):
-    return ContactSurface(V, md.facet_tags.find(md.physical_groups[name].tag), body, mask, name=name)
+    return ContactSurface(
+        V, md.facet_tags.find(md.physical_groups[name].tag), body, mask, name=name
+    )
 
 
 def block_case(
@@ -271,24 +291,46 @@ def block_case(
     t1 = time.perf_counter()
     V = fem.functionspace(md.mesh, ("Lagrange", md.mesh.geometry.cmaps[0].degree, (3,)))
     E, nu = youngs_modulus_Pa, poissons_ratio
-    bcs = [_component_bc(V, md, "lower_zmin", 2, 0.0), _component_bc(V, md, "upper_zmax", 2, -compression_m)]
+    bcs = [
+        _component_bc(V, md, "lower_zmin", 2, 0.0),
+        _component_bc(V, md, "upper_zmax", 2, -compression_m),
+    ]
     if clamped:
-        bcs += [_component_bc(V, md, f"{face}", c, 0.0) for face in ("lower_zmin", "upper_zmax") for c in (0, 1)]
+        bcs += [
+            _component_bc(V, md, f"{face}", c, 0.0)
+            for face in ("lower_zmin", "upper_zmax")
+            for c in (0, 1)
+        ]
     else:
         for b in ("lower", "upper"):
-            bcs += [_component_bc(V, md, f"{b}_xmin", 0, 0.0), _component_bc(V, md, f"{b}_ymin", 1, 0.0)]
+            bcs += [
+                _component_bc(V, md, f"{b}_xmin", 0, 0.0),
+                _component_bc(V, md, f"{b}_ymin", 1, 0.0),
+            ]
     mask = fixed_mask(V, bcs)
-    lower, upper = _surface(V, md, "lower_zmax", "lower", mask), _surface(V, md, "upper_zmin", "upper", mask)
+    lower, upper = (
+        _surface(V, md, "lower_zmax", "lower", mask),
+        _surface(V, md, "upper_zmin", "upper", mask),
+    )
     itf = ContactInterface(lower, upper, options, {"lower": E, "upper": E})
     motions = {
         "lower": RigidMotion(axis=(1.0, 2.0, 3.0), angle_rad=motion_angle_rad),
-        "upper": RigidMotion(axis=(1.0, 2.0, 3.0), angle_rad=motion_angle_rad,
-                             velocity_m_s=tuple(RigidMotion(axis=(1.0, 2.0, 3.0), angle_rad=motion_angle_rad).R
-                                                @ np.asarray(upper_velocity_m_s))),
+        "upper": RigidMotion(
+            axis=(1.0, 2.0, 3.0),
+            angle_rad=motion_angle_rad,
+            velocity_m_s=tuple(
+                RigidMotion(axis=(1.0, 2.0, 3.0), angle_rad=motion_angle_rad).R
+                @ np.asarray(upper_velocity_m_s)
+            ),
+        ),
     }
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-    prob = ContactProblem(V, mu, lmbda, bcs, [itf], motions, options, petsc_options_prefix="gearfem_blocks_")
-    return ContactCase(prob, md, E, nu, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1})
+    prob = ContactProblem(
+        V, mu, lmbda, bcs, [itf], motions, options, petsc_options_prefix="gearfem_blocks_"
+    )
+    return ContactCase(
+        prob, md, E, nu, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1}
+    )
 
 
 def hertz_case(
@@ -313,23 +355,54 @@ def hertz_case(
 
     t = thickness_m if thickness_m is not None else 2.0 * contact_size
     t0 = time.perf_counter()
-    md = hertz_cylinders(comm, radius=radius, thickness=t, contact_size=contact_size, far_size=far_size,
-                         refine_half_width=0.12 * radius, layers=layers)
+    md = hertz_cylinders(
+        comm,
+        radius=radius,
+        thickness=t,
+        contact_size=contact_size,
+        far_size=far_size,
+        refine_half_width=0.12 * radius,
+        layers=layers,
+    )
     t1 = time.perf_counter()
     V = fem.functionspace(md.mesh, ("Lagrange", 2, (3,)))
     E, nu = youngs_modulus_Pa, poissons_ratio
     bcs = []
     for b in ("upper", "lower"):
-        bcs += [_component_bc(V, md, f"{b}_front", 2, 0.0), _component_bc(V, md, f"{b}_back", 2, 0.0)]
+        bcs += [
+            _component_bc(V, md, f"{b}_front", 2, 0.0),
+            _component_bc(V, md, f"{b}_back", 2, 0.0),
+        ]
     bcs += [_component_bc(V, md, "lower_flat", c, 0.0) for c in range(2)]
-    bcs += [_component_bc(V, md, "upper_flat", 0, 0.0), _component_bc(V, md, "upper_flat", 1, -compression_m)]
+    bcs += [
+        _component_bc(V, md, "upper_flat", 0, 0.0),
+        _component_bc(V, md, "upper_flat", 1, -compression_m),
+    ]
     mask = fixed_mask(V, bcs)
-    lower, upper = _surface(V, md, "lower_curved", "lower", mask), _surface(V, md, "upper_curved", "upper", mask)
+    lower, upper = (
+        _surface(V, md, "lower_curved", "lower", mask),
+        _surface(V, md, "upper_curved", "upper", mask),
+    )
     itf = ContactInterface(lower, upper, options, {"lower": E, "upper": E})
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-    prob = ContactProblem(V, mu, lmbda, bcs, [itf], {"lower": RigidMotion(), "upper": RigidMotion()}, options,
-                          petsc_options_prefix="gearfem_hertz_")
-    return ContactCase(prob, md, E, nu, thickness_m=t, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1})
+    prob = ContactProblem(
+        V,
+        mu,
+        lmbda,
+        bcs,
+        [itf],
+        {"lower": RigidMotion(), "upper": RigidMotion()},
+        options,
+        petsc_options_prefix="gearfem_hertz_",
+    )
+    return ContactCase(
+        prob,
+        md,
+        E,
+        nu,
+        thickness_m=t,
+        timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1},
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -346,12 +419,18 @@ class HertzComparison:
     force_per_length_N_m: float
     a_analytic_m: float
     p0_analytic_Pa: float
-    a_fe_m: float  # from the pressure moments: a = 2 sqrt(∫x²p dA / ∫p dA) (exact for Hertz's ellipse)
+    a_fe_m: (
+        float  # from the pressure moments: a = 2 sqrt(∫x²p dA / ∫p dA) (exact for Hertz's ellipse)
+    )
     p0_fe_Pa: float  # largest pressure at a contact point
-    a_fit_m: float  # from an elliptical fit p² = p0² (1 − x²/a²) of the pressures above 20 % of the peak
+    a_fit_m: (
+        float  # from an elliptical fit p² = p0² (1 − x²/a²) of the pressures above 20 % of the peak
+    )
     x_m: np.ndarray  # (every rank: all points) reference position across the contact
     p_Pa: np.ndarray  # pressure at those points
-    a_current_m: float = float("nan")  # pressure moments over the current positions (for comparison)
+    a_current_m: float = float(
+        "nan"
+    )  # pressure moments over the current positions (for comparison)
 
     @property
     def a_error(self) -> float:
@@ -367,8 +446,15 @@ def compare_hertz(case: ContactCase, radius: float = 1.0) -> HertzComparison:
     prob, comm = case.problem, case.comm
     fn, _ = prob.contact_force()
     P = abs(fn[1]) / case.thickness_m
-    a, p0 = hertz_line_contact(P, radius, radius, case.youngs_modulus_Pa, case.poissons_ratio,
-                               case.youngs_modulus_Pa, case.poissons_ratio)
+    a, p0 = hertz_line_contact(
+        P,
+        radius,
+        radius,
+        case.youngs_modulus_Pa,
+        case.poissons_ratio,
+        case.youngs_modulus_Pa,
+        case.poissons_ratio,
+    )
     x, xc, pr, dA = [np.zeros(0)], [np.zeros(0)], [np.zeros(0)], [np.zeros(0)]
     for ps, p in zip(prob.interfaces[0].passes, prob.last_points[0]):
         X = np.einsum("pk,pkd->pd", p.Ns, ps.slave.local.X[p.facet])  # body frame, undeformed

@@ -30,7 +30,9 @@ _VERTEX_CYCLE = {
 
 
 def _lagrange(cell: basix.CellType, degree: int) -> basix.finite_element.FiniteElement:
-    return basix.create_element(basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.equispaced)
+    return basix.create_element(
+        basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.equispaced
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,7 +54,9 @@ class FacetReference:
         if cell_type not in _FACET_TYPE:
             raise ParameterError("mesh cell type", str(cell_type), "tetrahedron or hexahedron")
         if degree not in (1, 2):
-            raise ParameterError("contact element degree", degree, "1 or 2 (one node per sub-entity)")
+            raise ParameterError(
+                "contact element degree", degree, "1 or 2 (one node per sub-entity)"
+            )
         ftype = _FACET_TYPE[cell_type]
         cell_el, facet_el = _lagrange(cell_type, degree), _lagrange(ftype, degree)
         ctopo, ftopo = basix.topology(cell_type), basix.topology(ftype)
@@ -128,7 +132,9 @@ class FacetReference:
     def inside(self, xi: np.ndarray, tol: float = 0.0) -> np.ndarray:
         """True where the reference point lies in the facet (within ``tol``)."""
         if self.facet_type == basix.CellType.triangle:
-            return (xi[..., 0] >= -tol) & (xi[..., 1] >= -tol) & (xi[..., 0] + xi[..., 1] <= 1.0 + tol)
+            return (
+                (xi[..., 0] >= -tol) & (xi[..., 1] >= -tol) & (xi[..., 0] + xi[..., 1] <= 1.0 + tol)
+            )
         return np.all((xi >= -tol) & (xi <= 1.0 + tol), axis=-1)
 
     def clamp(self, xi: np.ndarray) -> np.ndarray:
@@ -157,11 +163,21 @@ def _triangle_shape(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
         zz = np.zeros((n, 3))
         return np.stack([N, dx, dy, zz, zz, zz])
     # vertices l(2l-1); edges 3: (1,2), 4: (0,2), 5: (0,1): 4 la lb
-    N = np.stack([l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1), 4 * l1 * l2, 4 * l0 * l2, 4 * l0 * l1], axis=1)
+    N = np.stack(
+        [
+            l0 * (2 * l0 - 1),
+            l1 * (2 * l1 - 1),
+            l2 * (2 * l2 - 1),
+            4 * l1 * l2,
+            4 * l0 * l2,
+            4 * l0 * l1,
+        ],
+        axis=1,
+    )
     # d/dx: dl0 = -1, dl1 = 1, dl2 = 0 ; d/dy: dl0 = -1, dl1 = 0, dl2 = 1
     dx = np.stack([-(4 * l0 - 1), 4 * l1 - 1, z, 4 * l2, -4 * l2, 4 * (l0 - l1)], axis=1)
     dy = np.stack([-(4 * l0 - 1), z, 4 * l2 - 1, 4 * l1, 4 * (l0 - l2), -4 * l1], axis=1)
-    c = lambda *v: np.tile(np.array(v, dtype=np.float64), (n, 1))  # noqa: E731
+    c = lambda *v: np.tile(np.array(v, dtype=np.float64), (n, 1))
     dxx = c(4, 4, 0, 0, 0, -8)
     dxy = c(4, 0, 0, 4, -4, -4)
     dyy = c(4, 0, 4, 0, -8, 0)
@@ -187,5 +203,7 @@ def _quad_shape(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
         pairs += [(2, 0), (0, 2), (1, 2), (2, 1), (2, 2)]
     vx, dx, ddx = _lagrange_1d(x, degree)
     vy, dy, ddy = _lagrange_1d(y, degree)
-    cols = lambda a, b: np.stack([a[:, i] * b[:, j] for i, j in pairs], axis=1)  # noqa: E731
-    return np.stack([cols(vx, vy), cols(dx, vy), cols(vx, dy), cols(ddx, vy), cols(dx, dy), cols(vx, ddy)])
+    cols = lambda a, b: np.stack([a[:, i] * b[:, j] for i, j in pairs], axis=1)
+    return np.stack(
+        [cols(vx, vy), cols(dx, vy), cols(vx, dy), cols(ddx, vy), cols(dx, dy), cols(vx, ddy)]
+    )

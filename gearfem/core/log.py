@@ -67,8 +67,9 @@ class ProgressBar:
 
     _live: ProgressBar | None = None  # the bar the log handler redraws
 
-    def __init__(self, comm: MPI.Comm, title: str = "cycle", stream: TextIO | None = None,
-                 width: int = 30) -> None:
+    def __init__(
+        self, comm: MPI.Comm, title: str = "cycle", stream: TextIO | None = None, width: int = 30
+    ) -> None:
         self.stream = stream if stream is not None else sys.stderr
         self.active = comm.rank == 0 and bool(getattr(self.stream, "isatty", lambda: False)())
         self.title, self.width = title, width
@@ -81,8 +82,10 @@ class ProgressBar:
         done = int(self.width * i / max(n, 1))
         el = time.perf_counter() - self.t0
         eta = el / max(i, 1) * (n - i)
-        self.line = (f"  {self.title} [{'#' * done}{'.' * (self.width - done)}] {i}/{n} {label:>10}  "
-                     f"{el:6.0f} s, ~{eta:4.0f} s left")
+        self.line = (
+            f"  {self.title} [{'#' * done}{'.' * (self.width - done)}] {i}/{n} {label:>10}  "
+            f"{el:6.0f} s, ~{eta:4.0f} s left"
+        )
         ProgressBar._live = self
         self.draw()
 
@@ -122,8 +125,9 @@ class _BarAwareHandler(logging.StreamHandler):
         bar.draw()
 
 
-def setup_logging(level: str | int | None = None, all_ranks: bool = False,
-                  stream: TextIO | None = None) -> logging.Logger:
+def setup_logging(
+    level: str | int | None = None, all_ranks: bool = False, stream: TextIO | None = None
+) -> logging.Logger:
     """Configure the ``gearfem`` logger (idempotent) and return it (``stream``: default stderr)."""
     logger = logging.getLogger("gearfem")
     logger.setLevel(resolve_level(level))
@@ -132,7 +136,11 @@ def setup_logging(level: str | int | None = None, all_ranks: bool = False,
             logger.removeHandler(h)
     handler = _BarAwareHandler(stream if stream is not None else sys.stderr)
     handler._gearfem = True  # type: ignore[attr-defined]
-    fmt = "%(asctime)s [rank %(rank)d] %(levelname)s %(name)s: %(message)s" if all_ranks else "%(asctime)s %(levelname)s %(name)s: %(message)s"
+    fmt = (
+        "%(asctime)s [rank %(rank)d] %(levelname)s %(name)s: %(message)s"
+        if all_ranks
+        else "%(asctime)s %(levelname)s %(name)s: %(message)s"
+    )
     handler.setFormatter(logging.Formatter(fmt, datefmt="%H:%M:%S"))
     handler.addFilter(RankFilter(all_ranks))
     logger.addHandler(handler)

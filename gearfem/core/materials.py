@@ -48,7 +48,11 @@ def data_text(*parts: str) -> str:
 
 def read_csv(*parts: str) -> list[dict[str, str]]:
     """Rows of a shipped CSV file (lines starting with ``#`` are comments)."""
-    lines = [ln for ln in data_text(*parts).splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    lines = [
+        ln
+        for ln in data_text(*parts).splitlines()
+        if ln.strip() and not ln.lstrip().startswith("#")
+    ]
     return list(csv.DictReader(io.StringIO("\n".join(lines))))
 
 
@@ -78,13 +82,19 @@ class TemperatureTable:
 
     def __post_init__(self) -> None:
         if len(self.T_K) != len(self.values) or len(self.T_K) < 1:
-            raise ParameterError(f"{self.name}.values", len(self.values), f"{len(self.T_K)} values, one per temperature")
+            raise ParameterError(
+                f"{self.name}.values",
+                len(self.values),
+                f"{len(self.T_K)} values, one per temperature",
+            )
         if any(b <= a for a, b in zip(self.T_K, self.T_K[1:])):
             raise ParameterError(f"{self.name}.T_K", self.T_K, "strictly increasing temperatures")
 
     @classmethod
     def from_celsius(cls, T_C, values, name: str = "table") -> TemperatureTable:
-        return cls(tuple(float(t) + ZERO_CELSIUS_K for t in T_C), tuple(float(v) for v in values), name)
+        return cls(
+            tuple(float(t) + ZERO_CELSIUS_K for t in T_C), tuple(float(v) for v in values), name
+        )
 
     @classmethod
     def constant(cls, value: float, name: str = "constant") -> TemperatureTable:
@@ -116,7 +126,9 @@ class TemperatureTable:
 def peek450g_hysteresis() -> TemperatureTable:
     """H(T) = E''/|E*| of PEEK 450G at 100 Hz, 0.1 % strain (thesis appendix, Figure 49)."""
     rows = read_csv("peek450g", "hysteresis.csv")
-    return TemperatureTable.from_celsius([r["temperature_C"] for r in rows], [r["H"] for r in rows], "hysteresis H(T)")
+    return TemperatureTable.from_celsius(
+        [r["temperature_C"] for r in rows], [r["H"] for r in rows], "hysteresis H(T)"
+    )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -144,9 +156,12 @@ class ShiftFactor:
     def peek450g(cls) -> ShiftFactor:
         d = read_toml("peek450g", "viscoelastic.toml")
         return cls(
-            wlf_C1=d["wlf"]["C1"], wlf_C2_K=d["wlf"]["C2_K"], wlf_T_ref_C=d["wlf"]["T_ref_C"],
+            wlf_C1=d["wlf"]["C1"],
+            wlf_C2_K=d["wlf"]["C2_K"],
+            wlf_T_ref_C=d["wlf"]["T_ref_C"],
             arrhenius_Ea_J_mol=d["arrhenius"]["activation_energy_J_per_mol"],
-            arrhenius_T_ref_C=d["arrhenius"]["T_ref_C"], switch_C=d["wlf"]["valid_C"][0],
+            arrhenius_T_ref_C=d["arrhenius"]["T_ref_C"],
+            switch_C=d["wlf"]["valid_C"][0],
         )
 
     def _wlf(self, T_C):
@@ -156,12 +171,16 @@ class ShiftFactor:
     def _arr(self, T_C):
         T = np.asarray(T_C, dtype=float) + ZERO_CELSIUS_K
         Tr = self.arrhenius_T_ref_C + ZERO_CELSIUS_K
-        return self.arrhenius_Ea_J_mol / (math.log(10.0) * GAS_CONSTANT_J_molK) * (1.0 / T - 1.0 / Tr)
+        return (
+            self.arrhenius_Ea_J_mol / (math.log(10.0) * GAS_CONSTANT_J_molK) * (1.0 / T - 1.0 / Tr)
+        )
 
     def log10_aT(self, T_K: float | np.ndarray) -> float | np.ndarray:
         T_C = np.asarray(T_K, dtype=float) - ZERO_CELSIUS_K
         offset = self._wlf(self.switch_C) - self._arr(self.switch_C)
-        out = np.where(T_C >= self.switch_C, self._wlf(np.maximum(T_C, self.switch_C)), self._arr(T_C) + offset)
+        out = np.where(
+            self.switch_C <= T_C, self._wlf(np.maximum(T_C, self.switch_C)), self._arr(T_C) + offset
+        )
         return float(out) if np.ndim(out) == 0 else out
 
 
@@ -199,7 +218,9 @@ class Material:
         require_positive("material.specific_heat_J_kgK", self.specific_heat_J_kgK)
         require_range("material.emissivity", self.emissivity, 0.0, 1.0)
         if isinstance(self.hysteresis, str) and self.hysteresis != "peek450g":
-            raise ParameterError("material.hysteresis", self.hysteresis, "'peek450g' or [[T_C...], [H...]]")
+            raise ParameterError(
+                "material.hysteresis", self.hysteresis, "'peek450g' or [[T_C...], [H...]]"
+            )
         self.hysteresis_table()  # validates a user table
         self.conductivity()
         self.specific_heat()
@@ -208,9 +229,12 @@ class Material:
     def peek450g(cls) -> Material:
         d = read_toml("peek450g", "material.toml")
         return cls(
-            density_kg_m3=d["density_kg_m3"], youngs_modulus_Pa=d["youngs_modulus_Pa"],
-            poissons_ratio=d["poissons_ratio"], thermal_conductivity_W_mK=d["thermal_conductivity_W_mK"],
-            specific_heat_J_kgK=d["specific_heat_J_kgK"], emissivity=d["emissivity"],
+            density_kg_m3=d["density_kg_m3"],
+            youngs_modulus_Pa=d["youngs_modulus_Pa"],
+            poissons_ratio=d["poissons_ratio"],
+            thermal_conductivity_W_mK=d["thermal_conductivity_W_mK"],
+            specific_heat_J_kgK=d["specific_heat_J_kgK"],
+            emissivity=d["emissivity"],
             glass_transition_C=d["glass_transition_C"],
         )
 
@@ -241,24 +265,38 @@ class Material:
 
     def conductivity(self) -> TemperatureTable:
         if self.conductivity_table is None:
-            return TemperatureTable.constant(self.thermal_conductivity_W_mK, "material.thermal_conductivity_W_mK")
-        tab = TemperatureTable.from_celsius(*self.conductivity_table, name="material.conductivity_table")
+            return TemperatureTable.constant(
+                self.thermal_conductivity_W_mK, "material.thermal_conductivity_W_mK"
+            )
+        tab = TemperatureTable.from_celsius(
+            *self.conductivity_table, name="material.conductivity_table"
+        )
         if min(tab.values) <= 0:
-            raise ParameterError("material.conductivity_table", self.conductivity_table, "positive conductivities")
+            raise ParameterError(
+                "material.conductivity_table", self.conductivity_table, "positive conductivities"
+            )
         return tab
 
     def specific_heat(self) -> TemperatureTable:
         if self.specific_heat_table is None:
-            return TemperatureTable.constant(self.specific_heat_J_kgK, "material.specific_heat_J_kgK")
-        tab = TemperatureTable.from_celsius(*self.specific_heat_table, name="material.specific_heat_table")
+            return TemperatureTable.constant(
+                self.specific_heat_J_kgK, "material.specific_heat_J_kgK"
+            )
+        tab = TemperatureTable.from_celsius(
+            *self.specific_heat_table, name="material.specific_heat_table"
+        )
         if min(tab.values) <= 0:
-            raise ParameterError("material.specific_heat_table", self.specific_heat_table, "positive heat capacities")
+            raise ParameterError(
+                "material.specific_heat_table", self.specific_heat_table, "positive heat capacities"
+            )
         return tab
 
     @property
     def thermal_effusivity(self) -> float:
         """b = sqrt(k rho cp) at the reference values, W s^0.5 / (m^2 K) (thesis eq. 2.2)."""
-        return math.sqrt(self.thermal_conductivity_W_mK * self.density_kg_m3 * self.specific_heat_J_kgK)
+        return math.sqrt(
+            self.thermal_conductivity_W_mK * self.density_kg_m3 * self.specific_heat_J_kgK
+        )
 
     @property
     def thermal_diffusivity_m2_s(self) -> float:

@@ -118,7 +118,9 @@ def _convert(tp: Any, value: Any, name: str) -> Any:
         if origin is tuple and args:
             if len(args) != len(value):
                 raise ParameterError(name, value, f"a list of {len(args)} values")
-            return tuple(_convert(a, v, f"{name}[{i}]") for i, (a, v) in enumerate(zip(args, value)))
+            return tuple(
+                _convert(a, v, f"{name}[{i}]") for i, (a, v) in enumerate(zip(args, value))
+            )
         return list(value)
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):

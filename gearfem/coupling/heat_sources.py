@@ -38,8 +38,9 @@ from gearfem.thermal.source_terms import (
 # ------------------------------------------------------------------------------------------------
 
 
-def _tooth_local(points: np.ndarray, center: np.ndarray, tooth_angles: np.ndarray, pitch: float,
-                 ref_angle: float) -> tuple[np.ndarray, np.ndarray]:
+def _tooth_local(
+    points: np.ndarray, center: np.ndarray, tooth_angles: np.ndarray, pitch: float, ref_angle: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Rotate points into the reference tooth's sector: (rotated points, index of their tooth)."""
     p = np.asarray(points) - center
     theta = np.arctan2(p[:, 1], p[:, 0])
@@ -79,8 +80,14 @@ def u_max_function(domain, gear_mesh, body: str, fields):
 AREA_QUADRATURE_DEGREE = 6
 
 
-def friction_flux_function(domain, gear_mesh, body: str, fields, omega1_rad_s: float,
-                           kinds: tuple[str, ...] = ("drive_flank", "tip", "root")):
+def friction_flux_function(
+    domain,
+    gear_mesh,
+    body: str,
+    fields,
+    omega1_rad_s: float,
+    kinds: tuple[str, ...] = ("drive_flank", "tip", "root"),
+):
     """DG0 flank flux (W/m²) on the cells next to the contact surfaces, and those surfaces' names.
 
     Each facet of the drive flanks, tips and roots takes the reference facet nearest to its
@@ -91,22 +98,34 @@ def friction_flux_function(domain, gear_mesh, body: str, fields, omega1_rad_s: f
 
     mesh = domain.mesh
     tdim = mesh.topology.dim
-    names = tuple(n for n in domain.groups if parse_group_name(n)[0] == body and parse_group_name(n)[2] in kinds
-                  and parse_group_name(n)[1] is not None)
+    names = tuple(
+        n
+        for n in domain.groups
+        if parse_group_name(n)[0] == body
+        and parse_group_name(n)[2] in kinds
+        and parse_group_name(n)[1] is not None
+    )
     if not names:
-        raise ParameterError("sources.friction surfaces", kinds, f"facet groups of {body!r} in the thermal mesh")
+        raise ParameterError(
+            "sources.friction surfaces", kinds, f"facet groups of {body!r} in the thermal mesh"
+        )
     facets = domain.facets(names)
     n_owned_f = mesh.topology.index_map(tdim - 1).size_local
     facets = facets[facets < n_owned_f]
     mesh.topology.create_connectivity(tdim - 1, tdim)
-    cf = np.asarray(fem.compute_integration_domains(fem.IntegralType.exterior_facet, mesh.topology,
-                                                    facets)).reshape(-1, 2)
+    cf = np.asarray(
+        fem.compute_integration_domains(fem.IntegralType.exterior_facet, mesh.topology, facets)
+    ).reshape(-1, 2)
     import basix
 
-    cell_type = {"tetrahedron": basix.CellType.tetrahedron, "hexahedron": basix.CellType.hexahedron}[
-        mesh.topology.cell_name()]
+    cell_type = {
+        "tetrahedron": basix.CellType.tetrahedron,
+        "hexahedron": basix.CellType.hexahedron,
+    }[mesh.topology.cell_name()]
     ref = FacetReference.create(cell_type, mesh.geometry.cmaps[0].degree)
-    X = mesh.geometry.x[np.take_along_axis(mesh.geometry.dofmaps[0][cf[:, 0]], ref.facet_nodes[cf[:, 1]], axis=1)]
+    X = mesh.geometry.x[
+        np.take_along_axis(mesh.geometry.dofmaps[0][cf[:, 0]], ref.facet_nodes[cf[:, 1]], axis=1)
+    ]
     xc = X[:, : ref.num_vertices].mean(axis=1)
     qp, qw = ref.quadrature(AREA_QUADRATURE_DEGREE)
     area = np.zeros(len(facets))
@@ -120,7 +139,9 @@ def friction_flux_function(domain, gear_mesh, body: str, fields, omega1_rad_s: f
     q = fields.flux_W_m2_per_rad_s[j] * omega1_rad_s
     # per-tooth conservation: each tooth carries exactly the reference tooth's heat
     ntooth = len(angles)
-    tooth_heat = mesh.comm.allreduce(np.bincount(tooth, weights=q * area, minlength=ntooth), op=MPI.SUM)
+    tooth_heat = mesh.comm.allreduce(
+        np.bincount(tooth, weights=q * area, minlength=ntooth), op=MPI.SUM
+    )
     target = float(np.sum(fields.flux_W_m2_per_rad_s * fields.facet_area_m2)) * omega1_rad_s
     scale = np.where(tooth_heat > 0, target / np.where(tooth_heat > 0, tooth_heat, 1.0), 0.0)
     q = q * scale[tooth]
@@ -135,8 +156,15 @@ def friction_flux_function(domain, gear_mesh, body: str, fields, omega1_rad_s: f
     return fn, names
 
 
-def cycle_heat_sources(domain, gear_mesh, body: str, cycle, options: SourceOptions, material: Material,
-                       speed_rpm: float) -> HeatSources:
+def cycle_heat_sources(
+    domain,
+    gear_mesh,
+    body: str,
+    cycle,
+    options: SourceOptions,
+    material: Material,
+    speed_rpm: float,
+) -> HeatSources:
     """:class:`HeatSources` of one gear from a cycle result at pinion speed ``speed_rpm``."""
     fields = cycle.fields[body]
     z1 = gear_mesh.geometry.teeth_pinion
@@ -145,13 +173,20 @@ def cycle_heat_sources(domain, gear_mesh, body: str, cycle, options: SourceOptio
     omega1 = 2.0 * math.pi * speed_rpm / 60.0
     kw = {}
     if options.hysteresis:
-        kw.update(u_max=u_max_function(domain, gear_mesh, body, fields),
-                  loading_frequency_Hz=loading_frequency_Hz(options.loading_frequency, speed_body, z),
-                  hysteresis=material.hysteresis_table(), hysteresis_scale=options.hysteresis_scale)
+        kw.update(
+            u_max=u_max_function(domain, gear_mesh, body, fields),
+            loading_frequency_Hz=loading_frequency_Hz(options.loading_frequency, speed_body, z),
+            hysteresis=material.hysteresis_table(),
+            hysteresis_scale=options.hysteresis_scale,
+        )
     if options.friction and cycle.friction_coefficient > 0.0:
         flux, names = friction_flux_function(domain, gear_mesh, body, fields, omega1)
-        kw.update(flank_flux_W_m2=flux, flux_surfaces=names, flux_scale=options.flux_scale,
-                  flux_temperature_factor=friction_temperature_factor(options))
+        kw.update(
+            flank_flux_W_m2=flux,
+            flux_surfaces=names,
+            flux_scale=options.flux_scale,
+            flux_temperature_factor=friction_temperature_factor(options),
+        )
     return HeatSources(**kw)
 
 

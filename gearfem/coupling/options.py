@@ -54,21 +54,39 @@ class SourceOptions:
             require_range("sources.heat_fraction_pinion", self.heat_fraction_pinion, 0.0, 1.0)
         require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
         require_nonnegative("sources.flux_scale", self.flux_scale)
-        require_range("sources.friction_temperature_coefficient_per_K", self.friction_temperature_coefficient_per_K,
-                      0.0, 0.1, unit="1/K")
-        require_range("sources.friction_reference_C", self.friction_reference_C, -273.15, 1000.0, lo_open=True,
-                      unit="C")
+        require_range(
+            "sources.friction_temperature_coefficient_per_K",
+            self.friction_temperature_coefficient_per_K,
+            0.0,
+            0.1,
+            unit="1/K",
+        )
+        require_range(
+            "sources.friction_reference_C",
+            self.friction_reference_C,
+            -273.15,
+            1000.0,
+            lo_open=True,
+            unit="C",
+        )
         if self.mode == "prescribed" and self.friction_temperature_coefficient_per_K > 0.0:
-            raise ParameterError("sources.friction_temperature_coefficient_per_K",
-                                 self.friction_temperature_coefficient_per_K, "0 in mode 'prescribed'",
-                                 "mu(T) acts on the friction flux of the contact cycle (mode 'cycle')")
+            raise ParameterError(
+                "sources.friction_temperature_coefficient_per_K",
+                self.friction_temperature_coefficient_per_K,
+                "0 in mode 'prescribed'",
+                "mu(T) acts on the friction flux of the contact cycle (mode 'cycle')",
+            )
         self.prescribed()  # validates the prescribed fields
 
     def prescribed(self) -> PrescribedSources:
         return PrescribedSources(
-            flank_heat_per_gear_W=self.flank_heat_per_gear_W if self.friction else 0.0, flanks=self.flanks,
-            u_max_J_m3=self.u_max_J_m3 if self.hysteresis else 0.0, loading_frequency=self.loading_frequency,
-            hysteresis_scale=self.hysteresis_scale, flux_scale=self.flux_scale)
+            flank_heat_per_gear_W=self.flank_heat_per_gear_W if self.friction else 0.0,
+            flanks=self.flanks,
+            u_max_J_m3=self.u_max_J_m3 if self.hysteresis else 0.0,
+            loading_frequency=self.loading_frequency,
+            hysteresis_scale=self.hysteresis_scale,
+            flux_scale=self.flux_scale,
+        )
 
     def heat_fraction(self, materials: dict[str, Material]) -> dict[str, float] | None:
         if self.heat_fraction_pinion is None:

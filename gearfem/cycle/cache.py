@@ -29,9 +29,25 @@ from gearfem.cycle.solve import solve_cycle
 log = logging.getLogger(__name__)
 
 ENV_CACHE = "GEARFEM_CACHE"
-_SCALARS = ("torque_Nm", "friction_coefficient", "pitch_angle_rad", "theoretical_contact_ratio", "base_pitch_m")
-_ARRAYS = ("phi_rad", "te_m", "pinion_torque_Nm", "wheel_torque_Nm", "friction_power_W_per_rad_s", "p_max_Pa",
-           "p_max_mid_Pa", "newton_iterations", "uzawa_iterations", "wall_time_s")
+_SCALARS = (
+    "torque_Nm",
+    "friction_coefficient",
+    "pitch_angle_rad",
+    "theoretical_contact_ratio",
+    "base_pitch_m",
+)
+_ARRAYS = (
+    "phi_rad",
+    "te_m",
+    "pinion_torque_Nm",
+    "wheel_torque_Nm",
+    "friction_power_W_per_rad_s",
+    "p_max_Pa",
+    "p_max_mid_Pa",
+    "newton_iterations",
+    "uzawa_iterations",
+    "wall_time_s",
+)
 
 
 def cache_root() -> Path:
@@ -49,10 +65,18 @@ def _code_hash() -> str:
     return h.hexdigest()[:12]
 
 
-def cycle_key(geometry, mesh_options, materials: dict, contact, cycle_options, torque_Nm: float) -> str:
-    data = {"geometry": to_dict(geometry), "mesh": to_dict(mesh_options),
-            "materials": {b: to_dict(m) for b, m in materials.items()}, "contact": to_dict(contact),
-            "cycle": to_dict(cycle_options), "torque_Nm": float(torque_Nm), "code": _code_hash()}
+def cycle_key(
+    geometry, mesh_options, materials: dict, contact, cycle_options, torque_Nm: float
+) -> str:
+    data = {
+        "geometry": to_dict(geometry),
+        "mesh": to_dict(mesh_options),
+        "materials": {b: to_dict(m) for b, m in materials.items()},
+        "contact": to_dict(contact),
+        "cycle": to_dict(cycle_options),
+        "torque_Nm": float(torque_Nm),
+        "code": _code_hash(),
+    }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
@@ -74,10 +98,16 @@ def save(result: CycleResult, directory: str | Path) -> Path:
                 arrays[f"fields__{b}__{name}"] = val
     np.savez_compressed(tmp / "cycle.npz", **arrays)
     meta: dict[str, Any] = {k: getattr(result, k) for k in _SCALARS}
-    meta.update(heat_fraction=result.heat_fraction, reference_tooth=result.reference_tooth, info=result.info,
-                periodicity=jsonable(result.periodicity),
-                fields={b: {"tooth_angle_rad": f.tooth_angle_rad, "pitch_angle_rad": f.pitch_angle_rad}
-                        for b, f in result.fields.items()})
+    meta.update(
+        heat_fraction=result.heat_fraction,
+        reference_tooth=result.reference_tooth,
+        info=result.info,
+        periodicity=jsonable(result.periodicity),
+        fields={
+            b: {"tooth_angle_rad": f.tooth_angle_rad, "pitch_angle_rad": f.pitch_angle_rad}
+            for b, f in result.fields.items()
+        },
+    )
     (tmp / "cycle.json").write_text(json.dumps(meta, indent=2, default=jsonable))
     if directory.exists():
         shutil.rmtree(directory)
@@ -92,22 +122,39 @@ def load(directory: str | Path) -> CycleResult:
         arr = {k: z[k] for k in z.files}
     fields = {}
     for b, fm in meta["fields"].items():
-        kw = {name: arr[f"fields__{b}__{name}"] for name in BodyFields.__dataclass_fields__
-              if f"fields__{b}__{name}" in arr}
-        fields[b] = BodyFields(tooth_angle_rad=fm["tooth_angle_rad"], pitch_angle_rad=fm["pitch_angle_rad"], **kw)
+        kw = {
+            name: arr[f"fields__{b}__{name}"]
+            for name in BodyFields.__dataclass_fields__
+            if f"fields__{b}__{name}" in arr
+        }
+        fields[b] = BodyFields(
+            tooth_angle_rad=fm["tooth_angle_rad"], pitch_angle_rad=fm["pitch_angle_rad"], **kw
+        )
     teeth = sorted(int(k.split("__")[1]) for k in arr if k.startswith("tooth_load_N__"))
     return CycleResult(
-        **{k: meta[k] for k in _SCALARS}, **{k: arr[k] for k in _ARRAYS},
+        **{k: meta[k] for k in _SCALARS},
+        **{k: arr[k] for k in _ARRAYS},
         heat_fraction=meta["heat_fraction"],
-        root_stress_Pa={k.split("__")[1]: v for k, v in arr.items() if k.startswith("root_stress_Pa__")},
+        root_stress_Pa={
+            k.split("__")[1]: v for k, v in arr.items() if k.startswith("root_stress_Pa__")
+        },
         tooth_load_N={k: arr[f"tooth_load_N__{k}"] for k in teeth},
-        tooth_S_m={k: arr[f"tooth_S_m__{k}"] for k in teeth}, fields=fields,
-        reference_tooth=meta["reference_tooth"], periodicity=meta.get("periodicity"), info=meta.get("info", {}),
+        tooth_S_m={k: arr[f"tooth_S_m__{k}"] for k in teeth},
+        fields=fields,
+        reference_tooth=meta["reference_tooth"],
+        periodicity=meta.get("periodicity"),
+        info=meta.get("info", {}),
     )
 
 
-def cached_cycle(model_factory, key: str, comm, cache_dir: Path | None = None, rebuild: bool = False,
-                 **run_kwargs) -> tuple[CycleResult, Path, bool]:
+def cached_cycle(
+    model_factory,
+    key: str,
+    comm,
+    cache_dir: Path | None = None,
+    rebuild: bool = False,
+    **run_kwargs,
+) -> tuple[CycleResult, Path, bool]:
     """The cycle result for ``key`` from the cache, or computed (``model_factory()`` then
     :func:`~gearfem.cycle.solve.run_cycle`) and stored. Collective. Returns (result, dir, from_cache)."""
 

@@ -48,24 +48,40 @@ class GearContactModel:
         options: Cycle options (surfaces, predictor).
     """
 
-    def __init__(self, gm: GearMesh, materials: dict[str, Material], contact: ContactOptions, torque_Nm: float,
-                 options: CycleOptions = CycleOptions()) -> None:
+    def __init__(
+        self,
+        gm: GearMesh,
+        materials: dict[str, Material],
+        contact: ContactOptions,
+        torque_Nm: float,
+        options: CycleOptions = CycleOptions(),
+    ) -> None:
         require_positive("operating.torque_Nm", torque_Nm)
         if set(gm.bodies) != set(BODIES):
-            raise ParameterError("mesh.bodies", gm.bodies, "both ('pinion', 'wheel') for the contact cycle")
+            raise ParameterError(
+                "mesh.bodies", gm.bodies, "both ('pinion', 'wheel') for the contact cycle"
+            )
         self.gm, self.materials, self.torque_Nm, self.options = gm, materials, torque_Nm, options
         self.pair = gm.pair
         self._check_torque()
-        self.creep_ratio = options.creep_ratio if options.creep_ratio is not None else self.carter_creep_ratio(
-            contact.friction_coefficient)
+        self.creep_ratio = (
+            options.creep_ratio
+            if options.creep_ratio is not None
+            else self.carter_creep_ratio(contact.friction_coefficient)
+        )
         self.rolling_speed_m_s = self.pair.pinion.operating_pitch_radius_m * math.sin(
-            self.pair.operating_pressure_angle_rad)  # per unit pinion speed
-        contact = dataclasses.replace(contact, slip_regularization_m_s=max(
-            self.creep_ratio * self.rolling_speed_m_s, 1e-12))
+            self.pair.operating_pressure_angle_rad
+        )  # per unit pinion speed
+        contact = dataclasses.replace(
+            contact, slip_regularization_m_s=max(self.creep_ratio * self.rolling_speed_m_s, 1e-12)
+        )
         self.nominal_hertz_pressure_Pa = self.nominal_hertz()[1]
         if contact.pressure_smoothing_Pa == 0.0 and options.pressure_smoothing_fraction > 0.0:
             contact = dataclasses.replace(
-                contact, pressure_smoothing_Pa=options.pressure_smoothing_fraction * self.nominal_hertz_pressure_Pa)
+                contact,
+                pressure_smoothing_Pa=options.pressure_smoothing_fraction
+                * self.nominal_hertz_pressure_Pa,
+            )
         self.contact = contact
         mesh = gm.mesh
         self.comm: MPI.Comm = mesh.comm
@@ -79,25 +95,44 @@ class GearContactModel:
             self.lame_lambda.x.array[cells] = materials[b].lame_lambda_Pa
         self.lame_mu.x.scatter_forward()
         self.lame_lambda.x.scatter_forward()
-        self.bcs = [fem.dirichletbc(np.zeros(3), fem.locate_dofs_topological(self.V, 2, gm.facets(f"{b}_bore")), self.V)
-                    for b in BODIES]
+        self.bcs = [
+            fem.dirichletbc(
+                np.zeros(3), fem.locate_dofs_topological(self.V, 2, gm.facets(f"{b}_bore")), self.V
+            )
+            for b in BODIES
+        ]
         mask = fixed_mask(self.V, self.bcs)
         self.surfaces = {}
         for b in BODIES:
             names = [n for k in options.contact_kinds for n in gm.names(body=b, kind=k)]
             self.surfaces[b] = ContactSurface(self.V, gm.facets(*names), b, mask, name=f"{b}_teeth")
-        self.interface = ContactInterface(self.surfaces["pinion"], self.surfaces["wheel"], contact,
-                                          {b: materials[b].youngs_modulus_Pa for b in BODIES})
+        self.interface = ContactInterface(
+            self.surfaces["pinion"],
+            self.surfaces["wheel"],
+            contact,
+            {b: materials[b].youngs_modulus_Pa for b in BODIES},
+        )
         z1, z2 = gm.geometry.teeth_pinion, gm.geometry.teeth_wheel
         self.ratio = z1 / z2
-        self.base_radius_m = {"pinion": self.pair.pinion.base_radius_m, "wheel": self.pair.wheel.base_radius_m}
+        self.base_radius_m = {
+            "pinion": self.pair.pinion.base_radius_m,
+            "wheel": self.pair.wheel.base_radius_m,
+        }
         self._motion0 = {
             # kinematic speeds for the friction direction: pinion 1 rad/s (results per unit speed)
             "pinion": RigidMotion(center=tuple(gm.center("pinion")), angular_velocity_rad_s=1.0),
-            "wheel": RigidMotion(center=tuple(gm.center("wheel")), angular_velocity_rad_s=-self.ratio),
+            "wheel": RigidMotion(
+                center=tuple(gm.center("wheel")), angular_velocity_rad_s=-self.ratio
+            ),
         }
         self.problem = ContactProblem(
-            self.V, self.lame_mu, self.lame_lambda, self.bcs, [self.interface], dict(self._motion0), contact,
+            self.V,
+            self.lame_mu,
+            self.lame_lambda,
+            self.bcs,
+            [self.interface],
+            dict(self._motion0),
+            contact,
             petsc_options_prefix="gearfem_cycle_",
             controlled=ControlledRotation("wheel", torque_Nm, self.base_radius_m["wheel"]),
         )
@@ -117,7 +152,9 @@ class GearContactModel:
         ft = gm.facet_tags
         order = np.argsort(ft.indices)
         pos = np.searchsorted(ft.indices[order], surf.facets)
-        local = np.array([tag_to_tooth.get(int(v), -1) for v in ft.values[order][pos]], dtype=np.int64)
+        local = np.array(
+            [tag_to_tooth.get(int(v), -1) for v in ft.values[order][pos]], dtype=np.int64
+        )
         gathered = np.concatenate(self.comm.allgather(local)) if self.comm.size > 1 else local
         return {"local": local, "gathered": gathered}
 
@@ -130,9 +167,13 @@ class GearContactModel:
         jn = self.pair.backlash_normal_m
         t_max = c * b_mm * jn * 1e6 * self.pair.wheel.base_radius_m
         if self.torque_Nm > t_max:
-            raise ParameterError("operating.torque_Nm", self.torque_Nm, f"(0, {t_max:.1f}] N m for this pair",
-                                 f"the estimated deflection would exceed the normal backlash {jn * 1e6:.0f} um; "
-                                 "coast-flank contact is not modelled")
+            raise ParameterError(
+                "operating.torque_Nm",
+                self.torque_Nm,
+                f"(0, {t_max:.1f}] N m for this pair",
+                f"the estimated deflection would exceed the normal backlash {jn * 1e6:.0f} um; "
+                "coast-flank contact is not modelled",
+            )
 
     def nominal_hertz(self) -> tuple[float, float]:
         """(half-width a, peak pressure p0) of the Hertz line contact at the pitch point under the
@@ -143,8 +184,15 @@ class GearContactModel:
         r1, r2 = pair.pinion.operating_pitch_radius_m * s, pair.wheel.operating_pitch_radius_m * s
         w = self.torque_Nm / pair.wheel.base_radius_m / pair.face_width_m
         mp, mw = self.materials["pinion"], self.materials["wheel"]
-        return hertz_line_contact(w, r1, r2, mp.youngs_modulus_Pa, mp.poissons_ratio, mw.youngs_modulus_Pa,
-                                  mw.poissons_ratio)
+        return hertz_line_contact(
+            w,
+            r1,
+            r2,
+            mp.youngs_modulus_Pa,
+            mp.poissons_ratio,
+            mw.youngs_modulus_Pa,
+            mw.poissons_ratio,
+        )
 
     def carter_creep_ratio(self, mu: float) -> float:
         """μ a / (2 R) at the pitch point under the nominal load (Hertz line contact, equal load
@@ -160,9 +208,15 @@ class GearContactModel:
 
     def set_position(self, phi_rad: float, windup_rad: float) -> None:
         self.phi = float(phi_rad)
-        self.problem.set_motion("pinion", dataclasses.replace(self._motion0["pinion"], angle_rad=self.phi))
-        self.problem.set_motion("wheel", dataclasses.replace(self._motion0["wheel"],
-                                                             angle_rad=self.kinematic_wheel_angle(self.phi) + windup_rad))
+        self.problem.set_motion(
+            "pinion", dataclasses.replace(self._motion0["pinion"], angle_rad=self.phi)
+        )
+        self.problem.set_motion(
+            "wheel",
+            dataclasses.replace(
+                self._motion0["wheel"], angle_rad=self.kinematic_wheel_angle(self.phi) + windup_rad
+            ),
+        )
 
     def windup_guess_rad(self) -> float:
         """First predictor of δψ: a linear mesh stiffness guess (plus the initial interference)."""

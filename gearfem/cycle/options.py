@@ -63,4 +63,6 @@ class CycleOptions:
         require_positive("cycle.initial_interference_m", self.initial_interference_m)
         if self.creep_ratio is not None:
             require_range("cycle.creep_ratio", self.creep_ratio, 0.0, 1.0, lo_open=True)
-        require_range("cycle.pressure_smoothing_fraction", self.pressure_smoothing_fraction, 0.0, 0.1)
+        require_range(
+            "cycle.pressure_smoothing_fraction", self.pressure_smoothing_fraction, 0.0, 0.1
+        )

@@ -38,7 +38,9 @@ def polar_angle(points: np.ndarray, center: np.ndarray) -> np.ndarray:
     return np.arctan2(p[:, 1], p[:, 0])
 
 
-def in_sector(points: np.ndarray, center: np.ndarray, tooth_angle: float, pitch_angle: float) -> np.ndarray:
+def in_sector(
+    points: np.ndarray, center: np.ndarray, tooth_angle: float, pitch_angle: float
+) -> np.ndarray:
     """True for points within half a pitch of the tooth centre line (the tooth's sector)."""
     d = np.angle(np.exp(1j * (polar_angle(points, center) - tooth_angle)))
     return np.abs(d) <= 0.5 * pitch_angle + 1e-12
@@ -58,8 +60,14 @@ class ImageMap:
     valid: dict[int, np.ndarray]
 
 
-def image_map(ref_points: np.ndarray, points: np.ndarray, center: np.ndarray, shift: float,
-              tolerance: np.ndarray | float, images=(-1, 0, 1)) -> ImageMap:
+def image_map(
+    ref_points: np.ndarray,
+    points: np.ndarray,
+    center: np.ndarray,
+    shift: float,
+    tolerance: np.ndarray | float,
+    images=(-1, 0, 1),
+) -> ImageMap:
     """Nearest entities of ``points`` to the rotated images of ``ref_points``."""
     tree = cKDTree(points)
     index, valid = {}, {}

@@ -25,9 +25,13 @@ class BodyFields:
     facet_points_m: np.ndarray  # (m, 3) contact-surface facet centroids in the sector
     facet_area_m2: np.ndarray
     facet_kind: np.ndarray  # group kind of each facet (drive_flank, tip, root)
-    flux_W_m2_per_rad_s: np.ndarray  # revolution-averaged friction heat flux into this gear per unit ω₁
+    flux_W_m2_per_rad_s: (
+        np.ndarray
+    )  # revolution-averaged friction heat flux into this gear per unit ω₁
     pressure_max_Pa: np.ndarray  # envelope of the facet-mean contact pressure over the engagement
-    u_history_J_m3: np.ndarray  # (n_images * n_positions, n) strain energy of each sector cell over the engagement
+    u_history_J_m3: (
+        np.ndarray
+    )  # (n_images * n_positions, n) strain energy of each sector cell over the engagement
     history_angle_rad: np.ndarray  # pinion angle of each history sample, relative to the start
 
 
@@ -48,7 +52,9 @@ class CycleResult:
     p_max_mid_Pa: np.ndarray  # largest pressure in the middle half of the face width
     root_stress_Pa: dict[str, np.ndarray]  # largest principal stress on each gear's roots
     tooth_load_N: dict[int, np.ndarray]  # normal load on each pinion tooth (pair k)
-    tooth_S_m: dict[int, np.ndarray]  # load-weighted contact position along the line of action (NaN: none)
+    tooth_S_m: dict[
+        int, np.ndarray
+    ]  # load-weighted contact position along the line of action (NaN: none)
     newton_iterations: np.ndarray
     uzawa_iterations: np.ndarray
     wall_time_s: np.ndarray
@@ -62,7 +68,11 @@ class CycleResult:
     # derived ----------------------------------------------------------------------------------
     @property
     def step_rad(self) -> float:
-        return float(self.phi_rad[1] - self.phi_rad[0]) if len(self.phi_rad) > 1 else self.pitch_angle_rad
+        return (
+            float(self.phi_rad[1] - self.phi_rad[0])
+            if len(self.phi_rad) > 1
+            else self.pitch_angle_rad
+        )
 
     def engagement_curve(self, load_fraction: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
         """Load on the reference pinion tooth over its whole engagement: (φ relative to the pitch
@@ -89,7 +99,9 @@ class CycleResult:
         """
         phi, load = self.engagement_curve()
         total = float(np.median(np.sum(np.stack(list(self.tooth_load_N.values())), axis=0)))
-        return float(np.count_nonzero(load > load_fraction * total) * self.step_rad / self.pitch_angle_rad)
+        return float(
+            np.count_nonzero(load > load_fraction * total) * self.step_rad / self.pitch_angle_rad
+        )
 
     @property
     def contact_ratio_resolution(self) -> float:

@@ -42,8 +42,6 @@ from gearfem.geometry.options import BODIES
 log = logging.getLogger(__name__)
 
 
-
-
 class _RootStress:
     """Largest principal stress on the root surfaces of each body (sampled at the facet nodes)."""
 
@@ -52,10 +50,14 @@ class _RootStress:
 
         gm, mesh = model.gm, model.gm.mesh
         tdim = mesh.topology.dim
-        cell_type = {"tetrahedron": basix.CellType.tetrahedron, "hexahedron": basix.CellType.hexahedron}[
-            mesh.topology.cell_name()]
+        cell_type = {
+            "tetrahedron": basix.CellType.tetrahedron,
+            "hexahedron": basix.CellType.hexahedron,
+        }[mesh.topology.cell_name()]
         ref = FacetReference.create(cell_type, 2)
-        cell_points = basix.create_element(basix.ElementFamily.P, cell_type, 2, basix.LagrangeVariant.equispaced).points
+        cell_points = basix.create_element(
+            basix.ElementFamily.P, cell_type, 2, basix.LagrangeVariant.equispaced
+        ).points
         sigma = elastic_stress(model.problem.u, model.lame_mu, model.lame_lambda)
         mesh.topology.create_connectivity(tdim - 1, tdim)
         n_owned = mesh.topology.index_map(tdim - 1).size_local
@@ -63,8 +65,11 @@ class _RootStress:
         for b in BODIES:
             facets = gm.facets(*gm.names(body=b, kind="root"))
             facets = facets[facets < n_owned]
-            cf = np.asarray(fem.compute_integration_domains(fem.IntegralType.exterior_facet, mesh.topology,
-                                                              facets)).reshape(-1, 2)
+            cf = np.asarray(
+                fem.compute_integration_domains(
+                    fem.IntegralType.exterior_facet, mesh.topology, facets
+                )
+            ).reshape(-1, 2)
             groups = []
             for lf in np.unique(cf[:, 1]):
                 cells = cf[cf[:, 1] == lf, 0].astype(np.int32)
@@ -81,7 +86,10 @@ class _RootStress:
                 if len(cells) == 0:
                     continue
                 vals = expr.eval(self.mesh, cells).reshape(-1, 3, 3)
-                m = max(m, float(np.linalg.eigvalsh(0.5 * (vals + vals.transpose(0, 2, 1)))[:, -1].max()))
+                m = max(
+                    m,
+                    float(np.linalg.eigvalsh(0.5 * (vals + vals.transpose(0, 2, 1)))[:, -1].max()),
+                )
             out[b] = self.comm.allreduce(m, op=MPI.MAX)
         return out
 
@@ -94,7 +102,9 @@ class _StrainEnergy:
         self.Q = fem.functionspace(mesh, ("DG", 0))
         v = ufl.TestFunction(self.Q)
         u = model.problem.u
-        w = 0.5 * ufl.inner(elastic_stress(u, model.lame_mu, model.lame_lambda), ufl.sym(ufl.grad(u)))
+        w = 0.5 * ufl.inner(
+            elastic_stress(u, model.lame_mu, model.lame_lambda), ufl.sym(ufl.grad(u))
+        )
         self.form = fem.form(w * v * ufl.dx)
         vol = fem_petsc.assemble_vector(fem.form(v * ufl.dx))
         self.n_owned = self.Q.dofmap.index_map.size_local
@@ -112,9 +122,15 @@ def _gather(a: np.ndarray, comm: MPI.Comm) -> np.ndarray:
     return np.concatenate(comm.allgather(np.ascontiguousarray(a)))
 
 
-def solve_cycle(model: GearContactModel, positions_per_pitch: int | None = None, pitches: float | None = None,
-              start_angle_deg: float | None = None, heat_fraction: dict[str, float] | None = None,
-              check_periodicity: bool | None = None, progress=None) -> CycleResult:
+def solve_cycle(
+    model: GearContactModel,
+    positions_per_pitch: int | None = None,
+    pitches: float | None = None,
+    start_angle_deg: float | None = None,
+    heat_fraction: dict[str, float] | None = None,
+    check_periodicity: bool | None = None,
+    progress=None,
+) -> CycleResult:
     """Step the pinion angle through the cycle and collect the cycle results (collective).
 
     Args:
@@ -177,7 +193,9 @@ def solve_cycle(model: GearContactModel, positions_per_pitch: int | None = None,
                     pmid = max(pmid, float(pts.pressure[mid].max()))
             nf = ps.slave.local.num_facets
             # heat and pressure per slave facet from this pass alone (undo the pass weight)
-            per_facet_heat[slave] = np.bincount(pts.facet, weights=pts.dA * q / ps.weight, minlength=nf)
+            per_facet_heat[slave] = np.bincount(
+                pts.facet, weights=pts.dA * q / ps.weight, minlength=nf
+            )
             area = np.bincount(pts.facet, weights=pts.dA / ps.weight, minlength=nf)
             pint = np.bincount(pts.facet, weights=pts.dA * pts.pressure / ps.weight, minlength=nf)
             per_facet_press[slave] = np.where(area > 0, pint / np.where(area > 0, area, 1.0), 0.0)
@@ -203,8 +221,17 @@ def solve_cycle(model: GearContactModel, positions_per_pitch: int | None = None,
         w = se.values()
         dt = time.perf_counter() - t0
         if record:
-            for key, val in (("te", te), ("tp", tp), ("tw", tw), ("pf", pf), ("pmax", pmax), ("pmid", pmid),
-                             ("nit", rep.newton_iterations), ("uz", rep.uzawa_iterations), ("wall", dt)):
+            for key, val in (
+                ("te", te),
+                ("tp", tp),
+                ("tw", tw),
+                ("pf", pf),
+                ("pmax", pmax),
+                ("pmid", pmid),
+                ("nit", rep.newton_iterations),
+                ("uz", rep.uzawa_iterations),
+                ("wall", dt),
+            ):
                 hist[key].append(val)
             for b in BODIES:
                 root[b].append(rsv[b])
@@ -214,9 +241,17 @@ def solve_cycle(model: GearContactModel, positions_per_pitch: int | None = None,
                 loads[k].append(tl[k])
                 Ss[k].append(tS[k] / tl[k] if tl[k] > 0 else np.nan)
             w_cells.append(w)
-        log.info("position %d/%d: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, %.1f s",
-                 i + 1, n, math.degrees(phi), te * 1e6,
-                 ", ".join(f"{k}:{tl[k]:.0f}" for k in teeth if tl[k] > 0), pmax / 1e6, rep.newton_iterations, dt)
+        log.info(
+            "position %d/%d: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, %.1f s",
+            i + 1,
+            n,
+            math.degrees(phi),
+            te * 1e6,
+            ", ".join(f"{k}:{tl[k]:.0f}" for k in teeth if tl[k] > 0),
+            pmax / 1e6,
+            rep.newton_iterations,
+            dt,
+        )
         return te, tl, pmax, w
 
     for i, phi in enumerate(phis):
@@ -227,14 +262,20 @@ def solve_cycle(model: GearContactModel, positions_per_pitch: int | None = None,
     periodicity = None
     if check:
         te, tl, pmax, w = solve_and_record(n, start + pitch, record=False)
-        periodicity = {"te_first_m": hist["te"][0], "te_shifted_m": te, "p_max_first_Pa": hist["pmax"][0],
-                       "p_max_shifted_Pa": pmax,
-                       # the pinion's tooth k at start+pitch carries what tooth k+1 carried at start
-                       "tooth_load_first_N": {k: loads[k][0] for k in teeth},
-                       "tooth_load_shifted_N": {k: tl[k] for k in teeth},
-                       "_w_shifted": w}
+        periodicity = {
+            "te_first_m": hist["te"][0],
+            "te_shifted_m": te,
+            "p_max_first_Pa": hist["pmax"][0],
+            "p_max_shifted_Pa": pmax,
+            # the pinion's tooth k at start+pitch carries what tooth k+1 carried at start
+            "tooth_load_first_N": {k: loads[k][0] for k in teeth},
+            "tooth_load_shifted_N": {k: tl[k] for k in teeth},
+            "_w_shifted": w,
+        }
 
-    fields = _sector_fields(model, se, np.array(w_cells), facet_heat, facet_press, heat_fraction, pitch)
+    fields = _sector_fields(
+        model, se, np.array(w_cells), facet_heat, facet_press, heat_fraction, pitch
+    )
     # Each gear's flux distribution comes from the pass in which it is the slave; its magnitude is
     # made to carry exactly its share of the cycle-averaged friction power (the raw mismatch, from
     # the two passes' slightly different pressures and the periodic mapping, is reported).
@@ -248,24 +289,47 @@ def solve_cycle(model: GearContactModel, positions_per_pitch: int | None = None,
             fields[b].flux_W_m2_per_rad_s *= target / raw
         balance[f"{b}_flank_heat_raw_over_share"] = raw / target if target > 0 else float("nan")
     if periodicity is not None:
-        periodicity.update(_periodicity_of_cells(model, se, np.array(w_cells[0]), periodicity.pop("_w_shifted"), pitch))
+        periodicity.update(
+            _periodicity_of_cells(
+                model, se, np.array(w_cells[0]), periodicity.pop("_w_shifted"), pitch
+            )
+        )
 
     return CycleResult(
-        torque_Nm=model.torque_Nm, friction_coefficient=mu, heat_fraction=dict(heat_fraction), pitch_angle_rad=pitch,
-        phi_rad=np.asarray(phis), te_m=np.array(hist["te"]), pinion_torque_Nm=np.array(hist["tp"]),
-        wheel_torque_Nm=np.array(hist["tw"]), friction_power_W_per_rad_s=np.array(hist["pf"]),
-        p_max_Pa=np.array(hist["pmax"]), p_max_mid_Pa=np.array(hist["pmid"]),
+        torque_Nm=model.torque_Nm,
+        friction_coefficient=mu,
+        heat_fraction=dict(heat_fraction),
+        pitch_angle_rad=pitch,
+        phi_rad=np.asarray(phis),
+        te_m=np.array(hist["te"]),
+        pinion_torque_Nm=np.array(hist["tp"]),
+        wheel_torque_Nm=np.array(hist["tw"]),
+        friction_power_W_per_rad_s=np.array(hist["pf"]),
+        p_max_Pa=np.array(hist["pmax"]),
+        p_max_mid_Pa=np.array(hist["pmid"]),
         root_stress_Pa={b: np.array(v) for b, v in root.items()},
-        tooth_load_N={k: np.array(v) for k, v in loads.items()}, tooth_S_m={k: np.array(v) for k, v in Ss.items()},
-        newton_iterations=np.array(hist["nit"]), uzawa_iterations=np.array(hist["uz"]),
-        wall_time_s=np.array(hist["wall"]), fields=fields,
+        tooth_load_N={k: np.array(v) for k, v in loads.items()},
+        tooth_S_m={k: np.array(v) for k, v in Ss.items()},
+        newton_iterations=np.array(hist["nit"]),
+        uzawa_iterations=np.array(hist["uz"]),
+        wall_time_s=np.array(hist["wall"]),
+        fields=fields,
         reference_tooth={b: gm.reference_tooth(b) for b in BODIES},
-        theoretical_contact_ratio=pair.contact_ratio, base_pitch_m=pair.base_pitch_m, periodicity=periodicity,
-        info={"dofs": model.V.dofmap.index_map.size_global * 3, "positions": n, "mpi_size": comm.size,
-              "stalled_newton_solves": model.problem.stalled,
-              "factorizations": model.problem.factorizations, "linear_solves": model.problem.linear_solves,
-              "creep_ratio": model.creep_ratio, "speed_ratio": model.ratio, "slip_regularization_m_s": model.contact.slip_regularization_m_s,
-              **balance},
+        theoretical_contact_ratio=pair.contact_ratio,
+        base_pitch_m=pair.base_pitch_m,
+        periodicity=periodicity,
+        info={
+            "dofs": model.V.dofmap.index_map.size_global * 3,
+            "positions": n,
+            "mpi_size": comm.size,
+            "stalled_newton_solves": model.problem.stalled,
+            "factorizations": model.problem.factorizations,
+            "linear_solves": model.problem.linear_solves,
+            "creep_ratio": model.creep_ratio,
+            "speed_ratio": model.ratio,
+            "slip_regularization_m_s": model.contact.slip_regularization_m_s,
+            **balance,
+        },
     )
 
 
@@ -279,7 +343,9 @@ def _cell_data(model: GearContactModel, se: _StrainEnergy, body: str):
     return cells, _gather(x, comm), _gather(se.volume[cells], comm)
 
 
-def _sector_fields(model, se, w_cells, facet_heat, facet_press, heat_fraction, pitch) -> dict[str, BodyFields]:
+def _sector_fields(
+    model, se, w_cells, facet_heat, facet_press, heat_fraction, pitch
+) -> dict[str, BodyFields]:
     gm, comm = model.gm, model.comm
     out = {}
     for b in BODIES:
@@ -295,9 +361,13 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, heat_fraction, p
         tol = 2.0 * np.cbrt(vol[sec])  # an image must land within about a cell of a centroid
         imap = image_map(xc[sec], xc, center, shift, tol)
         u_max = periodic_max(W, imap)
-        u_hist = np.concatenate([np.where(imap.valid[m], W[:, imap.index[m]], 0.0) for m in imap.images])
+        u_hist = np.concatenate(
+            [np.where(imap.valid[m], W[:, imap.index[m]], 0.0) for m in imap.images]
+        )
         # the state at φ + m·pitch at x equals that at φ at R^m x: image m lies m pitches later
-        hist_phi = np.concatenate([m * pitch + np.arange(W.shape[0]) * pitch / W.shape[0] for m in imap.images])
+        hist_phi = np.concatenate(
+            [m * pitch + np.arange(W.shape[0]) * pitch / W.shape[0] for m in imap.images]
+        )
         # facets of the contact surface
         surf = model.surfaces[b]
         data = surf.gathered()
@@ -321,8 +391,21 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, heat_fraction, p
         flux = heat_fraction[b] * periodic_sum(H / area[None, :], fmap) * dphi / (2.0 * math.pi)
         pmax = periodic_max(P, fmap)
         kinds = _facet_kinds(model, b)
-        out[b] = BodyFields(center, tooth_angle, pitch_b, xc[sec], vol[sec], u_max, fx[fsec], area[fsec],
-                            kinds[fsec], flux, pmax, u_hist, hist_phi)
+        out[b] = BodyFields(
+            center,
+            tooth_angle,
+            pitch_b,
+            xc[sec],
+            vol[sec],
+            u_max,
+            fx[fsec],
+            area[fsec],
+            kinds[fsec],
+            flux,
+            pmax,
+            u_hist,
+            hist_phi,
+        )
     return out
 
 
@@ -336,7 +419,9 @@ def _facet_kinds(model: GearContactModel, body: str) -> np.ndarray:
     return np.concatenate(model.comm.allgather(local))
 
 
-def _periodicity_of_cells(model, se, w_first: np.ndarray, w_shifted: np.ndarray, pitch: float) -> dict:
+def _periodicity_of_cells(
+    model, se, w_first: np.ndarray, w_shifted: np.ndarray, pitch: float
+) -> dict:
     """Strain energy per tooth sector at start + pitch against the start, one tooth over.
 
     By periodicity the pinion's sector k at start + pitch holds what sector k + 1 held at the start
@@ -348,7 +433,8 @@ def _periodicity_of_cells(model, se, w_first: np.ndarray, w_shifted: np.ndarray,
         center = np.asarray(gm.center(b))
         angles = gm.tooth_angles(b)
         pitch_b = (
-            2.0 * math.pi / (gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel))
+            2.0 * math.pi / (gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel)
+        )
         cells, xc, vol = _cell_data(model, se, b)
         W0, W1 = _gather(w_first[cells], comm), _gather(w_shifted[cells], comm)
         step = 1 if b == "pinion" else -1
@@ -360,5 +446,7 @@ def _periodicity_of_cells(model, se, w_first: np.ndarray, w_shifted: np.ndarray,
             sk = in_sector(xc, center, angles[k], pitch_b)
             sj = in_sector(xc, center, angles[j], pitch_b)
             pairs.append((k, float(np.sum(W1[sk] * vol[sk])), float(np.sum(W0[sj] * vol[sj]))))
-        out[f"{b}_sector_energy_J"] = [{"sector": k, "shifted": e1, "mapped": e0} for k, e1, e0 in pairs]
+        out[f"{b}_sector_energy_J"] = [
+            {"sector": k, "shifted": e1, "mapped": e0} for k, e1, e0 in pairs
+        ]
     return out

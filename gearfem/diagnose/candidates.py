@@ -41,9 +41,15 @@ class Parameter:
 
     def __post_init__(self) -> None:
         if not (self.lo <= self.null <= self.hi and self.lo < self.hi):
-            raise ParameterError(f"candidate parameter {self.name}", (self.lo, self.null, self.hi), "lo <= null <= hi")
+            raise ParameterError(
+                f"candidate parameter {self.name}",
+                (self.lo, self.null, self.hi),
+                "lo <= null <= hi",
+            )
         if self.log and self.lo <= 0.0:
-            raise ParameterError(f"candidate parameter {self.name}.lo", self.lo, "> 0 for a logarithmic prior")
+            raise ParameterError(
+                f"candidate parameter {self.name}.lo", self.lo, "> 0 for a logarithmic prior"
+            )
 
     def to_unit(self, value: float) -> float:
         """Position in the prior, 0 at lo, 1 at hi (log-uniform when ``log``)."""
@@ -58,7 +64,9 @@ class Parameter:
 
     def check(self, value: float) -> float:
         if not (self.lo - 1e-12 * abs(self.hi) <= value <= self.hi + 1e-12 * abs(self.hi)):
-            raise ParameterError(f"candidate parameter {self.name}", value, f"[{self.lo:g}, {self.hi:g}] {self.unit}")
+            raise ParameterError(
+                f"candidate parameter {self.name}", value, f"[{self.lo:g}, {self.hi:g}] {self.unit}"
+            )
         return float(value)
 
 
@@ -107,7 +115,9 @@ class ConvectionScale(Candidate):
     def apply(self, case: Case, value: float) -> Case:
         k = self.parameter.check(value)
         th = case.thermal
-        return _thermal(case, h_teeth_factor=th.h_teeth_factor * k, h_sides_factor=th.h_sides_factor * k)
+        return _thermal(
+            case, h_teeth_factor=th.h_teeth_factor * k, h_sides_factor=th.h_sides_factor * k
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,7 +135,9 @@ class ConvectionSpeedExponent(Candidate):
         s = self.parameter.check(value)
         f = (case.operating.speed_rpm / self.reference_rpm) ** s
         th = case.thermal
-        return _thermal(case, h_teeth_factor=th.h_teeth_factor * f, h_sides_factor=th.h_sides_factor * f)
+        return _thermal(
+            case, h_teeth_factor=th.h_teeth_factor * f, h_sides_factor=th.h_sides_factor * f
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,6 +163,7 @@ class FrictionTemperature(Candidate):
 
     name: ClassVar[str] = "friction_temperature"
     parameter: ClassVar[Parameter] = Parameter("beta_mu", "1/K", 0.0, 0.0, 0.008)
+
     def apply(self, case: Case, value: float) -> Case:
         return _sources(case, friction_temperature_coefficient_per_K=self.parameter.check(value))
 
@@ -196,12 +209,22 @@ class AmbientOffset(Candidate):
     def apply(self, case: Case, value: float) -> Case:
         d = self.parameter.check(value)
         th = case.thermal
-        return _thermal(case, ambient_C=th.ambient_C + d,
-                        initial_C=None if th.initial_C is None else th.initial_C + d)
+        return _thermal(
+            case,
+            ambient_C=th.ambient_C + d,
+            initial_C=None if th.initial_C is None else th.initial_C + d,
+        )
 
 
-LIBRARY: tuple[Candidate, ...] = (ConvectionScale(), ConvectionSpeedExponent(), FrictionScale(),
-                                  FrictionTemperature(), HysteresisScale(), BoreHeatPath(), AmbientOffset())
+LIBRARY: tuple[Candidate, ...] = (
+    ConvectionScale(),
+    ConvectionSpeedExponent(),
+    FrictionScale(),
+    FrictionTemperature(),
+    HysteresisScale(),
+    BoreHeatPath(),
+    AmbientOffset(),
+)
 
 
 def by_name(name: str, library: tuple[Candidate, ...] = LIBRARY) -> Candidate:
@@ -211,7 +234,9 @@ def by_name(name: str, library: tuple[Candidate, ...] = LIBRARY) -> Candidate:
     raise ParameterError("diagnose.candidate", name, f"one of {', '.join(c.name for c in library)}")
 
 
-def apply_all(case: Case, model: dict[str, float], library: tuple[Candidate, ...] = LIBRARY) -> Case:
+def apply_all(
+    case: Case, model: dict[str, float], library: tuple[Candidate, ...] = LIBRARY
+) -> Case:
     """The case with every candidate of ``model`` (name -> value) applied."""
     for name, value in model.items():
         case = by_name(name, library).apply(case, value)

@@ -32,8 +32,18 @@ from pathlib import Path
 from gearfem.core.errors import ParameterError
 from gearfem.core.params import require_positive, require_range
 
-QUANTITIES = ("max_surface", "mean_bulk", "flank_mean", "flank_max", "coast_flank_mean", "coast_flank_max",
-              "tip_mean", "tip_max", "root_mean", "root_max")
+QUANTITIES = (
+    "max_surface",
+    "mean_bulk",
+    "flank_mean",
+    "flank_max",
+    "coast_flank_mean",
+    "coast_flank_max",
+    "tip_mean",
+    "tip_max",
+    "root_mean",
+    "root_max",
+)
 COLUMNS = ("speed_rpm", "torque_Nm", "time_s", "quantity", "value_C", "uncertainty_K", "ambient_C")
 
 
@@ -89,8 +99,12 @@ class Dataset:
         for m in self.measurements:
             key = (m.series, m.time_s)
             if key in seen:
-                raise ParameterError("data.time_s", m.time_s, "one row per (operating point, quantity, time)",
-                                     f"duplicate row {m.label()}")
+                raise ParameterError(
+                    "data.time_s",
+                    m.time_s,
+                    "one row per (operating point, quantity, time)",
+                    f"duplicate row {m.label()}",
+                )
             seen.add(key)
 
     def __len__(self) -> int:
@@ -140,7 +154,9 @@ def _float(text: str, name: str, row: int, optional: bool = False) -> float | No
     try:
         value = float(text)
     except ValueError:
-        raise ParameterError(f"data row {row}: {name}", text, "a number" + (" or empty" if optional else "")) from None
+        raise ParameterError(
+            f"data row {row}: {name}", text, "a number" + (" or empty" if optional else "")
+        ) from None
     if not math.isfinite(value):
         raise ParameterError(f"data row {row}: {name}", text, "a finite number")
     return value
@@ -156,18 +172,30 @@ def parse_csv(text: str, source: str = "") -> Dataset:
     missing = [c for c in COLUMNS if c not in header]
     unknown = [c for c in header if c not in COLUMNS]
     if missing or unknown:
-        raise ParameterError("data header", ",".join(header), f"the columns {','.join(COLUMNS)}",
-                             f"missing {missing}, unknown {unknown}")
+        raise ParameterError(
+            "data header",
+            ",".join(header),
+            f"the columns {','.join(COLUMNS)}",
+            f"missing {missing}, unknown {unknown}",
+        )
     out = []
     for i, row in enumerate(reader, start=1):
         if len(row) != len(header):
-            raise ParameterError(f"data row {i}", ",".join(row), f"{len(header)} comma-separated values")
+            raise ParameterError(
+                f"data row {i}", ",".join(row), f"{len(header)} comma-separated values"
+            )
         r = dict(zip(header, row))
-        out.append(Measurement(
-            speed_rpm=_float(r["speed_rpm"], "speed_rpm", i), torque_Nm=_float(r["torque_Nm"], "torque_Nm", i),
-            time_s=_float(r["time_s"], "time_s", i, optional=True), quantity=r["quantity"].strip(),
-            value_C=_float(r["value_C"], "value_C", i), uncertainty_K=_float(r["uncertainty_K"], "uncertainty_K", i),
-            ambient_C=_float(r["ambient_C"], "ambient_C", i)))
+        out.append(
+            Measurement(
+                speed_rpm=_float(r["speed_rpm"], "speed_rpm", i),
+                torque_Nm=_float(r["torque_Nm"], "torque_Nm", i),
+                time_s=_float(r["time_s"], "time_s", i, optional=True),
+                quantity=r["quantity"].strip(),
+                value_C=_float(r["value_C"], "value_C", i),
+                uncertainty_K=_float(r["uncertainty_K"], "uncertainty_K", i),
+                ambient_C=_float(r["ambient_C"], "ambient_C", i),
+            )
+        )
     return Dataset(tuple(out), source)
 
 
@@ -177,7 +205,9 @@ def read_csv(path: str | Path) -> Dataset:
     if not path.is_file():
         raise ParameterError("data file", str(path), "an existing CSV file")
     text = path.read_text()
-    first = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
+    first = next(
+        (ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), ""
+    )
     if "measured_max_surface_C" in first:
         return thesis_bench(text, str(path))
     return parse_csv(text, str(path))
@@ -188,8 +218,10 @@ def write_csv(data: Dataset, path: str | Path, comment: str = "") -> Path:
     lines = [f"# {ln}" for ln in comment.splitlines()] + [",".join(COLUMNS)]
     for m in data.measurements:
         t = "" if m.time_s is None else f"{m.time_s:g}"
-        lines.append(f"{m.speed_rpm:g},{m.torque_Nm:g},{t},{m.quantity},{m.value_C:.4f},{m.uncertainty_K:g},"
-                     f"{m.ambient_C:g}")
+        lines.append(
+            f"{m.speed_rpm:g},{m.torque_Nm:g},{t},{m.quantity},{m.value_C:.4f},{m.uncertainty_K:g},"
+            f"{m.ambient_C:g}"
+        )
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -214,8 +246,15 @@ def thesis_bench(text: str, source: str = "") -> Dataset:
     out = []
     for i, r in enumerate(rows, start=1):
         value = _float(r["measured_max_surface_C"], "measured_max_surface_C", i)
-        out.append(Measurement(speed_rpm=_float(r["speed_rpm"], "speed_rpm", i),
-                               torque_Nm=_float(r["torque_Nm"], "torque_Nm", i), time_s=None,
-                               quantity="max_surface", value_C=value, uncertainty_K=camera_uncertainty_K(value),
-                               ambient_C=_float(r["camera_ambient_C"], "camera_ambient_C", i)))
+        out.append(
+            Measurement(
+                speed_rpm=_float(r["speed_rpm"], "speed_rpm", i),
+                torque_Nm=_float(r["torque_Nm"], "torque_Nm", i),
+                time_s=None,
+                quantity="max_surface",
+                value_C=value,
+                uncertainty_K=camera_uncertainty_K(value),
+                ambient_C=_float(r["camera_ambient_C"], "camera_ambient_C", i),
+            )
+        )
     return Dataset(tuple(out), source)

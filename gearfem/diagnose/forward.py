@@ -56,8 +56,14 @@ class FullModel:
         library: The candidates that model names refer to.
     """
 
-    def __init__(self, case: Case, comm: MPI.Comm | None = None, times_s: tuple[float, ...] = (),
-                 work_dir: str | Path | None = None, library: tuple[Candidate, ...] = LIBRARY) -> None:
+    def __init__(
+        self,
+        case: Case,
+        comm: MPI.Comm | None = None,
+        times_s: tuple[float, ...] = (),
+        work_dir: str | Path | None = None,
+        library: tuple[Candidate, ...] = LIBRARY,
+    ) -> None:
         self.case = case
         self.comm = comm or MPI.COMM_WORLD
         self.times_s = tuple(sorted(set(float(t) for t in times_s)))
@@ -76,22 +82,38 @@ class FullModel:
             self._cycles[torque_Nm] = cyc
         return self._cycles[torque_Nm]
 
-    def point_case(self, speed_rpm: float, torque_Nm: float, ambient_C: float, model: dict[str, float]) -> Case:
+    def point_case(
+        self, speed_rpm: float, torque_Nm: float, ambient_C: float, model: dict[str, float]
+    ) -> Case:
         """The case of one run: operating point, ambient, candidates applied, transient to the last
         sample time (or steady when only end values are wanted)."""
         case = self.case.with_operating(speed_rpm=speed_rpm, torque_Nm=torque_Nm)
         th = case.thermal
         if self.times_s:
-            th = dataclasses.replace(th, mode="transient", duration_s=self.times_s[-1], output_times_s=self.times_s,
-                                     ambient_C=ambient_C, initial_C=None,
-                                     dt_initial_s=min(th.dt_initial_s, self.times_s[0]))
+            th = dataclasses.replace(
+                th,
+                mode="transient",
+                duration_s=self.times_s[-1],
+                output_times_s=self.times_s,
+                ambient_C=ambient_C,
+                initial_C=None,
+                dt_initial_s=min(th.dt_initial_s, self.times_s[0]),
+            )
         else:
-            th = dataclasses.replace(th, mode="steady", output_times_s=(), ambient_C=ambient_C, initial_C=None)
+            th = dataclasses.replace(
+                th, mode="steady", output_times_s=(), ambient_C=ambient_C, initial_C=None
+            )
         case = dataclasses.replace(case, thermal=th)
         return apply_all(case, model, self.library)
 
-    def run(self, speed_rpm: float, torque_Nm: float, ambient_C: float,
-            model: dict[str, float] | None = None, transform=None) -> dict[Request, float]:
+    def run(
+        self,
+        speed_rpm: float,
+        torque_Nm: float,
+        ambient_C: float,
+        model: dict[str, float] | None = None,
+        transform=None,
+    ) -> dict[Request, float]:
         """Temperatures (C) of every quantity at every sample time and at the end (steady state).
 
         ``transform(case) -> case`` changes the thermal run only (input-uncertainty studies); the
@@ -101,13 +123,24 @@ class FullModel:
         if transform is not None:
             case = transform(case)
         out = self.work_dir / f"run{self.solves}"
-        summ = pipeline.thermal(case, out, self.comm, cycle_result=self.cycle(torque_Nm), write_fields=False,
-                                steady=True, write_plot=False)
+        summ = pipeline.thermal(
+            case,
+            out,
+            self.comm,
+            cycle_result=self.cycle(torque_Nm),
+            write_fields=False,
+            steady=True,
+            write_plot=False,
+        )
         self.solves += 1
         if self.comm.rank == 0:  # only the numbers are kept
             shutil.rmtree(out, ignore_errors=True)
         res: dict[Request, float] = {}
-        end = summ["steady_state_C"] if case.thermal.mode == "transient" else summ["final_temperatures_C"]
+        end = (
+            summ["steady_state_C"]
+            if case.thermal.mode == "transient"
+            else summ["final_temperatures_C"]
+        )
         for q in QUANTITIES:
             res[(q, None)] = float(end[q])
         for t in self.times_s:
@@ -118,7 +151,9 @@ class FullModel:
                 res[(q, t)] = float(rec[q])
         return res
 
-    def predict(self, data: Dataset, model: dict[str, float] | None = None, transform=None) -> np.ndarray:
+    def predict(
+        self, data: Dataset, model: dict[str, float] | None = None, transform=None
+    ) -> np.ndarray:
         """Predicted value (C) of every measurement of ``data``."""
         cache: dict[tuple, dict[Request, float]] = {}
         out = []
@@ -133,7 +168,9 @@ class FullModel:
 class _Table:
     ambient_C: float
     base: dict[Request, float]  # theta at the null model
-    nodes: dict[str, tuple[np.ndarray, dict[Request, np.ndarray]]]  # candidate -> (u nodes, theta at nodes)
+    nodes: dict[
+        str, tuple[np.ndarray, dict[Request, np.ndarray]]
+    ]  # candidate -> (u nodes, theta at nodes)
 
 
 class Surrogate:
@@ -143,8 +180,13 @@ class Surrogate:
     1 + sum(nodes - 1) full-model runs per (speed, torque). ``predict`` costs microseconds.
     """
 
-    def __init__(self, full: FullModel, points: tuple[tuple[float, float], ...],
-                 candidates: tuple[Candidate, ...] = LIBRARY, cache_dir: str | Path | None = None) -> None:
+    def __init__(
+        self,
+        full: FullModel,
+        points: tuple[tuple[float, float], ...],
+        candidates: tuple[Candidate, ...] = LIBRARY,
+        cache_dir: str | Path | None = None,
+    ) -> None:
         self.full = full
         self.candidates = tuple(candidates)
         self.tables: dict[tuple[float, float], _Table] = {}
@@ -167,10 +209,17 @@ class Surrogate:
                 vals = c.nodes()
                 thetas = {k: [] for k in theta0}
                 for v in vals:
-                    r = theta0 if v == p.null else {k: t - amb for k, t in full.run(sp, tq, amb, {c.name: v}).items()}
+                    r = (
+                        theta0
+                        if v == p.null
+                        else {k: t - amb for k, t in full.run(sp, tq, amb, {c.name: v}).items()}
+                    )
                     for k in thetas:
                         thetas[k].append(r[k])
-                nodes[c.name] = (np.array([p.to_unit(v) for v in vals]), {k: np.array(t) for k, t in thetas.items()})
+                nodes[c.name] = (
+                    np.array([p.to_unit(v) for v in vals]),
+                    {k: np.array(t) for k, t in thetas.items()},
+                )
             self.tables[(sp, tq)] = _Table(amb, theta0, nodes)
         if path is not None and full.comm.rank == 0:  # atomic: a failed build leaves no table
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -183,11 +232,22 @@ class Surrogate:
 
         root = Path(__file__).resolve().parent.parent
         h = hashlib.sha256()
-        for f in sorted([*root.glob("thermal/*.py"), root / "sources.py", root / "diagnose" / "forward.py",
-                         root / "diagnose" / "candidates.py"]):
+        for f in sorted(
+            [
+                *root.glob("thermal/*.py"),
+                root / "sources.py",
+                root / "diagnose" / "forward.py",
+                root / "diagnose" / "candidates.py",
+            ]
+        ):
             h.update(f.read_bytes())
-        meta = {"case": case_to_dict(self.full.case), "points": points, "times": self.full.times_s,
-                "candidates": [(c.name, c.nodes()) for c in self.candidates], "ambient": _AMBIENT.nodes()}
+        meta = {
+            "case": case_to_dict(self.full.case),
+            "points": points,
+            "times": self.full.times_s,
+            "candidates": [(c.name, c.nodes()) for c in self.candidates],
+            "ambient": _AMBIENT.nodes(),
+        }
         h.update(json.dumps(meta, sort_keys=True, default=str).encode())
         return h.hexdigest()[:16]
 
@@ -196,14 +256,20 @@ class Surrogate:
         return tuple(c.name for c in self.candidates)
 
     def _prepared(self, data: Dataset):
-        key = tuple((m.speed_rpm, m.torque_Nm, m.quantity, m.time_s, m.ambient_C) for m in data.measurements)
+        key = tuple(
+            (m.speed_rpm, m.torque_Nm, m.quantity, m.time_s, m.ambient_C) for m in data.measurements
+        )
         got = self._prep.get(key)
         if got is None:
-            rows = [(self.tables[(float(m.speed_rpm), float(m.torque_Nm))], (m.quantity, m.time_s))
-                    for m in data.measurements]
+            rows = [
+                (self.tables[(float(m.speed_rpm), float(m.torque_Nm))], (m.quantity, m.time_s))
+                for m in data.measurements
+            ]
             base = np.array([t.base[r] for t, r in rows])
-            nodes = {name: (rows[0][0].nodes[name][0], np.array([t.nodes[name][1][r] for t, r in rows]))
-                     for name in rows[0][0].nodes}
+            nodes = {
+                name: (rows[0][0].nodes[name][0], np.array([t.nodes[name][1][r] for t, r in rows]))
+                for name in rows[0][0].nodes
+            }
             amb = np.array([m.ambient_C for m in data.measurements])
             got = (base, nodes, amb, rows[0][0].ambient_C)
             self._prep[key] = got
@@ -229,7 +295,10 @@ class Surrogate:
             u, vals = nodes[name]
             theta = theta * (_lagrange_weights(u, c.parameter.to_unit(value)) @ vals.T) / safe
         u, vals = nodes[_AMBIENT.name]
-        y = _lagrange_weights_many(u, np.array([_AMBIENT.parameter.to_unit(s) for s in shift])) * vals
+        y = (
+            _lagrange_weights_many(u, np.array([_AMBIENT.parameter.to_unit(s) for s in shift]))
+            * vals
+        )
         theta = theta * (y.sum(axis=1) - shift) / safe
         return amb_case + shift + theta
 
@@ -255,8 +324,12 @@ def confirm(full: FullModel, surrogate: Surrogate, data: Dataset, model: dict[st
     """Full-model check of a surrogate prediction: both predictions and their largest difference (K)."""
     s = surrogate.predict(data, model)
     f = full.predict(data, model)
-    return {"surrogate_C": s.tolist(), "full_C": f.tolist(), "max_abs_difference_K": float(np.max(np.abs(f - s))),
-            "model": dict(model)}
+    return {
+        "surrogate_C": s.tolist(),
+        "full_C": f.tolist(),
+        "max_abs_difference_K": float(np.max(np.abs(f - s))),
+        "model": dict(model),
+    }
 
 
-__all__ = ["FullModel", "Surrogate", "confirm", "Request"]
+__all__ = ["FullModel", "Request", "Surrogate", "confirm"]

@@ -28,11 +28,20 @@ def _replace_thermal(**kw):
 
 
 def _replace_material(**kw):
-    return lambda c: dataclasses.replace(c, material=dataclasses.replace(c.material, **kw), material_wheel=None)
+    return lambda c: dataclasses.replace(
+        c, material=dataclasses.replace(c.material, **kw), material_wheel=None
+    )
 
 
-def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm | None = None,
-                  max_size: int = 2, cache_dir: str | Path | None = None, u_model_K: float = 1.0) -> dict[str, Any]:
+def run_diagnosis(
+    data: Dataset,
+    case: Case,
+    out_dir: str | Path,
+    comm: MPI.Comm | None = None,
+    max_size: int = 2,
+    cache_dir: str | Path | None = None,
+    u_model_K: float = 1.0,
+) -> dict[str, Any]:
     """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns the result."""
 
     comm = comm or MPI.COMM_WORLD
@@ -44,7 +53,9 @@ def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm
     # V&V 20 of the baseline on the full model
     S = full.predict(data, {})
     u_D = np.array([m.uncertainty_K for m in data.measurements])
-    if case.thermal.degree == 1:  # numerical: P1 against P2 on the same mesh (conservative: the whole difference)
+    if (
+        case.thermal.degree == 1
+    ):  # numerical: P1 against P2 on the same mesh (conservative: the whole difference)
         S2 = full.predict(data, {}, transform=_replace_thermal(degree=2))
         u_num = np.abs(S2 - S)
         num_note = "|S(P2) - S(P1)| on the case mesh"
@@ -55,11 +66,18 @@ def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm
     mat = case.material
     # input: conductivity 0.25-0.29 W/(m K) (material.toml range), emissivity 0.90 +- 0.05 (assumed),
     # both uniform: one-sided step of the full range / half-range, scaled to a standard uncertainty
-    pert = {"thermal_conductivity_W_mK (0.25-0.29, uniform)":
-            (_replace_material(thermal_conductivity_W_mK=mat.thermal_conductivity_W_mK + 0.04), 0.5 / math.sqrt(3.0)),
-            "emissivity (0.90 +- 0.05, uniform)":
-            (_replace_thermal(emissivity=min(1.0, (case.thermal.emissivity or mat.emissivity) + 0.05)),
-             1.0 / math.sqrt(3.0))}
+    pert = {
+        "thermal_conductivity_W_mK (0.25-0.29, uniform)": (
+            _replace_material(thermal_conductivity_W_mK=mat.thermal_conductivity_W_mK + 0.04),
+            0.5 / math.sqrt(3.0),
+        ),
+        "emissivity (0.90 +- 0.05, uniform)": (
+            _replace_thermal(
+                emissivity=min(1.0, (case.thermal.emissivity or mat.emissivity) + 0.05)
+            ),
+            1.0 / math.sqrt(3.0),
+        ),
+    }
     u_in, parts = input_uncertainty(lambda tr: full.predict(data, {}, transform=tr), S, pert)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
@@ -67,17 +85,35 @@ def run_diagnosis(data: Dataset, case: Case, out_dir: str | Path, comm: MPI.Comm
     # confirmation of the chosen model on the full model (and removal of the surrogate's bias there)
     refine(full.predict, sur.predict, data, result, iterations=1, final_check=True)
     base_sur = sur.predict(data, {})
-    result.update({
-        "data": {"source": data.source, "measurements": [dataclasses.asdict(m) for m in data.measurements]},
-        "case": case.name,
-        "vv20": {"rows": comp.rows([m.label() for m in data.measurements]), "k": comp.k,
-                 "u_num_method": num_note, "u_input_parts_K": {k: v.tolist() for k, v in parts.items()}},
-        "surrogate": {"full_model_solves": full.solves, "baseline_max_abs_difference_K":
-                      float(np.max(np.abs(base_sur - S)))},
-        "candidates": {c.name: {"parameter": c.parameter.name, "unit": c.parameter.unit, "null": c.parameter.null,
-                                "prior": [c.parameter.lo, c.parameter.hi], "doc": " ".join((c.__doc__ or "").split())}
-                       for c in LIBRARY},
-    })
+    result.update(
+        {
+            "data": {
+                "source": data.source,
+                "measurements": [dataclasses.asdict(m) for m in data.measurements],
+            },
+            "case": case.name,
+            "vv20": {
+                "rows": comp.rows([m.label() for m in data.measurements]),
+                "k": comp.k,
+                "u_num_method": num_note,
+                "u_input_parts_K": {k: v.tolist() for k, v in parts.items()},
+            },
+            "surrogate": {
+                "full_model_solves": full.solves,
+                "baseline_max_abs_difference_K": float(np.max(np.abs(base_sur - S))),
+            },
+            "candidates": {
+                c.name: {
+                    "parameter": c.parameter.name,
+                    "unit": c.parameter.unit,
+                    "null": c.parameter.null,
+                    "prior": [c.parameter.lo, c.parameter.hi],
+                    "doc": " ".join((c.__doc__ or "").split()),
+                }
+                for c in LIBRARY
+            },
+        }
+    )
     if comm.rank == 0:
         _plots(result, data, out)
         (out / "report.md").write_text(markdown(result, data))
@@ -103,8 +139,10 @@ def _probes(sur: Surrogate, data: Dataset) -> Dataset:
         if m.point in seen:
             continue
         seen.add(m.point)
-        times = sorted({r[1] for r in sur.tables[(float(m.speed_rpm), float(m.torque_Nm))].base},
-                       key=lambda t: math.inf if t is None else t)
+        times = sorted(
+            {r[1] for r in sur.tables[(float(m.speed_rpm), float(m.torque_Nm))].base},
+            key=lambda t: math.inf if t is None else t,
+        )
         for q in QUANTITIES:
             for t in times:
                 rows.append(Measurement(m.speed_rpm, m.torque_Nm, t, q, 20.0, 1.0, m.ambient_C))
@@ -146,7 +184,9 @@ def _plots(result: dict, data: Dataset, out: Path) -> None:
     top = result["models"][:12]
     fig, ax = plt.subplots(figsize=(8, 5))
     ax.barh(range(len(top)), [m["delta"] for m in top], color="tab:blue")
-    ax.set_yticks(range(len(top)), ["+".join(m["candidates"]) or "baseline" for m in top], fontsize=7)
+    ax.set_yticks(
+        range(len(top)), ["+".join(m["candidates"]) or "baseline" for m in top], fontsize=7
+    )
     ax.invert_yaxis()
     ax.set_xlabel(f"Δ{result['criterion']} to the best")
     ax.set_title("ranking")
@@ -157,43 +197,83 @@ def _plots(result: dict, data: Dataset, out: Path) -> None:
 
 def markdown(result: dict, data: Dataset) -> str:
     v = result["verdict"]
-    lines = [f"# Diagnosis of {data.source or 'data'} against case {result.get('case', '')!r}", "",
-             f"**Verdict: {v['text']}**", "",
-             f"{result['n_measurements']} measurements, {result['n_effective']} independent "
-             f"(a curve counts as at most two), ranked by {result['criterion']}.", "",
-             "## V&V 20 comparison of the baseline (full model)", "",
-             "| measurement | S (C) | D (C) | E (K) | u_num | u_input | u_D | u_val | |E| > 2 u_val |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"# Diagnosis of {data.source or 'data'} against case {result.get('case', '')!r}",
+        "",
+        f"**Verdict: {v['text']}**",
+        "",
+        f"{result['n_measurements']} measurements, {result['n_effective']} independent "
+        f"(a curve counts as at most two), ranked by {result['criterion']}.",
+        "",
+        "## V&V 20 comparison of the baseline (full model)",
+        "",
+        "| measurement | S (C) | D (C) | E (K) | u_num | u_input | u_D | u_val | |E| > 2 u_val |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in result["vv20"]["rows"]:
-        lines.append(f"| {r['measurement']} | {r['S_C']:.1f} | {r['D_C']:.1f} | {r['E_K']:+.1f} | {r['u_num_K']:.2f} "
-                     f"| {r['u_input_K']:.2f} | {r['u_D_K']:.2f} | {r['u_val_K']:.2f} | {'yes' if r['resolved'] else 'no'} |")
-    lines += ["", f"u_num: {result['vv20']['u_num_method']}.", "", "## Ranking (surrogate)", "",
-              "| model | parameters (95 % profile interval) | chi2 | Δ | held-out RMS (K) |", "|---|---|---|---|---|"]
+        lines.append(
+            f"| {r['measurement']} | {r['S_C']:.1f} | {r['D_C']:.1f} | {r['E_K']:+.1f} | {r['u_num_K']:.2f} "
+            f"| {r['u_input_K']:.2f} | {r['u_D_K']:.2f} | {r['u_val_K']:.2f} | {'yes' if r['resolved'] else 'no'} |"
+        )
+    lines += [
+        "",
+        f"u_num: {result['vv20']['u_num_method']}.",
+        "",
+        "## Ranking (surrogate)",
+        "",
+        "| model | parameters (95 % profile interval) | chi2 | Δ | held-out RMS (K) |",
+        "|---|---|---|---|---|",
+    ]
     for m in result["models"][:15]:
-        ps = ", ".join(f"{n} = {m['params'][n]:.4g}" + (f" [{m['intervals'][n][0]:.3g}, {m['intervals'][n][1]:.3g}]"
-                                                        if n in m["intervals"] else "") for n in m["candidates"])
+        ps = ", ".join(
+            f"{n} = {m['params'][n]:.4g}"
+            + (
+                f" [{m['intervals'][n][0]:.3g}, {m['intervals'][n][1]:.3g}]"
+                if n in m["intervals"]
+                else ""
+            )
+            for n in m["candidates"]
+        )
         loo = "" if m["loo_rmse_K"] is None else f"{m['loo_rmse_K']:.1f}"
         name = "+".join(m["candidates"]) or "baseline"
         lines.append(f"| {name} | {ps} | {m['chi2']:.1f} | {m['delta']:.1f} | {loo} |")
     g = result["gain"]
-    fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"  # noqa: E731
-    lines += ["", "## Gain", "", f"Held-out (leave one operating point out) RMS error: {fmt(g['loo_rmse_before_K'])} "
-              f"before, {fmt(g['loo_rmse_after_K'])} after; in-sample RMS {fmt(g['rmse_before_K'])} before, "
-              f"{fmt(g['rmse_after_K'])} after."]
+    fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"
+    lines += [
+        "",
+        "## Gain",
+        "",
+        f"Held-out (leave one operating point out) RMS error: {fmt(g['loo_rmse_before_K'])} "
+        f"before, {fmt(g['loo_rmse_after_K'])} after; in-sample RMS {fmt(g['rmse_before_K'])} before, "
+        f"{fmt(g['rmse_after_K'])} after.",
+    ]
     if result.get("refined"):
         c = result["refined"]
-        ps = ", ".join(f"{n} = {c['params'][n]:.4g} [{c['intervals'][n][0]:.4g}, {c['intervals'][n][1]:.4g}]"
-                       for n in c["params"])
-        lines += ["", f"Full-model confirmation of the chosen model (surrogate corrected by the full model at the "
-                  f"optimum, refitted): {ps}; full-model RMS error {c['full_rmse_K']:.2f} K; correction applied "
-                  f"{c['max_correction_K'][0]:.2f} K, remaining full-vs-corrected difference "
-                  f"{c['full_vs_corrected_max_K']:.2f} K."]
+        ps = ", ".join(
+            f"{n} = {c['params'][n]:.4g} [{c['intervals'][n][0]:.4g}, {c['intervals'][n][1]:.4g}]"
+            for n in c["params"]
+        )
+        lines += [
+            "",
+            f"Full-model confirmation of the chosen model (surrogate corrected by the full model at the "
+            f"optimum, refitted): {ps}; full-model RMS error {c['full_rmse_K']:.2f} K; correction applied "
+            f"{c['max_correction_K'][0]:.2f} K, remaining full-vs-corrected difference "
+            f"{c['full_vs_corrected_max_K']:.2f} K.",
+        ]
     if v.get("separate_by"):
         lines += ["", "## Measurements that would separate the rivals (predicted differences)", ""]
-        lines += [f"- {s['measurement']}: {'+'.join(s['rival'])} differs by {s['difference_K']:.1f} K"
-                  for s in v["separate_by"]]
-    lines += ["", "![prediction vs data](prediction_vs_data.png)", "", "![ranking](ranking.png)", ""]
+        lines += [
+            f"- {s['measurement']}: {'+'.join(s['rival'])} differs by {s['difference_K']:.1f} K"
+            for s in v["separate_by"]
+        ]
+    lines += [
+        "",
+        "![prediction vs data](prediction_vs_data.png)",
+        "",
+        "![ranking](ranking.png)",
+        "",
+    ]
     return "\n".join(lines)
 
 
-__all__ = ["run_diagnosis", "markdown"]
+__all__ = ["markdown", "run_diagnosis"]

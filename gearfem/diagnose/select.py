@@ -39,7 +39,7 @@ CHI2_95 = 3.841
 
 
 def _sigma(data: Dataset, u_model_K: float) -> np.ndarray:
-    return np.sqrt(np.array([m.uncertainty_K for m in data.measurements]) ** 2 + u_model_K ** 2)
+    return np.sqrt(np.array([m.uncertainty_K for m in data.measurements]) ** 2 + u_model_K**2)
 
 
 def chi2(predict: Predict, data: Dataset, model: dict[str, float], u_model_K: float) -> float:
@@ -53,9 +53,14 @@ def _residuals(predict, data, model, u_model_K):
     return w * (predict(data, model) - D) / _sigma(data, u_model_K)
 
 
-def fit(predict: Predict, data: Dataset, names: tuple[str, ...], u_model_K: float = 1.0,
-        library: tuple[Candidate, ...] = LIBRARY, fixed: dict[str, float] | None = None
-        ) -> tuple[dict[str, float], float]:
+def fit(
+    predict: Predict,
+    data: Dataset,
+    names: tuple[str, ...],
+    u_model_K: float = 1.0,
+    library: tuple[Candidate, ...] = LIBRARY,
+    fixed: dict[str, float] | None = None,
+) -> tuple[dict[str, float], float]:
     """Least-squares fit of the candidates ``names`` (others in ``fixed`` held): (params, chi2)."""
     fixed = dict(fixed or {})
     free = [n for n in names if n not in fixed]
@@ -65,7 +70,10 @@ def fit(predict: Predict, data: Dataset, names: tuple[str, ...], u_model_K: floa
         return {n: model[n] for n in names}, chi2(predict, data, model, u_model_K)
 
     def model_of(u):
-        return {**fixed, **{n: p.from_unit(float(np.clip(x, 0.0, 1.0))) for n, p, x in zip(free, pars, u)}}
+        return {
+            **fixed,
+            **{n: p.from_unit(float(np.clip(x, 0.0, 1.0))) for n, p, x in zip(free, pars, u)},
+        }
 
     def res(u):
         return _residuals(predict, data, model_of(u), u_model_K)
@@ -81,15 +89,29 @@ def fit(predict: Predict, data: Dataset, names: tuple[str, ...], u_model_K: floa
     return {n: model[n] for n in names}, chi2(predict, data, model, u_model_K)
 
 
-def profile_interval(predict: Predict, data: Dataset, names: tuple[str, ...], which: str, chi2_min: float,
-                     u_model_K: float = 1.0, library: tuple[Candidate, ...] = LIBRARY, points: int = 21
-                     ) -> tuple[float, float, bool]:
+def profile_interval(
+    predict: Predict,
+    data: Dataset,
+    names: tuple[str, ...],
+    which: str,
+    chi2_min: float,
+    u_model_K: float = 1.0,
+    library: tuple[Candidate, ...] = LIBRARY,
+    points: int = 21,
+) -> tuple[float, float, bool]:
     """95 % profile-likelihood interval of ``which`` (clipped to the prior): (lo, hi, spans whole prior)."""
     p = by_name(which, library).parameter
     best, _ = fit(predict, data, names, u_model_K, library)
     u_best = p.to_unit(best[which])
-    us = np.unique(np.concatenate([np.linspace(0.0, 1.0, points),
-                                   np.clip(u_best + np.linspace(-0.06, 0.06, 13), 0.0, 1.0), [u_best]]))
+    us = np.unique(
+        np.concatenate(
+            [
+                np.linspace(0.0, 1.0, points),
+                np.clip(u_best + np.linspace(-0.06, 0.06, 13), 0.0, 1.0),
+                [u_best],
+            ]
+        )
+    )
     points = len(us)
     prof = []
     for u in us:
@@ -100,10 +122,12 @@ def profile_interval(predict: Predict, data: Dataset, names: tuple[str, ...], wh
     ok = prof <= chi2_min + CHI2_95
     idx = np.nonzero(ok)[0]
     lo_u, hi_u = us[idx[0]], us[idx[-1]]
+
     # refine the edges by linear interpolation of the profile between grid points
     def edge(i, j):
         a, b = prof[i] - chi2_min - CHI2_95, prof[j] - chi2_min - CHI2_95
         return us[i] + (us[j] - us[i]) * a / (a - b) if a != b else us[i]
+
     if idx[0] > 0:
         lo_u = edge(idx[0] - 1, idx[0])
     if idx[-1] < points - 1:
@@ -112,8 +136,13 @@ def profile_interval(predict: Predict, data: Dataset, names: tuple[str, ...], wh
     return p.from_unit(lo_u), p.from_unit(hi_u), whole
 
 
-def leave_one_point_out(predict: Predict, data: Dataset, names: tuple[str, ...], u_model_K: float = 1.0,
-                        library: tuple[Candidate, ...] = LIBRARY) -> float | None:
+def leave_one_point_out(
+    predict: Predict,
+    data: Dataset,
+    names: tuple[str, ...],
+    u_model_K: float = 1.0,
+    library: tuple[Candidate, ...] = LIBRARY,
+) -> float | None:
     """RMS error (K) of each operating point predicted by the model fitted to the others."""
     errs = []
     if len(data.points) < 2:
@@ -132,9 +161,17 @@ def _criterion(c2: float, k: int, n: int, kind: str) -> float:
     return c2 + 2 * k
 
 
-def diagnose(predict: Predict, data: Dataset, library: tuple[Candidate, ...] = LIBRARY, max_size: int = 2,
-             u_model_K: float = 1.0, detect: float = 6.0, tie: float = 2.0, probes: Dataset | None = None,
-             intervals: bool = True) -> dict:
+def diagnose(
+    predict: Predict,
+    data: Dataset,
+    library: tuple[Candidate, ...] = LIBRARY,
+    max_size: int = 2,
+    u_model_K: float = 1.0,
+    detect: float = 6.0,
+    tie: float = 2.0,
+    probes: Dataset | None = None,
+    intervals: bool = True,
+) -> dict:
     """Fit, rank and judge every model of up to ``max_size`` candidates (see the module docstring).
 
     Returns a JSON-able dict: ``models`` (ranked), ``verdict``, ``gain``, counts.
@@ -149,8 +186,15 @@ def diagnose(predict: Predict, data: Dataset, library: tuple[Candidate, ...] = L
     results = []
     for s in sets:
         params, c2 = fit(predict, data, s, u_model_K, library)
-        results.append({"candidates": list(s), "params": params, "chi2": c2, "k": len(s),
-                        "criterion": _criterion(c2, len(s), n, kind)})
+        results.append(
+            {
+                "candidates": list(s),
+                "params": params,
+                "chi2": c2,
+                "k": len(s),
+                "criterion": _criterion(c2, len(s), n, kind),
+            }
+        )
     results.sort(key=lambda r: r["criterion"])
     best_c = results[0]["criterion"]
     for r in results:
@@ -159,21 +203,39 @@ def diagnose(predict: Predict, data: Dataset, library: tuple[Candidate, ...] = L
     # parsimony: a nested sub-model within `tie` of the best replaces it
     chosen = results[0]
     for r in results:
-        if r["delta"] < tie and set(r["candidates"]) < set(chosen["candidates"]) and r["candidates"]:
+        if (
+            r["delta"] < tie
+            and set(r["candidates"]) < set(chosen["candidates"])
+            and r["candidates"]
+        ):
             chosen = r
     verdict: dict = {}
     if base["delta"] - chosen["delta"] <= detect or chosen is base:
         chosen = base
         gof = float(stats.chi2.sf(base["chi2"], max(n, 1)))
-        verdict = {"kind": "baseline adequate", "chosen": [], "competitors": [], "chi2_p_value": gof}
+        verdict = {
+            "kind": "baseline adequate",
+            "chosen": [],
+            "competitors": [],
+            "chi2_p_value": gof,
+        }
         if gof < 0.01:
             verdict["kind"] = "unexplained"
     else:
-        rivals = [r for r in results if r is not chosen and r["candidates"] and r["delta"] - chosen["delta"] < tie
-                  and not set(r["candidates"]) <= set(chosen["candidates"])
-                  and not set(chosen["candidates"]) <= set(r["candidates"])]
-        verdict = {"kind": "identified", "chosen": chosen["candidates"],
-                   "competitors": [r["candidates"] for r in rivals]}
+        rivals = [
+            r
+            for r in results
+            if r is not chosen
+            and r["candidates"]
+            and r["delta"] - chosen["delta"] < tie
+            and not set(r["candidates"]) <= set(chosen["candidates"])
+            and not set(chosen["candidates"]) <= set(r["candidates"])
+        ]
+        verdict = {
+            "kind": "identified",
+            "chosen": chosen["candidates"],
+            "competitors": [r["candidates"] for r in rivals],
+        }
         gof = float(stats.chi2.sf(chosen["chi2"], max(n - chosen["k"], 1)))
         verdict["chi2_p_value"] = gof
         if rivals:
@@ -181,7 +243,9 @@ def diagnose(predict: Predict, data: Dataset, library: tuple[Candidate, ...] = L
         elif gof < 0.01:
             verdict["kind"] = "partial"
     # intervals and held-out errors for the models that matter
-    rivals_all = [r for r in results if any(r["candidates"] == c for c in verdict.get("competitors", []))]
+    rivals_all = [
+        r for r in results if any(r["candidates"] == c for c in verdict.get("competitors", []))
+    ]
     top = []
     for r in [base, chosen, *rivals_all, *results[:4]]:
         if not any(r is t for t in top):
@@ -192,8 +256,9 @@ def diagnose(predict: Predict, data: Dataset, library: tuple[Candidate, ...] = L
     if intervals:
         for r in top:
             for name in r["candidates"]:
-                lo, hi, whole = profile_interval(predict, data, tuple(r["candidates"]), name, r["chi2"], u_model_K,
-                                                 library)
+                lo, hi, whole = profile_interval(
+                    predict, data, tuple(r["candidates"]), name, r["chi2"], u_model_K, library
+                )
                 r["intervals"][name] = [lo, hi]
                 if whole:
                     r["spans_prior"].append(name)
@@ -201,18 +266,38 @@ def diagnose(predict: Predict, data: Dataset, library: tuple[Candidate, ...] = L
         verdict["kind"] = "not identifiable"
         verdict["unconstrained"] = chosen["spans_prior"]
     for r in results:
-        r["loo_rmse_K"] = leave_one_point_out(predict, data, tuple(r["candidates"]), u_model_K, library) \
-            if any(r is t for t in top) else None
-        r["predictions_C"] = predict(data, r["params"]).tolist() if any(r is t for t in top) else None
+        r["loo_rmse_K"] = (
+            leave_one_point_out(predict, data, tuple(r["candidates"]), u_model_K, library)
+            if any(r is t for t in top)
+            else None
+        )
+        r["predictions_C"] = (
+            predict(data, r["params"]).tolist() if any(r is t for t in top) else None
+        )
     if verdict["kind"] == "not identifiable" and probes is not None:
-        verdict["separate_by"] = separating_measurements(predict, probes, chosen, [
-            r for r in results if r["candidates"] in verdict["competitors"]])
+        verdict["separate_by"] = separating_measurements(
+            predict,
+            probes,
+            chosen,
+            [r for r in results if r["candidates"] in verdict["competitors"]],
+        )
     verdict["text"] = verdict_text(verdict, chosen, library)
-    return {"n_measurements": len(data), "n_effective": n, "criterion": kind, "u_model_K": u_model_K,
-            "thresholds": {"detect": detect, "tie": tie}, "models": results, "verdict": verdict,
-            "chosen": chosen["candidates"],
-            "gain": {"loo_rmse_before_K": base["loo_rmse_K"], "loo_rmse_after_K": chosen["loo_rmse_K"],
-                     "rmse_before_K": _rmse(base, data), "rmse_after_K": _rmse(chosen, data)}}
+    return {
+        "n_measurements": len(data),
+        "n_effective": n,
+        "criterion": kind,
+        "u_model_K": u_model_K,
+        "thresholds": {"detect": detect, "tie": tie},
+        "models": results,
+        "verdict": verdict,
+        "chosen": chosen["candidates"],
+        "gain": {
+            "loo_rmse_before_K": base["loo_rmse_K"],
+            "loo_rmse_after_K": chosen["loo_rmse_K"],
+            "rmse_before_K": _rmse(base, data),
+            "rmse_after_K": _rmse(chosen, data),
+        },
+    }
 
 
 def _rmse(r: dict, data: Dataset) -> float | None:
@@ -222,8 +307,9 @@ def _rmse(r: dict, data: Dataset) -> float | None:
     return float(np.sqrt(np.mean((np.array(r["predictions_C"]) - D) ** 2)))
 
 
-def separating_measurements(predict: Predict, probes: Dataset, chosen: dict, rivals: list[dict],
-                            top: int = 3) -> list[dict]:
+def separating_measurements(
+    predict: Predict, probes: Dataset, chosen: dict, rivals: list[dict], top: int = 3
+) -> list[dict]:
     """The probe measurements where the fitted rivals' predictions differ most (K)."""
     a = predict(probes, chosen["params"])
     out = []
@@ -231,7 +317,9 @@ def separating_measurements(predict: Predict, probes: Dataset, chosen: dict, riv
         d = np.abs(predict(probes, r["params"]) - a)
         for i in np.argsort(-d)[:top]:
             m: Measurement = probes.measurements[int(i)]
-            out.append({"rival": r["candidates"], "measurement": m.label(), "difference_K": float(d[i])})
+            out.append(
+                {"rival": r["candidates"], "measurement": m.label(), "difference_K": float(d[i])}
+            )
     return out
 
 
@@ -249,16 +337,22 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
 
     kind = verdict["kind"]
     if kind == "baseline adequate":
-        return "baseline adequate: no candidate improves the fit by more than the evidence threshold"
+        return (
+            "baseline adequate: no candidate improves the fit by more than the evidence threshold"
+        )
     if kind == "unexplained":
-        return ("discrepancy unexplained: the baseline fails the chi-square test (p = "
-                f"{verdict['chi2_p_value']:.2g}) and no candidate in the library explains it")
+        return (
+            "discrepancy unexplained: the baseline fails the chi-square test (p = "
+            f"{verdict['chi2_p_value']:.2g}) and no candidate in the library explains it"
+        )
     if kind == "identified":
         return fmt(chosen)
     if kind == "partial":
-        return (f"no candidate explains the data: the best, {fmt(chosen)}, still fails the chi-square test "
-                f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}); the cause is outside the library "
-                "or needs more candidates at once than these data can test")
+        return (
+            f"no candidate explains the data: the best, {fmt(chosen)}, still fails the chi-square test "
+            f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}); the cause is outside the library "
+            "or needs more candidates at once than these data can test"
+        )
     rivals = " vs ".join("+".join(c) for c in [chosen["candidates"], *verdict["competitors"]])
     text = f"not identifiable with these data: {rivals}"
     if verdict.get("unconstrained"):
@@ -270,12 +364,19 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
     return text
 
 
-__all__ = ["diagnose", "fit", "profile_interval", "leave_one_point_out", "chi2", "refine"]
+__all__ = ["chi2", "diagnose", "fit", "leave_one_point_out", "profile_interval", "refine"]
 
 
-def refine(full_predict: Predict, surrogate_predict: Predict, data: Dataset, result: dict, iterations: int = 1,
-           final_check: bool = True, u_model_K: float | None = None,
-           library: tuple[Candidate, ...] = LIBRARY) -> dict | None:
+def refine(
+    full_predict: Predict,
+    surrogate_predict: Predict,
+    data: Dataset,
+    result: dict,
+    iterations: int = 1,
+    final_check: bool = True,
+    u_model_K: float | None = None,
+    library: tuple[Candidate, ...] = LIBRARY,
+) -> dict | None:
     """Confirm the chosen model on the full model and remove the surrogate's bias at the optimum.
 
     Output space mapping: with delta = S_full(p*) - S_surrogate(p*) per measurement, the corrected
@@ -296,7 +397,7 @@ def refine(full_predict: Predict, surrogate_predict: Predict, data: Dataset, res
         delta = full_predict(data, params) - surrogate_predict(data, params)
         corrections.append(float(np.max(np.abs(delta))))
 
-        def corrected(d, m, _delta=delta):  # noqa: E306 - valid for `data` only
+        def corrected(d, m, _delta=delta):
             return surrogate_predict(d, m) + _delta
 
         params, c2 = fit(corrected, data, names, u_model_K, library)

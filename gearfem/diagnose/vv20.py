@@ -39,7 +39,9 @@ class Comparison:
 
     @property
     def u_val(self) -> np.ndarray:
-        return np.sqrt(np.asarray(self.u_num) ** 2 + np.asarray(self.u_input) ** 2 + np.asarray(self.u_D) ** 2)
+        return np.sqrt(
+            np.asarray(self.u_num) ** 2 + np.asarray(self.u_input) ** 2 + np.asarray(self.u_D) ** 2
+        )
 
     @property
     def resolved(self) -> np.ndarray:
@@ -47,19 +49,40 @@ class Comparison:
         return np.abs(self.E) > self.k * self.u_val
 
     def rows(self, labels: list[str]) -> list[dict]:
-        return [{"measurement": lab, "S_C": float(s), "D_C": float(d), "E_K": float(e), "u_num_K": float(a),
-                 "u_input_K": float(b), "u_D_K": float(c), "u_val_K": float(v), "resolved": bool(r)}
-                for lab, s, d, e, a, b, c, v, r in zip(labels, self.S, self.D, self.E, self.u_num, self.u_input,
-                                                       self.u_D, self.u_val, self.resolved)]
+        return [
+            {
+                "measurement": lab,
+                "S_C": float(s),
+                "D_C": float(d),
+                "E_K": float(e),
+                "u_num_K": float(a),
+                "u_input_K": float(b),
+                "u_D_K": float(c),
+                "u_val_K": float(v),
+                "resolved": bool(r),
+            }
+            for lab, s, d, e, a, b, c, v, r in zip(
+                labels,
+                self.S,
+                self.D,
+                self.E,
+                self.u_num,
+                self.u_input,
+                self.u_D,
+                self.u_val,
+                self.resolved,
+            )
+        ]
 
 
-def input_uncertainty(predict, nominal: np.ndarray, perturbations: dict[str, tuple[object, float]]) -> tuple[
-        np.ndarray, dict[str, np.ndarray]]:
+def input_uncertainty(
+    predict, nominal: np.ndarray, perturbations: dict[str, tuple[object, float]]
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """u_input by finite differences: ``perturbations[name] = (argument for predict, scale)``, where
     ``predict(argument)`` is the prediction with input ``name`` moved by ``delta`` and ``scale`` =
     u_x / delta (1 when the move is one standard uncertainty). Returns (u_input, per-input parts)."""
     parts = {}
     for name, (arg, scale) in perturbations.items():
         parts[name] = (np.asarray(predict(arg)) - np.asarray(nominal)) * scale
-    total = np.sqrt(sum(p ** 2 for p in parts.values())) if parts else np.zeros_like(nominal)
+    total = np.sqrt(sum(p**2 for p in parts.values())) if parts else np.zeros_like(nominal)
     return total, parts

@@ -52,13 +52,66 @@ GMSH_REF: dict[int, tuple[int, tuple[tuple[float, ...], ...]]] = {
     3: (4, ((-1, -1), (1, -1), (1, 1), (-1, 1))),
     10: (4, ((-1, -1), (1, -1), (1, 1), (-1, 1), (0, -1), (1, 0), (0, 1), (-1, 0), (0, 0))),
     4: (4, ((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1))),
-    11: (4, ((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.5, 0, 0), (0.5, 0.5, 0), (0, 0.5, 0),
-             (0, 0, 0.5), (0, 0.5, 0.5), (0.5, 0, 0.5))),
-    5: (8, ((-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1))),
-    12: (8, ((-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1),
-             (0, -1, -1), (-1, 0, -1), (-1, -1, 0), (1, 0, -1), (1, -1, 0), (0, 1, -1), (1, 1, 0), (-1, 1, 0),
-             (0, -1, 1), (-1, 0, 1), (1, 0, 1), (0, 1, 1), (0, 0, -1), (0, -1, 0), (-1, 0, 0), (1, 0, 0),
-             (0, 1, 0), (0, 0, 1), (0, 0, 0))),
+    11: (
+        4,
+        (
+            (0, 0, 0),
+            (1, 0, 0),
+            (0, 1, 0),
+            (0, 0, 1),
+            (0.5, 0, 0),
+            (0.5, 0.5, 0),
+            (0, 0.5, 0),
+            (0, 0, 0.5),
+            (0, 0.5, 0.5),
+            (0.5, 0, 0.5),
+        ),
+    ),
+    5: (
+        8,
+        (
+            (-1, -1, -1),
+            (1, -1, -1),
+            (1, 1, -1),
+            (-1, 1, -1),
+            (-1, -1, 1),
+            (1, -1, 1),
+            (1, 1, 1),
+            (-1, 1, 1),
+        ),
+    ),
+    12: (
+        8,
+        (
+            (-1, -1, -1),
+            (1, -1, -1),
+            (1, 1, -1),
+            (-1, 1, -1),
+            (-1, -1, 1),
+            (1, -1, 1),
+            (1, 1, 1),
+            (-1, 1, 1),
+            (0, -1, -1),
+            (-1, 0, -1),
+            (-1, -1, 0),
+            (1, 0, -1),
+            (1, -1, 0),
+            (0, 1, -1),
+            (1, 1, 0),
+            (-1, 1, 0),
+            (0, -1, 1),
+            (-1, 0, 1),
+            (1, 0, 1),
+            (0, 1, 1),
+            (0, 0, -1),
+            (0, -1, 0),
+            (-1, 0, 0),
+            (1, 0, 0),
+            (0, 1, 0),
+            (0, 0, 1),
+            (0, 0, 0),
+        ),
+    ),
 }
 del _H
 
@@ -114,11 +167,15 @@ class _Extruder:
     def mid2d(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         key = np.minimum(a, b) * self.n2 + np.maximum(a, b)
         pos = np.searchsorted(self._keys, key)
-        if np.any(pos >= len(self._keys)) or np.any(self._keys[np.minimum(pos, len(self._keys) - 1)] != key):
+        if np.any(pos >= len(self._keys)) or np.any(
+            self._keys[np.minimum(pos, len(self._keys) - 1)] != key
+        ):
             raise RuntimeError("extrude: an edge without a 2D mid node")  # pragma: no cover
         return self._mids[pos]
 
-    def mid3d(self, a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    def mid3d(
+        self, a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]
+    ) -> np.ndarray:
         """Mid node of the straight-in-z edge between swept vertices a = (i2, plane), b."""
         (ia, pa), (ib, pb) = a, b
         i_mid = ia.copy()  # vertical edge: the same 2D node on the middle plane
@@ -148,9 +205,12 @@ def extrude(sec: Section2D, face_width_m: float, layers: int, order: int) -> Swe
         for x in href:
             k = int(np.flatnonzero(np.all(np.isclose(qref, x[:2]), axis=1))[0])
             lmap.append((k, int(round((x[2] + 1.0) * 0.5 * q))))
-        cells = np.vstack([
-            np.column_stack([sw.idx(sec.cells[:, k], lay * q + off) for k, off in lmap]) for lay in range(layers)
-        ])
+        cells = np.vstack(
+            [
+                np.column_stack([sw.idx(sec.cells[:, k], lay * q + off) for k, off in lmap])
+                for lay in range(layers)
+            ]
+        )
         # lateral facets: quad (xi along the edge, eta along z)
         lref = _ref_coords({1: 1, 2: 8}[q])[:, 0]
         fmap = []
@@ -158,9 +218,12 @@ def extrude(sec: Section2D, face_width_m: float, layers: int, order: int) -> Swe
             k = int(np.flatnonzero(np.isclose(lref, x[0]))[0])
             fmap.append((k, int(round((x[1] + 1.0) * 0.5 * q))))
         for name, e in sec.edges.items():
-            facets[name] = np.vstack([
-                np.column_stack([sw.idx(e[:, k], lay * q + off) for k, off in fmap]) for lay in range(layers)
-            ])
+            facets[name] = np.vstack(
+                [
+                    np.column_stack([sw.idx(e[:, k], lay * q + off) for k, off in fmap])
+                    for lay in range(layers)
+                ]
+            )
             facet_type[name] = face_type
     else:
         cell_type = {1: 4, 2: 11}[q]
@@ -171,9 +234,11 @@ def extrude(sec: Section2D, face_width_m: float, layers: int, order: int) -> Swe
         for lay in range(layers):
             p0 = np.full(len(tri), lay * q)
             p1 = p0 + q
-            for verts in (((a, p0), (b, p0), (c, p0), (c, p1)),
-                          ((a, p0), (b, p0), (b, p1), (c, p1)),
-                          ((a, p0), (a, p1), (b, p1), (c, p1))):
+            for verts in (
+                ((a, p0), (b, p0), (c, p0), (c, p1)),
+                ((a, p0), (b, p0), (b, p1), (c, p1)),
+                ((a, p0), (a, p1), (b, p1), (c, p1)),
+            ):
                 chunks.append(verts)
         cells = _simplices(sw, chunks, cell_type, orient=True)
         for name, e in sec.edges.items():

@@ -98,7 +98,9 @@ class _BodyCurves:
     """2D curve tags of one body's section, by (kind, tooth) and for the body boundaries."""
 
     tooth: dict[tuple[str, int], list[int]] = dataclasses.field(default_factory=dict)
-    rounds: set[int] = dataclasses.field(default_factory=set)  # the tip-round curves (part of "tip")
+    rounds: set[int] = dataclasses.field(
+        default_factory=set
+    )  # the tip-round curves (part of "tip")
     round_radius_mm: float = 0.0
     bore: list[int] = dataclasses.field(default_factory=list)
     cut_start: list[int] = dataclasses.field(default_factory=list)
@@ -108,7 +110,9 @@ class _BodyCurves:
 
 def _to_global(xy: np.ndarray, angle: float, center: np.ndarray) -> np.ndarray:
     c, s = math.cos(angle), math.sin(angle)
-    return np.column_stack([c * xy[:, 0] - s * xy[:, 1] + center[0], s * xy[:, 0] + c * xy[:, 1] + center[1]])
+    return np.column_stack(
+        [c * xy[:, 0] - s * xy[:, 1] + center[0], s * xy[:, 0] + c * xy[:, 1] + center[1]]
+    )
 
 
 def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
@@ -117,7 +121,9 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
     mm = 1e3
     cx, cy = place.center_m[0] * mm, place.center_m[1] * mm
     center_pt = geo.addPoint(cx, cy, 0.0)
-    outline = prof.outline(n_flank=N_FLANK_POINTS, n_fillet=N_FILLET_POINTS, n_land=N_LAND_POINTS, n_tip=2)
+    outline = prof.outline(
+        n_flank=N_FLANK_POINTS, n_fillet=N_FILLET_POINTS, n_land=N_LAND_POINTS, n_tip=2
+    )
     rounded = prof.tip_round_radius_m > 0.0
     if rounded:  # tip: round (about its centre), land (about the gear centre), round
         tip_pieces = prof.tip_pieces(2)
@@ -153,11 +159,15 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
         if rounded:
             land = _to_global(tip_pieces["land"], ang, place.center_m) * mm
             land_start, land_end = geo.addPoint(*land[0], 0.0), geo.addPoint(*land[-1], 0.0)
-            rc = {side: geo.addPoint(*(_to_global(xy, ang, place.center_m) * mm)[0], 0.0)
-                  for side, xy in round_centers.items()}
-            tip = [geo.addCircleArc(p_cf[-1], rc["coast"], land_start),
-                   geo.addCircleArc(land_start, center_pt, land_end),
-                   geo.addCircleArc(land_end, rc["drive"], tip_end)]
+            rc = {
+                side: geo.addPoint(*(_to_global(xy, ang, place.center_m) * mm)[0], 0.0)
+                for side, xy in round_centers.items()
+            }
+            tip = [
+                geo.addCircleArc(p_cf[-1], rc["coast"], land_start),
+                geo.addCircleArc(land_start, center_pt, land_end),
+                geo.addCircleArc(land_end, rc["drive"], tip_end),
+            ]
             out.rounds |= {tip[0], tip[2]}
             out.round_radius_mm = prof.tip_round_radius_m * mm
         else:
@@ -200,7 +210,11 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
 
 
 def _size_field(
-    gmsh, sections: dict[str, _BodyCurves], options: MeshOptions, refined: list[int], scale: float = 1.0
+    gmsh,
+    sections: dict[str, _BodyCurves],
+    options: MeshOptions,
+    refined: list[int],
+    scale: float = 1.0,
 ) -> None:
     """Background size field: graded thresholds around fine curves, size_body elsewhere (all
     sizes times ``scale``). Tip rounds get the size of their tooth's tip, at most
@@ -217,8 +231,12 @@ def _size_field(
         round_cap = ROUND_MAX_ARC_RAD * sec.round_radius_mm
         for (kind, k), curves in sec.tooth.items():
             if k in refined:
-                size = {"drive_flank": o.size_flank_mm, "tip": o.size_tip_mm, "root": o.size_root_mm,
-                        "coast_flank": o.size_tooth_mm}[kind]
+                size = {
+                    "drive_flank": o.size_flank_mm,
+                    "tip": o.size_tip_mm,
+                    "root": o.size_root_mm,
+                    "coast_flank": o.size_tooth_mm,
+                }[kind]
             else:
                 size = o.size_tooth_mm
             size = min(size, o.size_body_mm)
@@ -279,8 +297,12 @@ def mesh_sections(
     opt("Mesh.MeshSizeExtendFromBoundary", 0)
     opt("Mesh.MeshSizeFromPoints", 0)
     opt("Mesh.MeshSizeFromCurvature", 0)
-    opt("Mesh.LcIntegrationPrecision", 1e-4)  # default 1e-9 makes 1D meshing with the size field take seconds
-    opt("Mesh.Algorithm", 5 if hex_ else 6)  # Delaunay (the best split quads here) / Frontal-Delaunay
+    opt(
+        "Mesh.LcIntegrationPrecision", 1e-4
+    )  # default 1e-9 makes 1D meshing with the size field take seconds
+    opt(
+        "Mesh.Algorithm", 5 if hex_ else 6
+    )  # Delaunay (the best split quads here) / Frontal-Delaunay
     # hex: every triangle split into three quadrilaterals, so that no triangle (hence no prism)
     # survives; the split halves the sizes, so the size field is doubled. No blossom recombination
     # before the split: it merges the two triangles at a tangent curve junction (tip round / land,
@@ -288,7 +310,9 @@ def mesh_sections(
     # 180 degrees once curved (scaled Jacobian ~ 0).
     opt("Mesh.RecombineAll", 0)
     opt("Mesh.SubdivisionAlgorithm", 1 if hex_ else 0)
-    opt("Mesh.SecondOrderIncomplete", 0)  # quad9 -> 27-node hexes (DOLFINx has no serendipity cells)
+    opt(
+        "Mesh.SecondOrderIncomplete", 0
+    )  # quad9 -> 27-node hexes (DOLFINx has no serendipity cells)
     opt("Mesh.SecondOrderLinear", 0)  # high-order nodes on the curved geometry
     opt("Mesh.HighOrderOptimize", 0)
     opt("Mesh.ElementOrder", 1)
@@ -297,19 +321,23 @@ def mesh_sections(
     gmsh.model.mesh.generate(2)
     if options.order > 1:
         gmsh.model.mesh.setOrder(options.order)
-    want = {("tet", 1): 2, ("tet", 2): 9, ("hex", 1): 3, ("hex", 2): 10}[(options.element, options.order)]
+    want = {("tet", 1): 2, ("tet", 2): 9, ("hex", 1): 3, ("hex", 2): 10}[
+        (options.element, options.order)
+    ]
     out: dict[str, Section2D] = {}
     for body, sec in sections.items():
         types, _, enodes = gmsh.model.mesh.getElements(2, sec.surface)
         if list(types) != [want]:
             names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
-            raise RuntimeError(f"gmsh produced 2D cells {names} on the {body} section, expected type {want}")
+            raise RuntimeError(
+                f"gmsh produced 2D cells {names} on the {body} section, expected type {want}"
+            )
         nn = gmsh.model.mesh.getElementProperties(want)[3]
         tags, coords, _ = gmsh.model.mesh.getNodes(2, sec.surface, includeBoundary=True)
         tags = np.asarray(tags, dtype=np.int64)
         order = np.argsort(tags)
         tags, xy = tags[order], np.asarray(coords).reshape(-1, 3)[order, :2] * 1e-3  # mm -> m
-        local = lambda t: np.searchsorted(tags, np.asarray(t, dtype=np.int64))  # noqa: E731
+        local = lambda t: np.searchsorted(tags, np.asarray(t, dtype=np.int64))
         cells = local(enodes[0]).reshape(-1, nn)
         edges: dict[str, np.ndarray] = {}
         for name, curves in _curve_groups(body, sec).items():
@@ -352,7 +380,9 @@ def _write_discrete(
         cell_tags[sb.body] = np.asarray(gmsh.model.mesh.getElementsByType(sb.cell_type, vol)[0])
         for name in sorted(sb.facets, key=_group_sort_key):
             surf = gmsh.model.addDiscreteEntity(2)
-            gmsh.model.mesh.addElementsByType(surf, sb.facet_type[name], [], (sb.facets[name] + offset + 1).ravel())
+            gmsh.model.mesh.addElementsByType(
+                surf, sb.facet_type[name], [], (sb.facets[name] + offset + 1).ravel()
+            )
             groups[name] = (2, gmsh.model.addPhysicalGroup(2, [surf], name=name))
             surfaces[name] = surf
         offset += n
@@ -389,7 +419,9 @@ def section_angles_deg(sec: Section2D) -> tuple[float, float]:
     for i in range(nv):
         a = P[:, i - 1] - P[:, i]
         b = P[:, (i + 1) % nv] - P[:, i]
-        cosang = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+        cosang = np.einsum("ij,ij->i", a, b) / (
+            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1)
+        )
         ang = np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0)))
         lo, hi = min(lo, float(ang.min())), max(hi, float(ang.max()))
     return lo, hi
@@ -407,15 +439,17 @@ def _statistics(gmsh, bodies: list[SweptBody], cell_tags: dict[str, np.ndarray])
         if nv == 4:
             skew = tet_skewness(cv)
             dih_all.append(tet_max_dihedral_deg(cv))
-            gamma_all.append(np.asarray(gmsh.model.mesh.getElementQualities(cell_tags[sb.body], "gamma")))
+            gamma_all.append(
+                np.asarray(gmsh.model.mesh.getElementQualities(cell_tags[sb.body], "gamma"))
+            )
         else:
             skew = hex_skewness(cv)
         sj_all.append(sj)
         skew_all.append(skew)
         stats["bodies"][sb.body] = {
-            "cells": int(len(sb.cells)),
-            "nodes": int(len(sb.nodes)),
-            "vertices": int(len(np.unique(corners))),
+            "cells": len(sb.cells),
+            "nodes": len(sb.nodes),
+            "vertices": len(np.unique(corners)),
             "min_scaled_jacobian": float(sj.min()),
             "max_skewness": float(skew.max()),
         }
@@ -449,7 +483,9 @@ def _statistics(gmsh, bodies: list[SweptBody], cell_tags: dict[str, np.ndarray])
         gamma = np.concatenate(gamma_all)
         q["max_dihedral_angle_deg"] = float(dih.max())
         q["dihedral_angle_p99_deg"] = float(np.percentile(dih, 99))
-        q["gamma_min"] = float(gamma.min())  # inscribed / circumscribed radius ratio, normalised (gmsh)
+        q["gamma_min"] = float(
+            gamma.min()
+        )  # inscribed / circumscribed radius ratio, normalised (gmsh)
         q["gamma_p50"] = float(np.percentile(gamma, 50))
     stats["quality"] = q
     return stats

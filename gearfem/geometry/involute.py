@@ -145,27 +145,47 @@ class GearPairGeometry:
 
     def __post_init__(self) -> None:
         p = "geometry."
-        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        set_ = lambda k, v: object.__setattr__(self, k, v)
         set_("module_mm", require_positive(p + "module_mm", self.module_mm))
         for key in ("teeth_pinion", "teeth_wheel"):
             try:
                 set_(key, require_int(p + key, getattr(self, key), lo=MIN_TEETH))
             except ParameterError as err:
-                raise ParameterError(err.name, err.value, err.allowed, "too few teeth for a spur gear model") from None
+                raise ParameterError(
+                    err.name, err.value, err.allowed, "too few teeth for a spur gear model"
+                ) from None
         set_(
             "pressure_angle_deg",
-            require_range(p + "pressure_angle_deg", self.pressure_angle_deg, 10.0, 35.0, unit="deg",
-                          reason="involute spur gears; 14.5-30 deg are the usual basic racks"),
+            require_range(
+                p + "pressure_angle_deg",
+                self.pressure_angle_deg,
+                10.0,
+                35.0,
+                unit="deg",
+                reason="involute spur gears; 14.5-30 deg are the usual basic racks",
+            ),
         )
         set_("face_width_mm", require_positive(p + "face_width_mm", self.face_width_mm))
-        set_("tooth_thickness_mm", require_positive(p + "tooth_thickness_mm", self.tooth_thickness_mm))
+        set_(
+            "tooth_thickness_mm",
+            require_positive(p + "tooth_thickness_mm", self.tooth_thickness_mm),
+        )
         for key, hi in (("addendum_coefficient", 2.0), ("dedendum_coefficient", 2.5)):
             set_(key, require_range(p + key, getattr(self, key), 0.0, hi, lo_open=True))
-        set_("root_fillet_coefficient", require_positive(p + "root_fillet_coefficient", self.root_fillet_coefficient))
-        set_("tip_round_coefficient", require_nonnegative(p + "tip_round_coefficient", self.tip_round_coefficient))
+        set_(
+            "root_fillet_coefficient",
+            require_positive(p + "root_fillet_coefficient", self.root_fillet_coefficient),
+        )
+        set_(
+            "tip_round_coefficient",
+            require_nonnegative(p + "tip_round_coefficient", self.tip_round_coefficient),
+        )
         set_("bore_radius_mm", require_positive(p + "bore_radius_mm", self.bore_radius_mm))
         if self.center_distance_mm is not None:
-            set_("center_distance_mm", require_positive(p + "center_distance_mm", self.center_distance_mm))
+            set_(
+                "center_distance_mm",
+                require_positive(p + "center_distance_mm", self.center_distance_mm),
+            )
         _check_pair(self)  # derived feasibility: raises ParameterError naming the parameter
 
     @property
@@ -228,13 +248,20 @@ class ToothProfile:
         self.reference_pitch_m = math.pi * self.module_m
         # half tooth angle at the base circle: psi(r) = psi_b - inv(alpha_r)
         alpha_w = math.acos(min(1.0, self.base_radius_m / self.operating_pitch_radius_m))
-        self._psi_base = self.operating_thickness_m / (2.0 * self.operating_pitch_radius_m) + inv(alpha_w)
+        self._psi_base = self.operating_thickness_m / (2.0 * self.operating_pitch_radius_m) + inv(
+            alpha_w
+        )
         # thickness at the reference circle and the generating rack (gap-cutting tooth)
         self.reference_thickness_m = self.thickness(self.reference_radius_m)  # r > r_b always
         a = self.pressure_angle_rad
-        self.rack_half_width_m = 0.5 * (self.reference_pitch_m - self.reference_thickness_m)  # at the reference line
+        self.rack_half_width_m = 0.5 * (
+            self.reference_pitch_m - self.reference_thickness_m
+        )  # at the reference line
         d_c = self.dedendum_m - self.rack_tip_radius_m
-        self._rack_center = (self.rack_half_width_m - d_c * math.tan(a) - self.rack_tip_radius_m / math.cos(a), d_c)
+        self._rack_center = (
+            self.rack_half_width_m - d_c * math.tan(a) - self.rack_tip_radius_m / math.cos(a),
+            d_c,
+        )
         # form circle: where the rack's straight flank ends (tangent point of its tip round)
         self.rack_flank_end_depth_m = d_c + self.rack_tip_radius_m * math.sin(a)
         roll = self.reference_radius_m * math.sin(a) - self.rack_flank_end_depth_m / math.sin(a)
@@ -242,14 +269,18 @@ class ToothProfile:
         self.form_radius_m = math.hypot(self.base_radius_m, roll) if roll >= 0 else float("nan")
         # tip rounds: where the involute ends (tip form circle) and the tip land's half angle
         self.tip_round_radius_m = float(tip_round_coefficient) * self.module_m
-        self.tip_form_radius_m, self.tip_land_half_angle_rad = self.tip_round_geometry(self.tip_round_radius_m)
+        self.tip_form_radius_m, self.tip_land_half_angle_rad = self.tip_round_geometry(
+            self.tip_round_radius_m
+        )
 
     # --- limits --------------------------------------------------------------------------------
     @property
     def max_rack_tip_radius_m(self) -> float:
         """Largest rack tip radius that fits the gap-cutting rack tooth (full-round tip) [m]."""
         a = self.pressure_angle_rad
-        return (self.rack_half_width_m - self.dedendum_m * math.tan(a)) / (1.0 / math.cos(a) - math.tan(a))
+        return (self.rack_half_width_m - self.dedendum_m * math.tan(a)) / (
+            1.0 / math.cos(a) - math.tan(a)
+        )
 
     @property
     def undercut_margin_m(self) -> float:
@@ -363,7 +394,9 @@ class ToothProfile:
         phi = np.linspace(phi0, phi1, n)
         pts = c + rho * np.column_stack([np.cos(phi), np.sin(phi)])
         r_fa = self.tip_form_radius_m
-        pts[-1] = self.involute_points(2, r0=r_fa, r1=r_fa, side="drive")[-1]  # the involute's end point, bitwise
+        pts[-1] = self.involute_points(2, r0=r_fa, r1=r_fa, side="drive")[
+            -1
+        ]  # the involute's end point, bitwise
         return pts
 
     def flank_length_m(self, r0: float, r1: float) -> float:
@@ -435,7 +468,11 @@ class ToothProfile:
         pts = []
         if u_c > 0 and n_land > 1:
             ang = np.linspace(0.0, u_c / r, n_land)[:-1]
-            pts.append(np.column_stack([self.root_radius_m * np.cos(ang), self.root_radius_m * np.sin(ang)]))
+            pts.append(
+                np.column_stack(
+                    [self.root_radius_m * np.cos(ang), self.root_radius_m * np.sin(ang)]
+                )
+            )
         t_max = d_c / math.tan(a)
         # cluster points towards both ends (fillet curvature varies)
         t = 0.5 * t_max * (1.0 - np.cos(np.linspace(0.0, math.pi, n_fillet)))
@@ -456,7 +493,9 @@ class ToothProfile:
         of it) then the trochoid fillet. Ordered counter-clockwise (coast side: from the gap
         middle upwards to the flank; drive side: from the flank down to the gap middle)."""
         gap = self._half_gap_points_gapframe(n_fillet, n_land)
-        coast = gap @ _rot(-self.pitch_angle_rad / 2.0).T  # +u side of the gap at 0 = coast side of the tooth at +tau/2
+        coast = (
+            gap @ _rot(-self.pitch_angle_rad / 2.0).T
+        )  # +u side of the gap at 0 = coast side of the tooth at +tau/2
         if side == "coast":
             return coast
         if side == "drive":
@@ -492,7 +531,9 @@ class ToothProfile:
         pieces share their end points. The flanks run from the form circle to the tip form circle;
         ``tip`` is :meth:`tip_points` (the rounds, if any, and the land; ``n_tip`` points each)."""
         coast_flank = self.involute_points(n_flank, side="coast")  # form circle -> tip form circle
-        drive_flank = self.involute_points(n_flank, side="drive")[::-1]  # tip form circle -> form circle
+        drive_flank = self.involute_points(n_flank, side="drive")[
+            ::-1
+        ]  # tip form circle -> form circle
         return {
             "root_coast": self.root_points("coast", n_fillet, n_land),
             "coast_flank": coast_flank,
@@ -513,7 +554,9 @@ class ToothProfile:
         """Area [m^2] of one pitch sector of the body (angle ``2 pi / z``) between
         ``inner_radius_m`` and the tooth outline, by the shoelace formula on a dense exact
         outline (error ~ 1e-9 relative at the default density)."""
-        poly = self.outline_polyline(n_flank=n, n_fillet=n, n_land=max(n // 10, 10), n_tip=max(n // 10, 10))
+        poly = self.outline_polyline(
+            n_flank=n, n_fillet=n, n_land=max(n // 10, 10), n_tip=max(n // 10, 10)
+        )
         closed = np.vstack([[0.0, 0.0], poly])
         x, y = closed[:, 0], closed[:, 1]
         area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
@@ -609,7 +652,11 @@ class GearPair:
     @property
     def backlash_circular_m(self) -> float:
         """Circular backlash j_t on the operating pitch circle: ``p_w - s_w1 - s_w2`` [m]."""
-        return self.operating_circular_pitch_m - self.pinion.operating_thickness_m - self.wheel.operating_thickness_m
+        return (
+            self.operating_circular_pitch_m
+            - self.pinion.operating_thickness_m
+            - self.wheel.operating_thickness_m
+        )
 
     @property
     def backlash_normal_m(self) -> float:
@@ -630,14 +677,20 @@ class GearPair:
         """g_a: from the pitch point to the end of contact (the end of the pinion's involute, its
         tip form circle r_Fa1) [m]: ``sqrt(r_Fa1^2 - r_b1^2) - r_w1 sin(a_w)``."""
         s = math.sin(self.operating_pressure_angle_rad)
-        return self._roll(self.pinion, self.pinion.tip_form_radius_m) - self.pinion.operating_pitch_radius_m * s
+        return (
+            self._roll(self.pinion, self.pinion.tip_form_radius_m)
+            - self.pinion.operating_pitch_radius_m * s
+        )
 
     @property
     def approach_length_m(self) -> float:
         """g_f: from the start of contact (the end of the wheel's involute, its tip form circle
         r_Fa2) to the pitch point [m]: ``sqrt(r_Fa2^2 - r_b2^2) - r_w2 sin(a_w)``."""
         s = math.sin(self.operating_pressure_angle_rad)
-        return self._roll(self.wheel, self.wheel.tip_form_radius_m) - self.wheel.operating_pitch_radius_m * s
+        return (
+            self._roll(self.wheel, self.wheel.tip_form_radius_m)
+            - self.wheel.operating_pitch_radius_m * s
+        )
 
     @property
     def eps_1(self) -> float:
@@ -658,7 +711,9 @@ class GearPair:
     def path_of_contact(self) -> PathOfContact:
         aw = self.operating_pressure_angle_rad
         pitch = np.array([self.pinion.operating_pitch_radius_m, 0.0])
-        direction = np.array([math.sin(aw), math.cos(aw)])  # from T1 = r_b1 (cos aw, -sin aw) towards T2
+        direction = np.array(
+            [math.sin(aw), math.cos(aw)]
+        )  # from T1 = r_b1 (cos aw, -sin aw) towards T2
         return PathOfContact(
             start_xy=pitch - self.approach_length_m * direction,
             end_xy=pitch + self.recess_length_m * direction,
@@ -687,7 +742,10 @@ class GearPair:
         """S [m] of the contact of pinion tooth ``k_ref + tooth_offset`` (with its conjugate wheel
         tooth ``k_ref_wheel - tooth_offset``) when the pinion is rotated by ``pinion_angle_rad``
         from the reference position. That pair is in contact iff ``-g_f <= S <= g_a``."""
-        return self.pinion.base_radius_m * np.asarray(pinion_angle_rad, dtype=float) + tooth_offset * self.base_pitch_m
+        return (
+            self.pinion.base_radius_m * np.asarray(pinion_angle_rad, dtype=float)
+            + tooth_offset * self.base_pitch_m
+        )
 
     def teeth_in_contact(self, pinion_angle_rad: float) -> list[tuple[int, float]]:
         """Pairs in contact at a pinion rotation: list of ``(tooth_offset, S)``."""
@@ -737,9 +795,15 @@ class GearPair:
         round, can reach the mating fillet."""
         s = math.sin(self.operating_pressure_angle_rad)
         if body == "pinion":
-            S = -(self._roll(self.wheel, self.wheel.tip_radius_m) - self.wheel.operating_pitch_radius_m * s)
+            S = -(
+                self._roll(self.wheel, self.wheel.tip_radius_m)
+                - self.wheel.operating_pitch_radius_m * s
+            )
         else:
-            S = self._roll(self.pinion, self.pinion.tip_radius_m) - self.pinion.operating_pitch_radius_m * s
+            S = (
+                self._roll(self.pinion, self.pinion.tip_radius_m)
+                - self.pinion.operating_pitch_radius_m * s
+            )
         return float(self.radius_at(S, body))
 
     @property
@@ -747,8 +811,10 @@ class GearPair:
         """Radial clearance between each tip circle and the mating root circle [m]:
         (pinion tip to wheel root, wheel tip to pinion root)."""
         a = self.center_distance_m
-        return (a - self.pinion.tip_radius_m - self.wheel.root_radius_m,
-                a - self.wheel.tip_radius_m - self.pinion.root_radius_m)
+        return (
+            a - self.pinion.tip_radius_m - self.wheel.root_radius_m,
+            a - self.wheel.tip_radius_m - self.pinion.root_radius_m,
+        )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -764,7 +830,12 @@ def _check_pair(g: GearPairGeometry) -> None:
     def fail(key: str, allowed: str, reason: str) -> None:
         raise ParameterError("geometry." + key, getattr(g, key), allowed, reason)
 
-    rb_sum = 0.5 * g.module_mm * (g.teeth_pinion + g.teeth_wheel) * math.cos(math.radians(g.pressure_angle_deg))
+    rb_sum = (
+        0.5
+        * g.module_mm
+        * (g.teeth_pinion + g.teeth_wheel)
+        * math.cos(math.radians(g.pressure_angle_deg))
+    )
     if g.center_distance <= rb_sum:
         fail("center_distance_mm", f"> {rb_sum:.4g} mm", "the sum of the base radii")
     pair = GearPair(g)
@@ -774,51 +845,93 @@ def _check_pair(g: GearPairGeometry) -> None:
         if prof.operating_thickness_m * 1e3 >= pitch_mm:
             fail("tooth_thickness_mm", f"< {pitch_mm:.4g} mm", f"thicker than the {body}'s pitch")
     if pair.backlash_circular_m < 0:
-        fail("tooth_thickness_mm", f"<= {0.5e3 * pair.operating_circular_pitch_m:.4g} mm",
-             "negative backlash: the teeth do not fit in each other's gaps")
+        fail(
+            "tooth_thickness_mm",
+            f"<= {0.5e3 * pair.operating_circular_pitch_m:.4g} mm",
+            "negative backlash: the teeth do not fit in each other's gaps",
+        )
     for body, prof in gears:
-        mm = lambda x: f"{1e3 * x:.3f} mm"  # noqa: E731
+        mm = lambda x: f"{1e3 * x:.3f} mm"
         if prof.root_radius_m <= 0:
-            fail("dedendum_coefficient", f"< {prof.reference_radius_m / prof.module_m:.4g}", f"{body} root radius <= 0")
+            fail(
+                "dedendum_coefficient",
+                f"< {prof.reference_radius_m / prof.module_m:.4g}",
+                f"{body} root radius <= 0",
+            )
         if not (prof.reference_thickness_m > 0 and prof.rack_half_width_m > 0):
-            fail("tooth_thickness_mm", "a thickness giving a tooth of positive width at the reference circle", body)
+            fail(
+                "tooth_thickness_mm",
+                "a thickness giving a tooth of positive width at the reference circle",
+                body,
+            )
         if prof.tip_thickness_m <= 0.0:
-            fail("addendum_coefficient", "a smaller addendum (or a thicker tooth)",
-                 f"the {body} tooth is pointed below its tip circle (tip thickness {mm(prof.tip_thickness_m)})")
+            fail(
+                "addendum_coefficient",
+                "a smaller addendum (or a thicker tooth)",
+                f"the {body} tooth is pointed below its tip circle (tip thickness {mm(prof.tip_thickness_m)})",
+            )
         rho_max = prof.max_rack_tip_radius_m
         if rho_max <= 0:
-            fail("dedendum_coefficient", "a smaller dedendum",
-                 f"the generating rack tooth of the {body} is pointed above its tip line")
+            fail(
+                "dedendum_coefficient",
+                "a smaller dedendum",
+                f"the generating rack tooth of the {body} is pointed above its tip line",
+            )
         if prof.rack_tip_radius_m > rho_max * (1 + 1e-12):
-            fail("root_fillet_coefficient", f"(0, {rho_max / prof.module_m:.4g}]",
-                 f"the rack tip radius does not fit on the {body}'s generating rack tooth (full-round tip)")
+            fail(
+                "root_fillet_coefficient",
+                f"(0, {rho_max / prof.module_m:.4g}]",
+                f"the rack tip radius does not fit on the {body}'s generating rack tooth (full-round tip)",
+            )
         if prof.is_undercut():
-            fail("teeth_pinion" if body == "pinion" else "teeth_wheel",
-                 "more teeth (or a smaller dedendum / larger pressure angle)",
-                 f"the generating rack undercuts the {body} flank (undercut margin {mm(prof.undercut_margin_m)})")
+            fail(
+                "teeth_pinion" if body == "pinion" else "teeth_wheel",
+                "more teeth (or a smaller dedendum / larger pressure angle)",
+                f"the generating rack undercuts the {body} flank (undercut margin {mm(prof.undercut_margin_m)})",
+            )
         if prof.tip_round_radius_m > 0.0:
             rho_max = prof.max_tip_round_radius_m
             if not prof.tip_round_radius_m < rho_max:
-                fail("tip_round_coefficient", f"[0, {rho_max / prof.module_m:.4g})",
-                     f"two tip rounds and a tip land must fit on the {body} tooth (tip thickness "
-                     f"{mm(prof.tip_thickness_m)}); at the limit the land vanishes and the rounds meet in a "
-                     "corner (a full-round tip is not modelled)")
+                fail(
+                    "tip_round_coefficient",
+                    f"[0, {rho_max / prof.module_m:.4g})",
+                    f"two tip rounds and a tip land must fit on the {body} tooth (tip thickness "
+                    f"{mm(prof.tip_thickness_m)}); at the limit the land vanishes and the rounds meet in a "
+                    "corner (a full-round tip is not modelled)",
+                )
             if not prof.tip_form_radius_m > prof.form_radius_m:
-                fail("tip_round_coefficient", "a smaller value",
-                     f"the {body} tip round reaches below the form circle (no involute left)")
+                fail(
+                    "tip_round_coefficient",
+                    "a smaller value",
+                    f"the {body} tip round reaches below the form circle (no involute left)",
+                )
         if not prof.root_radius_m > prof.bore_radius_m:
-            fail("bore_radius_mm", f"< {1e3 * prof.root_radius_m:.4g} mm",
-                 f"the bore must lie inside the {body}'s root circle")
-    for which, c in zip(("pinion tip to wheel root", "wheel tip to pinion root"), pair.tip_clearance_m):
+            fail(
+                "bore_radius_mm",
+                f"< {1e3 * prof.root_radius_m:.4g} mm",
+                f"the bore must lie inside the {body}'s root circle",
+            )
+    for which, c in zip(
+        ("pinion tip to wheel root", "wheel tip to pinion root"), pair.tip_clearance_m
+    ):
         if c <= 0:
-            fail("dedendum_coefficient", "a larger dedendum (or smaller addendum)",
-                 f"no tip clearance ({which}: {1e3 * c:.3f} mm)")
+            fail(
+                "dedendum_coefficient",
+                "a larger dedendum (or smaller addendum)",
+                f"no tip clearance ({which}: {1e3 * c:.3f} mm)",
+            )
     if pair.contact_ratio < 1.0:
-        fail("addendum_coefficient", "a value giving a contact ratio >= 1",
-             f"transverse contact ratio {pair.contact_ratio:.3f}")
+        fail(
+            "addendum_coefficient",
+            "a value giving a contact ratio >= 1",
+            f"transverse contact ratio {pair.contact_ratio:.3f}",
+        )
     for body, prof in gears:
         sap = pair.mating_tip_circle_reach_m(body)  # conservative: as if the mating tip were sharp
         if sap < prof.form_radius_m:
-            fail("addendum_coefficient", "a smaller addendum (or a smaller root fillet)",
-                 f"the mating tip reaches below the {body}'s involute into its fillet (start of active "
-                 f"profile of the sharp mating tip {1e3 * sap:.3f} mm < form radius {1e3 * prof.form_radius_m:.3f} mm)")
+            fail(
+                "addendum_coefficient",
+                "a smaller addendum (or a smaller root fillet)",
+                f"the mating tip reaches below the {body}'s involute into its fillet (start of active "
+                f"profile of the sharp mating tip {1e3 * sap:.3f} mm < form radius {1e3 * prof.form_radius_m:.3f} mm)",
+            )

@@ -74,9 +74,16 @@ def cache_key(geometry: GearPairGeometry, options: MeshOptions) -> str:
     import gmsh
 
     g = to_dict(geometry)
-    g["center_distance_mm"] = geometry.center_distance  # None and the explicit default are the same mesh
-    payload = {"geometry": g, "mesh": to_dict(options), "code": GEOMETRY_CODE_VERSION, "source": _source_hash(),
-               "gmsh": gmsh.__version__}
+    g["center_distance_mm"] = (
+        geometry.center_distance
+    )  # None and the explicit default are the same mesh
+    payload = {
+        "geometry": g,
+        "mesh": to_dict(options),
+        "code": GEOMETRY_CODE_VERSION,
+        "source": _source_hash(),
+        "gmsh": gmsh.__version__,
+    }
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -124,9 +131,13 @@ class GearMesh:
         try:
             return int(self.physical_groups[name].tag)
         except KeyError:
-            raise KeyError(f"no group {name!r}; known: {', '.join(sorted(self.physical_groups))}") from None
+            raise KeyError(
+                f"no group {name!r}; known: {', '.join(sorted(self.physical_groups))}"
+            ) from None
 
-    def names(self, body: str | None = None, kind: str | None = None, tooth: int | None = None) -> list[str]:
+    def names(
+        self, body: str | None = None, kind: str | None = None, tooth: int | None = None
+    ) -> list[str]:
         """Group names filtered by body (``pinion``/``wheel``), kind (``drive_flank``,
         ``coast_flank``, ``tip``, ``root``, ``side_front``, ``side_back``, ``bore``,
         ``cut_start``, ``cut_end``, ``volume``) and tooth index; sorted by body, tooth, kind."""
@@ -136,7 +147,11 @@ class GearMesh:
         out = []
         for name in self.physical_groups:
             b, k, kd = parse_group_name(name)
-            if (body is None or b == body) and (kind is None or kd == kind) and (tooth is None or k == tooth):
+            if (
+                (body is None or b == body)
+                and (kind is None or kd == kind)
+                and (tooth is None or k == tooth)
+            ):
                 out.append(name)
 
         def key(n: str) -> tuple:
@@ -154,7 +169,11 @@ class GearMesh:
     def facets(self, *names: str) -> np.ndarray:
         """Process-local facet indices of the named facet groups (sorted, unique, int32)."""
         parts = [self.facet_tags.find(self.tag(n)) for n in names]
-        return np.unique(np.concatenate(parts)).astype(np.int32) if parts else np.empty(0, dtype=np.int32)
+        return (
+            np.unique(np.concatenate(parts)).astype(np.int32)
+            if parts
+            else np.empty(0, dtype=np.int32)
+        )
 
     def cells(self, body: str) -> np.ndarray:
         """Process-local cell indices of a body."""
@@ -198,7 +217,9 @@ class GearMesh:
 # ------------------------------------------------------------------------------------------------
 
 
-def _build_into_cache(geometry: GearPairGeometry, options: MeshOptions, final: Path) -> dict[str, Any]:
+def _build_into_cache(
+    geometry: GearPairGeometry, options: MeshOptions, final: Path
+) -> dict[str, Any]:
     """Generate the mesh into a temporary directory next to ``final`` and rename it into place."""
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{final.name}-", dir=final.parent))
@@ -262,10 +283,15 @@ def build_gear_mesh(
             else:
                 if final.exists():
                     shutil.rmtree(final)
-                log.info("building mesh %s (%s, %d teeth, order %d) ...", key, options.element,
-                         options.teeth_in_model, options.order)
+                log.info(
+                    "building mesh %s (%s, %d teeth, order %d) ...",
+                    key,
+                    options.element,
+                    options.teeth_in_model,
+                    options.order,
+                )
                 _build_into_cache(geometry, options, final)
-        except Exception as err:  # noqa: BLE001 - re-raised on every rank below
+        except Exception as err:
             error = f"{type(err).__name__}: {err}"
             exc = err
     error = comm.bcast(error, root=0)
@@ -276,7 +302,9 @@ def build_gear_mesh(
     info = json.loads((final / BUILD_NAME).read_text()) if comm.rank == 0 else None
     info = comm.bcast(info, root=0)
     t1 = time.perf_counter()
-    if comm.rank == 0:  # like dolfinx.io.gmsh.read_from_msh, but quiet and leaving a user's gmsh alone
+    if (
+        comm.rank == 0
+    ):  # like dolfinx.io.gmsh.read_from_msh, but quiet and leaving a user's gmsh alone
         with gmsh_session("gearfem_read") as gmsh:
             gmsh.merge(str(final / MSH_NAME))
             data = dgmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3)
@@ -311,7 +339,7 @@ def analytic_areas_mm2(geometry: GearPairGeometry, options: MeshOptions) -> dict
     for body in options.bodies:
         prof = pair.profile(body)
         o = prof.outline(n_flank=4000, n_fillet=4000, n_land=400, n_tip=400)
-        length = lambda xy: float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1))) * 1e3  # noqa: E731
+        length = lambda xy: float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1))) * 1e3
         lengths = {
             "drive_flank": length(o["drive_flank"]),
             "coast_flank": length(o["coast_flank"]),
@@ -383,9 +411,13 @@ def mesh_report(gm: GearMesh) -> dict[str, Any]:
         "cache_key": gm.cache_key,
         "geometry": to_dict(g),
         "mesh_options": to_dict(o),
-        "element": {"cell_type": info.get("cell_type"), "order": o.order, "layers": o.layers,
-                    "kind": o.element,
-                    "coordinates": "metres, pair frame (pinion axis = z, wheel axis through (a, 0, 0))"},
+        "element": {
+            "cell_type": info.get("cell_type"),
+            "order": o.order,
+            "layers": o.layers,
+            "kind": o.element,
+            "coordinates": "metres, pair frame (pinion axis = z, wheel axis through (a, 0, 0))",
+        },
         "counts": {
             "cells": int(cells_global),
             "cells_per_body": {k: v["cells"] for k, v in info["bodies"].items()},
@@ -452,8 +484,13 @@ def _surface_polydata(msh_path: Path):
     return out
 
 
-def plot_pair(msh_path: Path, png: Path, focus_mm: tuple[float, float] = (30.0, 0.0), face_width_mm: float = 12.934,
-              title: str = "") -> Path:
+def plot_pair(
+    msh_path: Path,
+    png: Path,
+    focus_mm: tuple[float, float] = (30.0, 0.0),
+    face_width_mm: float = 12.934,
+    title: str = "",
+) -> Path:
     """Off-screen picture of the meshed pair (rank 0 only; pyvista): an oblique overall view and a
     close-up of the back face (z = b, seen along -z) around ``focus_mm`` (the pitch point).
     Drive flanks are drawn in a darker shade of the body colour."""
@@ -472,11 +509,22 @@ def plot_pair(msh_path: Path, png: Path, focus_mm: tuple[float, float] = (30.0, 
         for body in BODIES:
             if body not in surf:
                 continue
-            pl.add_mesh(surf[body], color=colors[body][0], show_edges=True, edge_color="#1a1a1a" if zoom else "#303030",
-                        line_width=0.8 if zoom else 0.3, lighting=True)
+            pl.add_mesh(
+                surf[body],
+                color=colors[body][0],
+                show_edges=True,
+                edge_color="#1a1a1a" if zoom else "#303030",
+                line_width=0.8 if zoom else 0.3,
+                lighting=True,
+            )
             if body + "_drive_flanks" in surf:
-                pl.add_mesh(surf[body + "_drive_flanks"], color=colors[body][1], show_edges=True,
-                            edge_color="#1a1a1a", line_width=0.8 if zoom else 0.4)
+                pl.add_mesh(
+                    surf[body + "_drive_flanks"],
+                    color=colors[body][1],
+                    show_edges=True,
+                    edge_color="#1a1a1a",
+                    line_width=0.8 if zoom else 0.4,
+                )
         if zoom:
             fx, fy = focus_mm
             pl.camera.position = (fx, fy, face_width_mm + 100.0)

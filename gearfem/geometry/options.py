@@ -62,20 +62,32 @@ class MeshOptions:
 
     def __post_init__(self) -> None:
         p = "mesh."
-        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        set_ = lambda k, v: object.__setattr__(self, k, v)
         set_("teeth_in_model", require_int(p + "teeth_in_model", self.teeth_in_model, lo=1))
         set_("element", require_choice(p + "element", self.element, ("tet", "hex")))
         set_("order", require_int(p + "order", self.order, lo=1, hi=2))
         set_("layers", require_int(p + "layers", self.layers, lo=1))
-        for key in ("size_flank_mm", "size_tip_mm", "size_root_mm", "size_tooth_mm", "size_body_mm"):
+        for key in (
+            "size_flank_mm",
+            "size_tip_mm",
+            "size_root_mm",
+            "size_tooth_mm",
+            "size_body_mm",
+        ):
             set_(key, require_positive(p + key, getattr(self, key)))
         set_("size_growth", require_range(p + "size_growth", self.size_growth, 0.05, 2.0))
         set_("refined_teeth", require_int(p + "refined_teeth", self.refined_teeth, lo=0))
-        set_("pinion_angle_deg",
-             require_range(p + "pinion_angle_deg", self.pinion_angle_deg, -360.0, 360.0, unit="deg"))
+        set_(
+            "pinion_angle_deg",
+            require_range(p + "pinion_angle_deg", self.pinion_angle_deg, -360.0, 360.0, unit="deg"),
+        )
         bodies = tuple(self.bodies)
         if not bodies or len(set(bodies)) != len(bodies):
-            raise ParameterError(p + "bodies", self.bodies, "a non-empty list of distinct names from 'pinion', 'wheel'")
+            raise ParameterError(
+                p + "bodies",
+                self.bodies,
+                "a non-empty list of distinct names from 'pinion', 'wheel'",
+            )
         for b in bodies:
             require_choice(p + "bodies", b, BODIES)
         set_("bodies", tuple(b for b in BODIES if b in bodies))  # canonical order
@@ -103,5 +115,9 @@ def check_options(geometry: GearPairGeometry, options: MeshOptions) -> None:
     for body in options.bodies:
         z = geometry.teeth_pinion if body == "pinion" else geometry.teeth_wheel
         if options.teeth_in_model > z:
-            raise ParameterError("mesh.teeth_in_model", options.teeth_in_model, f"integer in [1, {z}]",
-                                 f"the {body} has only {z} teeth")
+            raise ParameterError(
+                "mesh.teeth_in_model",
+                options.teeth_in_model,
+                f"integer in [1, {z}]",
+                f"the {body} has only {z} teeth",
+            )

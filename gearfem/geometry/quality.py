@@ -61,7 +61,9 @@ def hex_skewness(v: np.ndarray) -> np.ndarray:
         for i in range(4):
             p0, p1, p2 = v[:, face[i - 1]], v[:, face[i]], v[:, face[(i + 1) % 4]]
             e1, e2 = p0 - p1, p2 - p1
-            cosang = np.einsum("ij,ij->i", e1, e2) / (np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1))
+            cosang = np.einsum("ij,ij->i", e1, e2) / (
+                np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+            )
             ang = np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0)))
             tmax = np.maximum(tmax, ang)
             tmin = np.minimum(tmin, ang)

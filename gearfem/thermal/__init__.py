@@ -25,7 +25,19 @@ from gearfem.thermal.problem import StepRecord, ThermalProblem
 from gearfem.thermal.source_terms import HeatSources, prescribed_heat_sources
 
 __all__ = [
-    "AirProperties", "ConvectionCoefficients", "GearRadii", "HeatBalance", "HeatSources", "PrescribedSources",
-    "StepRecord", "SurfaceExchange", "ThermalBoundary", "ThermalDomain", "ThermalOptions", "ThermalProblem",
-    "loading_frequency_Hz", "prescribed_heat_sources", "thesis_convection",
+    "AirProperties",
+    "ConvectionCoefficients",
+    "GearRadii",
+    "HeatBalance",
+    "HeatSources",
+    "PrescribedSources",
+    "StepRecord",
+    "SurfaceExchange",
+    "ThermalBoundary",
+    "ThermalDomain",
+    "ThermalOptions",
+    "ThermalProblem",
+    "loading_frequency_Hz",
+    "prescribed_heat_sources",
+    "thesis_convection",
 ]

@@ -36,8 +36,11 @@ class HeatBalance:
     @property
     def scale_W(self) -> float:
         """Largest flow, the reference for the relative imbalance."""
-        return max(abs(self.generated_W), abs(self.stored_W),
-                   abs(self.convected_W) + abs(self.radiated_W) + abs(self.bore_W))
+        return max(
+            abs(self.generated_W),
+            abs(self.stored_W),
+            abs(self.convected_W) + abs(self.radiated_W) + abs(self.bore_W),
+        )
 
     @property
     def relative_imbalance(self) -> float:

@@ -105,8 +105,14 @@ class ThermalBoundary:
             need = options.h_teeth_W_m2K is None or options.h_sides_W_m2K is None
             if need:
                 if radii is None:
-                    raise ParameterError("geometry radii", None, "pitch, base and inner radius for the thesis correlations")
-                coeffs = conv.thesis_convection(speed_rpm, radii, air, amb if air.model != "thesis" else 298.15)
+                    raise ParameterError(
+                        "geometry radii",
+                        None,
+                        "pitch, base and inner radius for the thesis correlations",
+                    )
+                coeffs = conv.thesis_convection(
+                    speed_rpm, radii, air, amb if air.model != "thesis" else 298.15
+                )
             if options.h_teeth_W_m2K is not None:
                 h_t = options.h_teeth_W_m2K
             elif air.model == "film":

@@ -94,14 +94,20 @@ class AirProperties:
 
     def __post_init__(self) -> None:
         require_choice("thermal.air_properties", self.model, AIR_MODELS)
-        for name, value in (("air_kinematic_viscosity_m2_s", self.kinematic_viscosity_m2_s),
-                            ("air_conductivity_W_mK", self.conductivity_W_mK)):
+        for name, value in (
+            ("air_kinematic_viscosity_m2_s", self.kinematic_viscosity_m2_s),
+            ("air_conductivity_W_mK", self.conductivity_W_mK),
+        ):
             if value is None:
                 continue
             require_positive(f"thermal.{name}", value)
             if self.model != "thesis":
-                raise ParameterError(f"thermal.{name}", value, "unset unless thermal.air_properties = 'thesis'",
-                                     f"air_properties = {self.model!r} computes it from Sutherland's law")
+                raise ParameterError(
+                    f"thermal.{name}",
+                    value,
+                    "unset unless thermal.air_properties = 'thesis'",
+                    f"air_properties = {self.model!r} computes it from Sutherland's law",
+                )
 
     def nu(self, T_film_K: Any) -> Any:
         """Kinematic viscosity at the film temperature (ignored by the ``"thesis"`` model), m^2/s."""
@@ -135,11 +141,17 @@ class GearRadii:
         require_positive("geometry.base_radius_m", self.base_radius_m)
         require_positive("geometry.inner_radius_m", self.inner_radius_m)
         if self.base_radius_m >= 0.5 * self.pitch_diameter_m:
-            raise ParameterError("geometry.base_radius_m", self.base_radius_m,
-                                 f"< pitch radius {0.5 * self.pitch_diameter_m:g} m")
+            raise ParameterError(
+                "geometry.base_radius_m",
+                self.base_radius_m,
+                f"< pitch radius {0.5 * self.pitch_diameter_m:g} m",
+            )
         if self.inner_radius_m >= self.base_radius_m:
-            raise ParameterError("geometry.inner_radius_m", self.inner_radius_m,
-                                 f"< base radius {self.base_radius_m:g} m")
+            raise ParameterError(
+                "geometry.inner_radius_m",
+                self.inner_radius_m,
+                f"< base radius {self.base_radius_m:g} m",
+            )
 
     @classmethod
     def thesis_gear(cls) -> GearRadii:
@@ -163,12 +175,22 @@ def reynolds_sides(speed_rpm: Any, radii: GearRadii, nu_m2_s: Any) -> Any:
 
 def h_teeth_W_m2K(speed_rpm: Any, radii: GearRadii, nu_m2_s: Any, k_air_W_mK: Any) -> Any:
     """h_t = 0.318 Re_t^0.571 k_air / D_p, thesis eq. 5.1-5.2."""
-    return 0.318 * reynolds_teeth(speed_rpm, radii, nu_m2_s) ** 0.571 * k_air_W_mK / radii.pitch_diameter_m
+    return (
+        0.318
+        * reynolds_teeth(speed_rpm, radii, nu_m2_s) ** 0.571
+        * k_air_W_mK
+        / radii.pitch_diameter_m
+    )
 
 
 def h_sides_W_m2K(speed_rpm: Any, radii: GearRadii, nu_m2_s: Any, k_air_W_mK: Any) -> Any:
     """h_s = 0.556 Re_s^0.5 k_air / (2 r_i), thesis eq. 5.4-5.5."""
-    return 0.556 * reynolds_sides(speed_rpm, radii, nu_m2_s) ** 0.5 * k_air_W_mK / (2.0 * radii.inner_radius_m)
+    return (
+        0.556
+        * reynolds_sides(speed_rpm, radii, nu_m2_s) ** 0.5
+        * k_air_W_mK
+        / (2.0 * radii.inner_radius_m)
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -190,18 +212,28 @@ class ConvectionCoefficients:
         return dataclasses.asdict(self)
 
 
-def _check_range(what: str, re: float, bounds: tuple[float, float], speed_rpm: float, film_K: float) -> bool:
+def _check_range(
+    what: str, re: float, bounds: tuple[float, float], speed_rpm: float, film_K: float
+) -> bool:
     lo, hi = bounds
     ok = lo <= re <= hi
     if not ok:
         log.warning(
             "%s Reynolds number %.4g at %g rpm (air at %.1f C) is outside the correlation's range "
-            "[%g, %g]; the coefficient is extrapolated", what, re, speed_rpm, film_K - 273.15, lo, hi,
+            "[%g, %g]; the coefficient is extrapolated",
+            what,
+            re,
+            speed_rpm,
+            film_K - 273.15,
+            lo,
+            hi,
         )
     return ok
 
 
-def thesis_convection(speed_rpm: float, radii: GearRadii, air: AirProperties, film_K: float) -> ConvectionCoefficients:
+def thesis_convection(
+    speed_rpm: float, radii: GearRadii, air: AirProperties, film_K: float
+) -> ConvectionCoefficients:
     """Evaluate eq. 5.1-5.6 at ``speed_rpm`` with air properties at ``film_K`` (kelvin).
 
     Logs a warning (and sets ``*_in_range = False``) when a Reynolds number leaves its range.
@@ -212,10 +244,18 @@ def thesis_convection(speed_rpm: float, radii: GearRadii, air: AirProperties, fi
     re_t = reynolds_teeth(speed_rpm, radii, nu)
     re_s = reynolds_sides(speed_rpm, radii, nu)
     return ConvectionCoefficients(
-        speed_rpm=float(speed_rpm), film_K=float(film_K), nu_m2_s=nu, k_air_W_mK=k,
-        reynolds_teeth=re_t, reynolds_sides=re_s,
+        speed_rpm=float(speed_rpm),
+        film_K=float(film_K),
+        nu_m2_s=nu,
+        k_air_W_mK=k,
+        reynolds_teeth=re_t,
+        reynolds_sides=re_s,
         h_teeth_W_m2K=h_teeth_W_m2K(speed_rpm, radii, nu, k),
         h_sides_W_m2K=h_sides_W_m2K(speed_rpm, radii, nu, k),
-        teeth_in_range=_check_range("Teeth (rotating cylinder, eq. 5.3)", re_t, RE_TEETH_RANGE, speed_rpm, film_K),
-        sides_in_range=_check_range("Side (rotating disc, eq. 5.6)", re_s, RE_SIDES_RANGE, speed_rpm, film_K),
+        teeth_in_range=_check_range(
+            "Teeth (rotating cylinder, eq. 5.3)", re_t, RE_TEETH_RANGE, speed_rpm, film_K
+        ),
+        sides_in_range=_check_range(
+            "Side (rotating disc, eq. 5.6)", re_s, RE_SIDES_RANGE, speed_rpm, film_K
+        ),
     )

@@ -76,13 +76,20 @@ class ThermalDomain:
         for name in self.flux_surfaces:
             self._check_name("domain.flux_surfaces", name)
         if not self.teeth and not self.sides:
-            raise ParameterError("domain.teeth", self.teeth, "at least one cooled surface group (teeth or sides)")
+            raise ParameterError(
+                "domain.teeth", self.teeth, "at least one cooled surface group (teeth or sides)"
+            )
         self._check_roles_cover_boundary()
 
     def _check_name(self, where: str, name: str) -> None:
         if name not in self.groups:
-            raise ParameterError(where, name, "a facet group of the mesh: " + ", ".join(sorted(self.groups)[:12])
-                                 + (" ..." if len(self.groups) > 12 else ""))
+            raise ParameterError(
+                where,
+                name,
+                "a facet group of the mesh: "
+                + ", ".join(sorted(self.groups)[:12])
+                + (" ..." if len(self.groups) > 12 else ""),
+            )
 
     def tags(self, names: tuple[str, ...] | list[str]) -> tuple[int, ...]:
         """Facet tag values of the named groups (sorted, unique)."""
@@ -113,8 +120,11 @@ class ThermalDomain:
         tdim = mesh.topology.dim
         mesh.topology.create_connectivity(tdim - 1, tdim)
         exterior = dolfinx.mesh.exterior_facet_indices(mesh.topology)
-        counts = np.zeros(mesh.topology.index_map(tdim - 1).size_local + mesh.topology.index_map(tdim - 1).num_ghosts,
-                          dtype=np.int32)
+        counts = np.zeros(
+            mesh.topology.index_map(tdim - 1).size_local
+            + mesh.topology.index_map(tdim - 1).num_ghosts,
+            dtype=np.int32,
+        )
         for role in ROLES:
             f = self.facets(getattr(self, role))
             counts[f] += 1
@@ -127,16 +137,24 @@ class ThermalDomain:
         missing = mesh.comm.allreduce(missing, op=MPI.SUM)
         overlap = mesh.comm.allreduce(overlap, op=MPI.SUM)
         if missing:
-            raise ParameterError("domain roles", f"{missing} exterior facets without a role",
-                                 "every exterior facet in teeth, sides, bore or cuts",
-                                 "an untagged facet would silently be adiabatic")
+            raise ParameterError(
+                "domain roles",
+                f"{missing} exterior facets without a role",
+                "every exterior facet in teeth, sides, bore or cuts",
+                "an untagged facet would silently be adiabatic",
+            )
         if overlap:
-            raise ParameterError("domain roles", f"{overlap} facets in more than one role",
-                                 "disjoint roles teeth, sides, bore, cuts")
+            raise ParameterError(
+                "domain roles",
+                f"{overlap} facets in more than one role",
+                "disjoint roles teeth, sides, bore, cuts",
+            )
 
     # ------------------------------------------------------------------------------------------
     @classmethod
-    def from_gear_mesh(cls, gear_mesh, body: str = "pinion", flux_flanks: str = "drive") -> ThermalDomain:
+    def from_gear_mesh(
+        cls, gear_mesh, body: str = "pinion", flux_flanks: str = "drive"
+    ) -> ThermalDomain:
         """The domain of one body of a :class:`gearfem.geometry.mesh.GearMesh`.
 
         Uses ``gear_mesh.mesh``, ``facet_tags``, ``cell_tags``, ``physical_groups`` (name ->
@@ -148,10 +166,15 @@ class ThermalDomain:
 
         msh = gear_mesh.mesh
         tdim = msh.topology.dim
-        groups = {name: (int(pg.tag),) for name, pg in gear_mesh.physical_groups.items()
-                  if int(pg.dim) == tdim - 1 and name.startswith(f"{body}_")}
+        groups = {
+            name: (int(pg.tag),)
+            for name, pg in gear_mesh.physical_groups.items()
+            if int(pg.dim) == tdim - 1 and name.startswith(f"{body}_")
+        }
         if body not in gear_mesh.physical_groups:
-            raise ParameterError("mesh.bodies", tuple(gear_mesh.physical_groups)[:4], f"a mesh containing {body!r}")
+            raise ParameterError(
+                "mesh.bodies", tuple(gear_mesh.physical_groups)[:4], f"a mesh containing {body!r}"
+            )
         body_tag = int(gear_mesh.physical_groups[body].tag)
         ct = gear_mesh.cell_tags
         other = np.count_nonzero(ct.values != body_tag)
@@ -165,11 +188,17 @@ class ThermalDomain:
             msh.topology.create_connectivity(tdim - 1, tdim)
             ft = dolfinx.mesh.transfer_meshtags_to_submesh(ft, sub, vertex_map, cell_map)
             im = sub.topology.index_map(tdim)
-            parent = np.asarray(cell_map.sub_topology_to_topology(
-                np.arange(im.size_local + im.num_ghosts, dtype=np.int32), False), dtype=np.int32)
+            parent = np.asarray(
+                cell_map.sub_topology_to_topology(
+                    np.arange(im.size_local + im.num_ghosts, dtype=np.int32), False
+                ),
+                dtype=np.int32,
+            )
             msh = sub
         total = getattr(gear_mesh.geometry, f"teeth_{body}", None)
-        dom = cls.from_gear_groups(msh, ft, groups, body=body, total_teeth=total, flux_flanks=flux_flanks)
+        dom = cls.from_gear_groups(
+            msh, ft, groups, body=body, total_teeth=total, flux_flanks=flux_flanks
+        )
         return dataclasses.replace(dom, parent_cells=parent) if parent is not None else dom
 
     def cell_field_from_parent(self, field):
@@ -181,7 +210,9 @@ class ThermalDomain:
         if V.mesh is self.mesh:
             return field
         if self.parent_cells is None:
-            raise ParameterError("cell field", V.mesh, "a Function on the thermal mesh or on its parent mesh")
+            raise ParameterError(
+                "cell field", V.mesh, "a Function on the thermal mesh or on its parent mesh"
+            )
         Q = fem.functionspace(self.mesh, ("DG", 0))
         out = fem.Function(Q, name=field.name)
         n = len(self.parent_cells)
@@ -214,19 +245,27 @@ class ThermalDomain:
         """
 
         require_choice("sources.flanks", flux_flanks, ("drive", "coast", "both"))
-        grp = {k: ((int(v),) if np.isscalar(v) else tuple(int(x) for x in v)) for k, v in groups.items()}
+        grp = {
+            k: ((int(v),) if np.isscalar(v) else tuple(int(x) for x in v))
+            for k, v in groups.items()
+        }
         pat = re.compile(rf"^{re.escape(body)}_tooth(\d+)_({'|'.join(TOOTH_SURFACES)})$")
         by_kind: dict[str, list[str]] = {k: [] for k in TOOTH_SURFACES}
         tooth_of: dict[str, int] = {}
-        for name in sorted(grp, key=lambda n: (int(pat.match(n).group(1)) if pat.match(n) else -1, n)):
+        for name in sorted(
+            grp, key=lambda n: (int(pat.match(n).group(1)) if pat.match(n) else -1, n)
+        ):
             m = pat.match(name)
             if m:
                 tooth_of[name] = int(m.group(1))
                 by_kind[m.group(2)].append(name)
         tooth_ids = set(tooth_of.values())
         if not tooth_ids:
-            raise ParameterError("geometry facet groups", sorted(grp)[:6],
-                                 f"groups named {body}_tooth<k>_<drive_flank|coast_flank|tip|root>")
+            raise ParameterError(
+                "geometry facet groups",
+                sorted(grp)[:6],
+                f"groups named {body}_tooth<k>_<drive_flank|coast_flank|tip|root>",
+            )
         teeth = tuple(n for k in TOOTH_SURFACES for n in by_kind[k])
         sides = tuple(n for n in (f"{body}_side_front", f"{body}_side_back") if n in grp)
         bore = tuple(n for n in (f"{body}_bore",) if n in grp)
@@ -236,20 +275,42 @@ class ThermalDomain:
             fraction = 1.0
         else:
             if total_teeth < n_teeth:
-                raise ParameterError("geometry.teeth", total_teeth, f">= {n_teeth} teeth found in the mesh")
+                raise ParameterError(
+                    "geometry.teeth", total_teeth, f">= {n_teeth} teeth found in the mesh"
+                )
             if total_teeth > n_teeth and not cuts:
-                raise ParameterError("geometry facet groups", "no cut faces",
-                                     f"{body}_cut_start/_cut_end for a sector of {n_teeth} of {total_teeth} teeth")
+                raise ParameterError(
+                    "geometry facet groups",
+                    "no cut faces",
+                    f"{body}_cut_start/_cut_end for a sector of {n_teeth} of {total_teeth} teeth",
+                )
             fraction = n_teeth / total_teeth
-        flux = {"drive": tuple(by_kind["drive_flank"]), "coast": tuple(by_kind["coast_flank"]),
-                "both": tuple(by_kind["drive_flank"] + by_kind["coast_flank"])}[flux_flanks]
+        flux = {
+            "drive": tuple(by_kind["drive_flank"]),
+            "coast": tuple(by_kind["coast_flank"]),
+            "both": tuple(by_kind["drive_flank"] + by_kind["coast_flank"]),
+        }[flux_flanks]
         # Monitors over the interior teeth of a sector: next to an adiabatic cut the temperature
         # differs from the periodic (full-gear) solution when drive and coast flanks are heated
         # differently (8-tooth thesis gear, 40 W on the drive flanks: flank mean of the edge teeth
         # -2.4 / +3.6 K, interior teeth within 0.6 K of the full 30-tooth gear).
         ids = sorted(tooth_ids)
         interior = set(ids[1:-1]) if cuts and len(ids) >= 3 else set(ids)
-        monitors = {k if k != "drive_flank" else "flank": tuple(n for n in v if tooth_of[n] in interior)
-                    for k, v in by_kind.items() if v}
-        return cls(mesh=mesh, facet_tags=facet_tags, groups=grp, teeth=teeth, sides=sides, bore=bore, cuts=cuts,
-                   monitors=monitors, flux_surfaces=flux, model_fraction=fraction, teeth_modelled=n_teeth)
+        monitors = {
+            k if k != "drive_flank" else "flank": tuple(n for n in v if tooth_of[n] in interior)
+            for k, v in by_kind.items()
+            if v
+        }
+        return cls(
+            mesh=mesh,
+            facet_tags=facet_tags,
+            groups=grp,
+            teeth=teeth,
+            sides=sides,
+            bore=bore,
+            cuts=cuts,
+            monitors=monitors,
+            flux_surfaces=flux,
+            model_fraction=fraction,
+            teeth_modelled=n_teeth,
+        )

@@ -13,10 +13,11 @@ from gearfem.thermal.problem import ThermalProblem
 log = logging.getLogger(__name__)
 
 
-
 def gear_radii(profile) -> GearRadii:
     """Correlation lengths of a gear (:class:`gearfem.geometry.involute.ToothProfile`)."""
-    return GearRadii(2.0 * profile.operating_pitch_radius_m, profile.base_radius_m, profile.bore_radius_m)
+    return GearRadii(
+        2.0 * profile.operating_pitch_radius_m, profile.base_radius_m, profile.bore_radius_m
+    )
 
 
 def lumped_estimate(problem: ThermalProblem, generated_W: float) -> dict[str, float]:
@@ -35,12 +36,28 @@ def lumped_estimate(problem: ThermalProblem, generated_W: float) -> dict[str, fl
         hA += float(ex.h(amb)) * a
         epsA += ex.emissivity * a
     if generated_W <= 0.0:
-        return {"theta_ss_K": 0.0, "tau_s": math.nan, "hA_W_K": hA, "eps_A_m2": epsA, **{f"area_{k}_m2": v for k, v in areas.items()}}
+        return {
+            "theta_ss_K": 0.0,
+            "tau_s": math.nan,
+            "hA_W_K": hA,
+            "eps_A_m2": epsA,
+            **{f"area_{k}_m2": v for k, v in areas.items()},
+        }
 
     def balance(theta: float) -> float:
-        return hA * theta + epsA * STEFAN_BOLTZMANN_W_m2K4 * ((amb + theta) ** 4 - amb**4) - generated_W
+        return (
+            hA * theta
+            + epsA * STEFAN_BOLTZMANN_W_m2K4 * ((amb + theta) ** 4 - amb**4)
+            - generated_W
+        )
 
     theta = brentq(balance, 0.0, 1.0e4)
     C = problem.material.density_kg_m3 * problem.material.specific_heat_J_kgK * problem.volume_m3
-    return {"theta_ss_K": theta, "tau_s": C * theta / generated_W, "hA_W_K": hA, "eps_A_m2": epsA,
-            "heat_capacity_J_K": C, **{f"area_{k}_m2": v for k, v in areas.items()}}
+    return {
+        "theta_ss_K": theta,
+        "tau_s": C * theta / generated_W,
+        "hA_W_K": hA,
+        "eps_A_m2": epsA,
+        "heat_capacity_J_K": C,
+        **{f"area_{k}_m2": v for k, v in areas.items()},
+    }

@@ -57,8 +57,21 @@ class NewtonSolver:
         reuse_preconditioner: Keep the preconditioner while alpha changes little (see above).
     """
 
-    def __init__(self, T, F_nl, J_nl, mass, stiffness, pattern, prefix: str, options: dict[str, Any],
-                 rtol: float, atol_W: float, max_it: int, reuse_preconditioner: bool) -> None:
+    def __init__(
+        self,
+        T,
+        F_nl,
+        J_nl,
+        mass,
+        stiffness,
+        pattern,
+        prefix: str,
+        options: dict[str, Any],
+        rtol: float,
+        atol_W: float,
+        max_it: int,
+        reuse_preconditioner: bool,
+    ) -> None:
         from dolfinx.fem.petsc import assemble_matrix, create_matrix, create_vector
         from petsc4py import PETSc
 
@@ -68,7 +81,9 @@ class NewtonSolver:
         self.comm = V.mesh.comm
         self.rtol, self.atol, self.max_it = rtol, atol_W, max_it
         self.A = create_matrix(pattern)
-        assemble_matrix(self.A, pattern)  # fixes the nonzero structure (entries are zeroed per Jacobian)
+        assemble_matrix(
+            self.A, pattern
+        )  # fixes the nonzero structure (entries are zeroed per Jacobian)
         self.A.assemble()
         self.M = self.K = None
         if mass is not None:
@@ -117,7 +132,17 @@ class NewtonSolver:
         factorisation is freed collectively; leaving it to the garbage collector, which may run at
         different times on different ranks, can deadlock)."""
         self._forget_options()
-        for obj in (self.ksp, self.A, self.M, self.K, self.b, self.dx, self._x0, self._c, self._tmp):
+        for obj in (
+            self.ksp,
+            self.A,
+            self.M,
+            self.K,
+            self.b,
+            self.dx,
+            self._x0,
+            self._c,
+            self._tmp,
+        ):
             if obj is not None:
                 obj.destroy()
         self.ksp = self.A = self.M = self.K = None
@@ -125,7 +150,7 @@ class NewtonSolver:
     def __del__(self) -> None:
         try:
             self._forget_options()  # not collective; the objects are freed by destroy() or petsc4py
-        except Exception:  # noqa: BLE001 - interpreter shutdown
+        except Exception:
             pass
 
     # ------------------------------------------------------------------------------------------
@@ -189,8 +214,11 @@ class NewtonSolver:
         pc = self.ksp.getPC()
         if self.reuse:
             a, a_pc = self.alpha, self._alpha_pc
-            rebuild = (a_pc is None or (a == 0.0) != (a_pc == 0.0)
-                       or (a != 0.0 and max(a / a_pc, a_pc / a) > REBUILD_RATIO))
+            rebuild = (
+                a_pc is None
+                or (a == 0.0) != (a_pc == 0.0)
+                or (a != 0.0 and max(a / a_pc, a_pc / a) > REBUILD_RATIO)
+            )
         else:
             rebuild = True
         norm0 = norm = self._residual()
@@ -203,7 +231,9 @@ class NewtonSolver:
                 self._fail(f"DIVERGED_MAX_IT ({self.max_it} iterations)", where, it, norm)
             if fresh:
                 self._jacobian()
-                pc.setReusePreconditioner(not rebuild)  # rebuild (if at all) at the first iteration only
+                pc.setReusePreconditioner(
+                    not rebuild
+                )  # rebuild (if at all) at the first iteration only
                 if rebuild:
                     self._alpha_pc = self.alpha
                     self.pc_builds += 1
@@ -214,9 +244,15 @@ class NewtonSolver:
             kr = self.ksp.getConvergedReason()
             if kr < 0:
                 if self.reuse and self._alpha_pc is not None:
-                    self._alpha_pc = None  # a stale preconditioner may be the cause: rebuild next time
-                self._fail(f"DIVERGED_LINEAR_SOLVE; KSP {_names(PETSc.KSP.ConvergedReason).get(kr, '?')} ({kr})",
-                           where, it, norm)
+                    self._alpha_pc = (
+                        None  # a stale preconditioner may be the cause: rebuild next time
+                    )
+                self._fail(
+                    f"DIVERGED_LINEAR_SOLVE; KSP {_names(PETSc.KSP.ConvergedReason).get(kr, '?')} ({kr})",
+                    where,
+                    it,
+                    norm,
+                )
             it += 1
             x.copy(self._x0)
             lam = 1.0
@@ -224,7 +260,9 @@ class NewtonSolver:
                 x.waxpy(-lam, self.dx, self._x0)  # x = x0 - lam dx
                 self.T.x.scatter_forward()
                 new = self._residual()
-                if linesearch == "basic" or (math.isfinite(new) and new <= (1.0 - ARMIJO * lam) * norm):
+                if linesearch == "basic" or (
+                    math.isfinite(new) and new <= (1.0 - ARMIJO * lam) * norm
+                ):
                     break
                 lam *= 0.5
             else:

@@ -132,7 +132,9 @@ class ThermalOptions:
         require_choice("thermal.body", self.body, ("pinion", "wheel"))
         require_range("thermal.ambient_C", self.ambient_C, -273.15, 1000.0, lo_open=True, unit="C")
         if self.initial_C is not None:
-            require_range("thermal.initial_C", self.initial_C, -273.15, 1000.0, lo_open=True, unit="C")
+            require_range(
+                "thermal.initial_C", self.initial_C, -273.15, 1000.0, lo_open=True, unit="C"
+            )
         if self.emissivity is not None:
             require_range("thermal.emissivity", self.emissivity, 0.0, 1.0)
         require_choice("thermal.convection", self.convection, CONVECTION_MODELS)
@@ -147,29 +149,56 @@ class ThermalOptions:
         if self.bore_C is not None:
             require_range("thermal.bore_C", self.bore_C, -273.15, 1000.0, lo_open=True, unit="C")
             if self.bore_h_W_m2K == 0.0:
-                raise ParameterError("thermal.bore_C", self.bore_C, "unset while thermal.bore_h_W_m2K = 0",
-                                     "an adiabatic bore has no temperature to lead to")
+                raise ParameterError(
+                    "thermal.bore_C",
+                    self.bore_C,
+                    "unset while thermal.bore_h_W_m2K = 0",
+                    "an adiabatic bore has no temperature to lead to",
+                )
 
         require_choice("thermal.mode", self.mode, ("transient", "steady"))
         require_positive("thermal.duration_s", self.duration_s)
         require_choice("thermal.time_stepping", self.time_stepping, ("adaptive", "fixed"))
         require_positive("thermal.dt_min_s", self.dt_min_s)
-        require_range("thermal.dt_max_s", self.dt_max_s, self.dt_min_s, math.inf, unit="s",
-                      reason="at least dt_min_s")
-        require_range("thermal.dt_initial_s", self.dt_initial_s, self.dt_min_s, min(self.dt_max_s, self.duration_s),
-                      unit="s", reason="between dt_min_s and min(dt_max_s, duration_s)")
+        require_range(
+            "thermal.dt_max_s",
+            self.dt_max_s,
+            self.dt_min_s,
+            math.inf,
+            unit="s",
+            reason="at least dt_min_s",
+        )
+        require_range(
+            "thermal.dt_initial_s",
+            self.dt_initial_s,
+            self.dt_min_s,
+            min(self.dt_max_s, self.duration_s),
+            unit="s",
+            reason="between dt_min_s and min(dt_max_s, duration_s)",
+        )
         require_positive("thermal.time_error_K", self.time_error_K)
         prev = 0.0
         for i, t in enumerate(self.output_times_s):
-            require_range(f"thermal.output_times_s[{i}]", t, prev, self.duration_s, lo_open=True, unit="s",
-                          reason="increasing, within (0, duration_s]")
+            require_range(
+                f"thermal.output_times_s[{i}]",
+                t,
+                prev,
+                self.duration_s,
+                lo_open=True,
+                unit="s",
+                reason="increasing, within (0, duration_s]",
+            )
             prev = t
 
         require_int("thermal.degree", self.degree, 1, 2)
         require_range("thermal.newton_rtol", self.newton_rtol, 0.0, 1.0, lo_open=True, hi_open=True)
         require_positive("thermal.newton_atol_W", self.newton_atol_W)
         require_int("thermal.newton_max_it", self.newton_max_it, 1, 1000)
-        require_choice("thermal.linear_solver", self.linear_solver, ("iterative", "direct", "multigrid"))
+        require_choice(
+            "thermal.linear_solver", self.linear_solver, ("iterative", "direct", "multigrid")
+        )
 
     def air(self) -> AirProperties:
-        return AirProperties(self.air_properties, self.air_kinematic_viscosity_m2_s, self.air_conductivity_W_mK)
+        return AirProperties(
+            self.air_properties, self.air_kinematic_viscosity_m2_s, self.air_conductivity_W_mK
+        )

@@ -40,7 +40,9 @@ class ThermalWriter:
     Use as a context manager; :meth:`finish` writes the plot and the summary (the completion marker).
     """
 
-    def __init__(self, out_dir: str | Path, problem, write_fields: bool = True, write_plot: bool = True) -> None:
+    def __init__(
+        self, out_dir: str | Path, problem, write_fields: bool = True, write_plot: bool = True
+    ) -> None:
         self.write_plot = write_plot
         from dolfinx import fem
 
@@ -136,8 +138,12 @@ def plot_history(rows: list[dict[str, Any]], path: Path, title: str = "") -> Non
                 style = "-" if key in ("T_max_surface_C", "T_mean_bulk_C") else "--"
                 pts = [(ti, r[key]) for ti, r in zip(t, rows) if ti > 0 or not log]
                 if pts:
-                    ax.plot(*zip(*pts), style, marker="o" if len(pts) == 1 else None,
-                            label=key[2:-2].replace("_", " "))
+                    ax.plot(
+                        *zip(*pts),
+                        style,
+                        marker="o" if len(pts) == 1 else None,
+                        label=key[2:-2].replace("_", " "),
+                    )
         ax.set_xlabel("time (s)" + (", log scale" if log else ""))
         if log and any(ti > 0 for ti in t):
             ax.set_xscale("log")
@@ -169,28 +175,40 @@ def summary(problem, records, extra: dict[str, Any] | None = None) -> dict[str, 
         "max_relative_imbalance": max(rel) if rel else 0.0,
         "model_fraction": problem.domain.model_fraction,
         "boundary": {
-            role: {"h_W_m2K": (None if callable(ex.h_W_m2K) else ex.h_W_m2K), "h_depends_on_T": callable(ex.h_W_m2K),
-                   "fluid_C": ex.fluid_K - ZERO_CELSIUS_K, "emissivity": ex.emissivity}
+            role: {
+                "h_W_m2K": (None if callable(ex.h_W_m2K) else ex.h_W_m2K),
+                "h_depends_on_T": callable(ex.h_W_m2K),
+                "fluid_C": ex.fluid_K - ZERO_CELSIUS_K,
+                "emissivity": ex.emissivity,
+            }
             for role, ex in problem.boundary.exchanges().items()
         },
-        "convection_correlations": (problem.boundary.convection.as_dict() if problem.boundary.convection else None),
+        "convection_correlations": (
+            problem.boundary.convection.as_dict() if problem.boundary.convection else None
+        ),
     }
     if extra:
         out.update(extra)
     return out
 
 
-def solve_and_write(problem: ThermalProblem, out_dir: str | Path, extra: dict[str, Any] | None = None,
-                  write_fields: bool = True,
-                  more: Callable[[list[StepRecord]], dict[str, Any]] | None = None,
-                  write_plot: bool = True) -> tuple[list[StepRecord], dict[str, Any]]:
+def solve_and_write(
+    problem: ThermalProblem,
+    out_dir: str | Path,
+    extra: dict[str, Any] | None = None,
+    write_fields: bool = True,
+    more: Callable[[list[StepRecord]], dict[str, Any]] | None = None,
+    write_plot: bool = True,
+) -> tuple[list[StepRecord], dict[str, Any]]:
     """Solve (transient or steady, as ``problem.options.mode`` says) and write CSV, VTX, plot, summary.
 
     ``extra`` and ``more(records)`` (computed after the run, collectively) are added to the
     summary. The summary (``thermal_summary.json``) is written last: a run that fails leaves none.
     """
     t0 = time.perf_counter()
-    with ThermalWriter(out_dir, problem, write_fields=write_fields, write_plot=write_plot) as writer:
+    with ThermalWriter(
+        out_dir, problem, write_fields=write_fields, write_plot=write_plot
+    ) as writer:
         if problem.options.mode == "steady":
             rec = problem.solve_steady()
             writer.on_step(problem, rec, write_field=True)
@@ -204,8 +222,15 @@ def solve_and_write(problem: ThermalProblem, out_dir: str | Path, extra: dict[st
         summ = summary(problem, records, info)
         writer.finish(summ)
     last = records[-1]
-    log.info("thermal %s: t = %g s, %d steps, T_max surface %.2f C, mean bulk %.2f C, max |imbalance| %.2e, "
-             "%.1f s wall", problem.options.mode, last.time_s, summ["steps"],
-             last.temperatures_K["max_surface"] - ZERO_CELSIUS_K, last.temperatures_K["mean_bulk"] - ZERO_CELSIUS_K,
-             summ["max_relative_imbalance"], summ["wall_time_s"])
+    log.info(
+        "thermal %s: t = %g s, %d steps, T_max surface %.2f C, mean bulk %.2f C, max |imbalance| %.2e, "
+        "%.1f s wall",
+        problem.options.mode,
+        last.time_s,
+        summ["steps"],
+        last.temperatures_K["max_surface"] - ZERO_CELSIUS_K,
+        last.temperatures_K["mean_bulk"] - ZERO_CELSIUS_K,
+        summ["max_relative_imbalance"],
+        summ["wall_time_s"],
+    )
     return records, summ

@@ -64,9 +64,14 @@ class StepRecord:
 
     def row(self) -> dict[str, float]:
         """Flat CSV row (temperatures in C)."""
-        out: dict[str, float] = {"step": self.step, "time_s": self.time_s, "dt_s": self.dt_s, "order": self.order,
-                                 "newton_iterations": self.newton_iterations,
-                                 "error_estimate_K": self.error_estimate_K}
+        out: dict[str, float] = {
+            "step": self.step,
+            "time_s": self.time_s,
+            "dt_s": self.dt_s,
+            "order": self.order,
+            "newton_iterations": self.newton_iterations,
+            "error_estimate_K": self.error_estimate_K,
+        }
         for k, v in self.temperatures_K.items():
             out[f"T_{k}_C"] = v - ZERO_CELSIUS_K
         out.update(self.balance.as_dict())
@@ -106,7 +111,13 @@ class ThermalProblem:
         import ufl
         from dolfinx import fem
 
-        self.domain, self.material, self.sources, self.boundary, self.options = domain, material, sources, boundary, options
+        self.domain, self.material, self.sources, self.boundary, self.options = (
+            domain,
+            material,
+            sources,
+            boundary,
+            options,
+        )
         self._prefix = petsc_options_prefix
         mesh = domain.mesh
         self.comm = mesh.comm
@@ -117,7 +128,9 @@ class ThermalProblem:
         self._T_nm1 = fem.Function(self.V)
         self._T_nm2 = fem.Function(self.V)
         self._T_pred = fem.Function(self.V)
-        self.initial_K = (options.ambient_C if options.initial_C is None else options.initial_C) + ZERO_CELSIUS_K
+        self.initial_K = (
+            options.ambient_C if options.initial_C is None else options.initial_C
+        ) + ZERO_CELSIUS_K
         for f in (self.T, self._T_n, self._T_nm1, self._T_nm2):
             f.x.array[:] = self.initial_K
         self.time_s = 0.0
@@ -131,22 +144,35 @@ class ThermalProblem:
 
         qv, qs = 2 * p + 1, 2 * p + 3
         dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": qv})
-        ds = ufl.Measure("ds", domain=mesh, subdomain_data=domain.facet_tags, metadata={"quadrature_degree": qs})
+        ds = ufl.Measure(
+            "ds", domain=mesh, subdomain_data=domain.facet_tags, metadata={"quadrature_degree": qs}
+        )
         self._dx, self._ds = dx, ds
         x = ufl.SpatialCoordinate(mesh)
         T, v = self.T, ufl.TestFunction(self.V)
 
         rho = material.density_kg_m3
         cp, kT = material.specific_heat(), material.conductivity()
-        e = lambda u: enthalpy_ufl(rho, cp, u, self.initial_K)  # noqa: E731
-        stored = (self._a[0] * e(T) + self._a[1] * e(self._T_n) + self._a[2] * e(self._T_nm1)) / self._dt
+        e = lambda u: enthalpy_ufl(rho, cp, u, self.initial_K)
+        stored = (
+            self._a[0] * e(T) + self._a[1] * e(self._T_n) + self._a[2] * e(self._T_nm1)
+        ) / self._dt
 
         # balance terms: name -> integrand * measure with v = 1; the residual uses the same with v
         vol: dict[str, Any] = {}
-        surf: dict[str, list[tuple[Any, Any]]] = {"friction": [], "convected": [], "radiated": [], "bore": []}
+        surf: dict[str, list[tuple[Any, Any]]] = {
+            "friction": [],
+            "convected": [],
+            "radiated": [],
+            "bore": [],
+        }
         if sources.u_max is not None:
-            vol["hysteresis"] = (sources.hysteresis_scale * sources.loading_frequency_Hz
-                                 * table_ufl(sources.hysteresis, T) * sources.u_max)
+            vol["hysteresis"] = (
+                sources.hysteresis_scale
+                * sources.loading_frequency_Hz
+                * table_ufl(sources.hysteresis, T)
+                * sources.u_max
+            )
         if sources.volumetric_W_m3 is not None:
             vol["volumetric"] = field_ufl(sources.volumetric_W_m3, x, self._t)
         if sources.flank_flux_W_m2 is not None:
@@ -161,7 +187,9 @@ class ThermalProblem:
                 continue
             dsr = ds(domain.tags(names))
             conv_term = ex.h(T) * (T - ex.fluid_K)
-            rad_term = ex.emissivity * sigma * (T**4 - ex.radiation_K**4) if ex.emissivity > 0.0 else None
+            rad_term = (
+                ex.emissivity * sigma * (T**4 - ex.radiation_K**4) if ex.emissivity > 0.0 else None
+            )
             if role == "bore":
                 surf["bore"].append((conv_term if rad_term is None else conv_term + rad_term, dsr))
             else:
@@ -184,9 +212,18 @@ class ThermalProblem:
                 F_nl += sign * q * v * m
         F_nl_transient = F_nl if self._cp_const else F_nl + stored * v * dx
         mass = rho * float(cp.values[0]) * u * v * dx if self._cp_const else None
-        stiffness = float(kT.values[0]) * ufl.inner(ufl.grad(u), ufl.grad(v)) * dx if self._k_const else None
-        self._split = {"F_nl": F_nl, "F_nl_transient": F_nl_transient, "mass": mass, "stiffness": stiffness,
-                       "pattern": u * v * dx}
+        stiffness = (
+            float(kT.values[0]) * ufl.inner(ufl.grad(u), ufl.grad(v)) * dx
+            if self._k_const
+            else None
+        )
+        self._split = {
+            "F_nl": F_nl,
+            "F_nl_transient": F_nl_transient,
+            "mass": mass,
+            "stiffness": stiffness,
+            "pattern": u * v * dx,
+        }
 
         # Balance: the residual's terms tested with v = 1. Terms linear in T with constant
         # coefficients (storage with constant c_p, convection with constant h) are evaluated as
@@ -195,7 +232,9 @@ class ThermalProblem:
         self._w_vol = self._weights(v * dx)
         self._fast_stored = self._cp_const
         self._rho_cp = rho * float(cp.values[0])
-        self._balance_forms: dict[str, Any] = {} if self._fast_stored else {"stored_W": fem.form(stored * dx)}
+        self._balance_forms: dict[str, Any] = (
+            {} if self._fast_stored else {"stored_W": fem.form(stored * dx)}
+        )
         names = {"hysteresis": "hysteresis_W", "volumetric": "volumetric_W"}
         for name, q in vol.items():
             self._balance_forms[names[name]] = fem.form(q * dx)
@@ -206,8 +245,14 @@ class ThermalProblem:
                 if getattr(domain, role):
                     ex = exchanges[role]
                     tags = domain.role_tags(role)
-                    self._fast_conv.append((float(ex.h_W_m2K), ex.fluid_K, self._weights(v * ds(tags)),
-                                            self._integrate(1.0 * ds(tags))))
+                    self._fast_conv.append(
+                        (
+                            float(ex.h_W_m2K),
+                            ex.fluid_K,
+                            self._weights(v * ds(tags)),
+                            self._integrate(1.0 * ds(tags)),
+                        )
+                    )
         for name, terms in surf.items():
             if terms and not (name == "convected" and self._fast_conv):
                 self._balance_forms[f"{name}_W"] = fem.form(sum(q * m for q, m in terms))
@@ -221,13 +266,20 @@ class ThermalProblem:
         fdim = mesh.topology.dim - 1
         self._volume = self._integrate(1.0 * dx)
         self.volume_m3 = self._volume
-        self._role_areas = {role: self._integrate(1.0 * ds(domain.role_tags(role)))
-                            for role in ("teeth", "sides", "bore", "cuts") if getattr(domain, role)}
+        self._role_areas = {
+            role: self._integrate(1.0 * ds(domain.role_tags(role)))
+            for role in ("teeth", "sides", "bore", "cuts")
+            if getattr(domain, role)
+        }
         self._surface_dofs = self._dofs(fdim, domain.teeth + domain.sides + domain.bore)
         self._monitors = {}  # name -> (weights int_S phi_i, area, dofs on S)
         for mon, groups in domain.monitors.items():
             area = self._integrate(1.0 * ds(domain.tags(groups)))
-            self._monitors[mon] = (self._weights(v * ds(domain.tags(groups))), area, self._dofs(fdim, groups))
+            self._monitors[mon] = (
+                self._weights(v * ds(domain.tags(groups))),
+                area,
+                self._dofs(fdim, groups),
+            )
         self._controller = StepController(options.time_error_K, options.dt_min_s, options.dt_max_s)
 
     # ------------------------------------------------------------------------------------------
@@ -295,18 +347,29 @@ class ThermalProblem:
         opts: dict[str, Any] = {}
         # CG for the symmetric Jacobian (constant k: radiation, H(T), c_p(T), h(T) keep it
         # symmetric), GMRES when k(T) adds the non-symmetric k'(T) grad T term.
-        krylov = {"ksp_type": "cg" if self._symmetric else "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 2000}
+        krylov = {
+            "ksp_type": "cg" if self._symmetric else "gmres",
+            "ksp_rtol": 1e-10,
+            "ksp_max_it": 2000,
+        }
         if o.linear_solver == "direct":
             # Krylov iterations preconditioned by a MUMPS factorisation that is kept while
             # alpha = a0/dt stays close to its value at factorisation (NewtonSolver.REBUILD_RATIO):
             # one or two iterations when only radiation/H(T) changed, a few after a small change
             # of dt; refactorised otherwise. Cholesky (LDL^T) for the symmetric Jacobian.
-            opts.update(krylov | {"pc_type": "cholesky" if self._symmetric else "lu",
-                                  "pc_factor_mat_solver_type": "mumps"})
+            opts.update(
+                krylov
+                | {
+                    "pc_type": "cholesky" if self._symmetric else "lu",
+                    "pc_factor_mat_solver_type": "mumps",
+                }
+            )
         elif o.linear_solver == "iterative":
             # block Jacobi (one block per rank) with incomplete Cholesky / LU(0) blocks: cheapest on
             # the thermal meshes measured (mass-dominated at small steps), see benchmarks/thermal.py
-            opts.update(krylov | {"pc_type": "bjacobi", "sub_pc_type": "icc" if self._symmetric else "ilu"})
+            opts.update(
+                krylov | {"pc_type": "bjacobi", "sub_pc_type": "icc" if self._symmetric else "ilu"}
+            )
         else:  # multigrid: BoomerAMG when PETSc has hypre, else PETSc's GAMG
             from petsc4py import PETSc
 
@@ -329,11 +392,17 @@ class ThermalProblem:
         J = None if dF.empty() else fem.form(dF)
         o = self.options
         return NewtonSolver(
-            self.T, fem.form(F), J,
+            self.T,
+            fem.form(F),
+            J,
             fem.form(sp["mass"]) if (transient and sp["mass"] is not None) else None,
             fem.form(sp["stiffness"]) if sp["stiffness"] is not None else None,
-            fem.form(sp["pattern"]), f"{self._prefix}{'transient' if transient else 'steady'}_",
-            self._petsc_options(), rtol=o.newton_rtol, atol_W=o.newton_atol_W, max_it=o.newton_max_it,
+            fem.form(sp["pattern"]),
+            f"{self._prefix}{'transient' if transient else 'steady'}_",
+            self._petsc_options(),
+            rtol=o.newton_rtol,
+            atol_W=o.newton_atol_W,
+            max_it=o.newton_max_it,
             reuse_preconditioner=transient and o.linear_solver == "direct",
         )
 
@@ -345,15 +414,27 @@ class ThermalProblem:
         from dolfinx import fem
         from mpi4py import MPI
 
-        vals = {k: self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM) for k, f in self._balance_forms.items()}
+        vals = {
+            k: self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+            for k, f in self._balance_forms.items()
+        }
         if self._fast_stored:
             a0, a1, a2 = (float(c.value) for c in self._a)
             dt = float(self._dt.value)
             w = self._w_vol
-            vals["stored_W"] = self._rho_cp * (a0 * self._dot(w, self.T) + a1 * self._dot(w, self._T_n)
-                                               + a2 * self._dot(w, self._T_nm1)) / dt
+            vals["stored_W"] = (
+                self._rho_cp
+                * (
+                    a0 * self._dot(w, self.T)
+                    + a1 * self._dot(w, self._T_n)
+                    + a2 * self._dot(w, self._T_nm1)
+                )
+                / dt
+            )
         if self._fast_conv:
-            vals["convected_W"] = sum(h * (self._dot(w, self.T) - Tf * area) for h, Tf, w, area in self._fast_conv)
+            vals["convected_W"] = sum(
+                h * (self._dot(w, self.T) - Tf * area) for h, Tf, w, area in self._fast_conv
+            )
         return HeatBalance(**vals)
 
     def temperatures_K(self) -> dict[str, float]:
@@ -366,7 +447,10 @@ class ThermalProblem:
             local = float(arr[dofs].max()) if len(dofs) else -math.inf
             return self.comm.allreduce(local, op=MPI.MAX)
 
-        out = {"max_surface": gmax(self._surface_dofs), "mean_bulk": self._dot(self._w_vol, self.T) / self._volume}
+        out = {
+            "max_surface": gmax(self._surface_dofs),
+            "mean_bulk": self._dot(self._w_vol, self.T) / self._volume,
+        }
         for mon, (w, area, dofs) in self._monitors.items():
             out[f"{mon}_mean"] = self._dot(w, self.T) / area
             out[f"{mon}_max"] = gmax(dofs)
@@ -409,10 +493,15 @@ class ThermalProblem:
             self._steady_solver = self._make_solver(transient=False)
         self._t.value = self.time_s
         self._steady_solver.set_time_terms(0.0, None)
-        its = self._steady_solver.solve("steady state (no steady solution if the heating runs away)",
-                                        linesearch="bt")
+        its = self._steady_solver.solve(
+            "steady state (no steady solution if the heating runs away)", linesearch="bt"
+        )
         self._T_n.x.array[:] = self.T.x.array
-        self._a[0].value, self._a[1].value, self._a[2].value = 0.0, 0.0, 0.0  # stored = 0 in the balance
+        self._a[0].value, self._a[1].value, self._a[2].value = (
+            0.0,
+            0.0,
+            0.0,
+        )  # stored = 0 in the balance
         rec = self._record(0, 0.0, 0, its, math.nan, self.heat_balance())
         return rec
 
@@ -475,7 +564,9 @@ class ThermalProblem:
         self._n_steps += 1
         return self._record(self._n_steps, dt, order, its, err, balance)
 
-    def integrate(self, observer: _Observer | None = None, duration_s: float | None = None) -> list[StepRecord]:
+    def integrate(
+        self, observer: _Observer | None = None, duration_s: float | None = None
+    ) -> list[StepRecord]:
         """Integrate to ``duration_s`` (default: options) from the current state; return the records
         (initial state first). Steps land exactly on ``options.output_times_s`` and the end."""
         o = self.options
@@ -496,15 +587,22 @@ class ThermalProblem:
             except ConvergenceError:
                 if not adaptive or h * 0.5 < o.dt_min_s:
                     raise
-                log.info("Newton failed at t = %.6g s with dt = %.4g s; halving the step", self.time_s + h, h)
+                log.info(
+                    "Newton failed at t = %.6g s with dt = %.4g s; halving the step",
+                    self.time_s + h,
+                    h,
+                )
                 dt = 0.5 * h
                 continue
             if adaptive and not math.isnan(err) and not ctrl.accept(err):
                 dt = h * ctrl.ratio(err)
                 if dt < o.dt_min_s:
-                    raise ConvergenceError("thermal time stepping", f"local error {err:.3g} K > tolerance "
-                                           f"{o.time_error_K:g} K with dt < dt_min_s = {o.dt_min_s:g} s",
-                                           step=f"t = {self.time_s:.6g} s")
+                    raise ConvergenceError(
+                        "thermal time stepping",
+                        f"local error {err:.3g} K > tolerance "
+                        f"{o.time_error_K:g} K with dt < dt_min_s = {o.dt_min_s:g} s",
+                        step=f"t = {self.time_s:.6g} s",
+                    )
                 continue
             rec = self.accept_step(h, its, err)
             landed = h == remaining

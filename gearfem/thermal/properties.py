@@ -33,10 +33,10 @@ def antiderivative(table: TemperatureTable, T_K: Any) -> Any:
     if len(t) == 1:
         out = v[0] * (T - t[0])
     else:
-        out = np.where(T < t[0], v[0] * (T - t[0]), G[-1] + v[-1] * (T - t[-1]))
+        out = np.where(t[0] > T, v[0] * (T - t[0]), G[-1] + v[-1] * (T - t[-1]))
         for i in range(len(t) - 1):
             s = (v[i + 1] - v[i]) / (t[i + 1] - t[i])
-            inside = (T >= t[i]) & (T < t[i + 1])
+            inside = (t[i] <= T) & (t[i + 1] > T)
             d = T - t[i]
             out = np.where(inside, G[i] + v[i] * d + 0.5 * s * d * d, out)
     return float(out) if np.ndim(out) == 0 else out
@@ -51,7 +51,9 @@ def antiderivative_ufl(table: TemperatureTable, T: Any) -> Any:
     for i in range(len(t) - 2, -1, -1):
         s = (v[i + 1] - v[i]) / (t[i + 1] - t[i])
         d = T - float(t[i])
-        expr = ufl.conditional(ufl.lt(T, float(t[i + 1])), float(G[i]) + float(v[i]) * d + 0.5 * float(s) * d * d, expr)
+        expr = ufl.conditional(
+            ufl.lt(T, float(t[i + 1])), float(G[i]) + float(v[i]) * d + 0.5 * float(s) * d * d, expr
+        )
     return ufl.conditional(ufl.lt(T, float(t[0])), float(v[0]) * (T - float(t[0])), expr)
 
 

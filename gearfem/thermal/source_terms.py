@@ -36,6 +36,7 @@ from gearfem.thermal.options import PrescribedSources, loading_frequency_Hz
 SourceField = Any  # float | fem.Function | Callable[[x, t], ufl.core.expr.Expr]
 TemperatureFactor = Callable[[Any], Any]  # T (kelvin, UFL) -> dimensionless UFL expression
 
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class HeatSources:
     """Heat sources on the thermal mesh (see the module docstring).
@@ -68,14 +69,25 @@ class HeatSources:
         require_nonnegative("sources.flux_scale", self.flux_scale)
         if self.u_max is not None:
             if self.hysteresis is None:
-                raise ParameterError("sources.hysteresis", None, "an H(T) table when u_max is given")
+                raise ParameterError(
+                    "sources.hysteresis", None, "an H(T) table when u_max is given"
+                )
             if self.loading_frequency_Hz <= 0.0:
-                raise ParameterError("sources.loading_frequency_Hz", self.loading_frequency_Hz,
-                                     "> 0 when u_max is given")
+                raise ParameterError(
+                    "sources.loading_frequency_Hz",
+                    self.loading_frequency_Hz,
+                    "> 0 when u_max is given",
+                )
         if self.flank_flux_W_m2 is not None and not self.flux_surfaces:
-            raise ParameterError("sources.flux_surfaces", self.flux_surfaces, "facet groups for the flank flux")
+            raise ParameterError(
+                "sources.flux_surfaces", self.flux_surfaces, "facet groups for the flank flux"
+            )
         if self.flux_temperature_factor is not None and not callable(self.flux_temperature_factor):
-            raise ParameterError("sources.flux_temperature_factor", self.flux_temperature_factor, "a callable T -> factor")
+            raise ParameterError(
+                "sources.flux_temperature_factor",
+                self.flux_temperature_factor,
+                "a callable T -> factor",
+            )
 
 
 def field_ufl(field: SourceField, x: Any, t: Any) -> Any:
@@ -90,15 +102,22 @@ def field_ufl(field: SourceField, x: Any, t: Any) -> Any:
 
 
 def _flank_groups(domain, flanks: str) -> tuple[str, ...]:
-    kinds = {"drive": ("drive_flank",), "coast": ("coast_flank",), "both": ("drive_flank", "coast_flank")}[flanks]
+    kinds = {
+        "drive": ("drive_flank",),
+        "coast": ("coast_flank",),
+        "both": ("drive_flank", "coast_flank"),
+    }[flanks]
     out = tuple(n for n in domain.teeth if any(n.endswith("_" + k) for k in kinds))
     if not out:
-        raise ParameterError("sources.flanks", flanks, "a mesh with *_drive_flank / *_coast_flank facet groups")
+        raise ParameterError(
+            "sources.flanks", flanks, "a mesh with *_drive_flank / *_coast_flank facet groups"
+        )
     return out
 
 
-def prescribed_heat_sources(prescribed: PrescribedSources, domain, material: Material, speed_rpm: float,
-                            teeth: int) -> HeatSources:
+def prescribed_heat_sources(
+    prescribed: PrescribedSources, domain, material: Material, speed_rpm: float, teeth: int
+) -> HeatSources:
     """The :class:`HeatSources` of the ``[sources]`` prescribed fields on ``domain`` (a
     :class:`~gearfem.thermal.domain.ThermalDomain`)."""
     require_positive("geometry.teeth", teeth)
@@ -106,9 +125,13 @@ def prescribed_heat_sources(prescribed: PrescribedSources, domain, material: Mat
     flux = None
     if prescribed.flank_heat_per_gear_W > 0.0:
         ds = ufl.Measure("ds", domain=domain.mesh, subdomain_data=domain.facet_tags)
-        area = domain.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM)
+        area = domain.comm.allreduce(
+            fem.assemble_scalar(fem.form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM
+        )
         if area <= 0.0:
-            raise ParameterError("sources.flanks", prescribed.flanks, "flanks with positive area in the mesh")
+            raise ParameterError(
+                "sources.flanks", prescribed.flanks, "flanks with positive area in the mesh"
+            )
         flux = prescribed.flank_heat_per_gear_W * domain.model_fraction / area
     u_max = None
     if prescribed.u_max_J_m3 > 0.0:
@@ -117,8 +140,12 @@ def prescribed_heat_sources(prescribed: PrescribedSources, domain, material: Mat
         u_max.x.array[:] = prescribed.u_max_J_m3
     return HeatSources(
         u_max=u_max,
-        loading_frequency_Hz=loading_frequency_Hz(prescribed.loading_frequency, speed_rpm, teeth) if u_max else 0.0,
+        loading_frequency_Hz=loading_frequency_Hz(prescribed.loading_frequency, speed_rpm, teeth)
+        if u_max
+        else 0.0,
         hysteresis=material.hysteresis_table() if u_max else None,
-        flank_flux_W_m2=flux, flux_surfaces=surfaces if flux is not None else (),
-        hysteresis_scale=prescribed.hysteresis_scale, flux_scale=prescribed.flux_scale,
+        flank_flux_W_m2=flux,
+        flux_surfaces=surfaces if flux is not None else (),
+        hysteresis_scale=prescribed.hysteresis_scale,
+        flux_scale=prescribed.flux_scale,
     )

@@ -42,7 +42,9 @@ def bdf2_coefficients(dt: float, dt_prev: float | None) -> tuple[float, float, f
     return (1.0 + 2.0 * w) / (1.0 + w), -(1.0 + w), w * w / (1.0 + w)
 
 
-def extrapolation_weights(times: tuple[float, float, float], t: float) -> tuple[float, float, float]:
+def extrapolation_weights(
+    times: tuple[float, float, float], t: float
+) -> tuple[float, float, float]:
     """Weights of the quadratic Lagrange extrapolation through ``times`` (t_n, t_{n-1}, t_{n-2}) at t."""
     t0, t1, t2 = times
     return (
@@ -88,11 +90,20 @@ class StepController:
         require_positive("thermal.time_error_K", self.tol_K)
         require_positive("thermal.dt_min_s", self.dt_min_s)
         require_positive("thermal.dt_max_s", self.dt_max_s)
-        require_range("thermal.dt_max_s", self.dt_max_s, self.dt_min_s, math.inf,
-                      reason="dt_max_s must be at least dt_min_s")
+        require_range(
+            "thermal.dt_max_s",
+            self.dt_max_s,
+            self.dt_min_s,
+            math.inf,
+            reason="dt_max_s must be at least dt_min_s",
+        )
         require_range("step controller safety", self.safety, 0.0, 1.0, lo_open=True)
-        require_range("step controller max_growth", self.max_growth, 1.0, 1.0 + math.sqrt(2.0), hi_open=True)
-        require_range("step controller min_shrink", self.min_shrink, 0.0, 1.0, lo_open=True, hi_open=True)
+        require_range(
+            "step controller max_growth", self.max_growth, 1.0, 1.0 + math.sqrt(2.0), hi_open=True
+        )
+        require_range(
+            "step controller min_shrink", self.min_shrink, 0.0, 1.0, lo_open=True, hi_open=True
+        )
 
     def ratio(self, error_K: float) -> float:
         """Step ratio suggested by the error estimate (not yet limited by dt_min/dt_max)."""
