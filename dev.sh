@@ -4,6 +4,7 @@
 #   ./dev.sh run [CASE.toml] [gearfem run options]   set up .venv, run the main job (default: thesis case,
 #                                                    results/thesis, on GEARFEM_NP ranks, default 2)
 #   ./dev.sh test [pytest options]                   set up .venv, run the tests serially, then under mpirun -n 2
+#   ./dev.sh test --quick [pytest options]           the quick tier (tests not marked slow; a few minutes)
 #   ./dev.sh setup                                   only set up .venv
 #   ./dev.sh gearfem ARGS...                         any gearfem command inside the environment
 #
@@ -100,15 +101,19 @@ case "$cmd" in
     ;;
   test)
     setup
+    serial_mark=(); mpi_mark=(-m mpi); tier="full"
+    if [[ "${1:-}" == "--quick" ]]; then
+      shift; serial_mark=(-m "not slow"); mpi_mark=(-m "mpi and not slow"); tier="quick"
+    fi
     t0=$SECONDS
-    say "serial: pytest $*"
-    run_pytest "$VENV/bin/python" -m pytest "$@"
+    say "serial ($tier tier): pytest ${serial_mark[*]} $*"
+    run_pytest "$VENV/bin/python" -m pytest "${serial_mark[@]}" "$@"
     say "serial tests passed in $((SECONDS - t0)) s; now the mpi-marked tests under mpirun -n $MPI_NP"
     t1=$SECONDS
     run_pytest timeout "${GEARFEM_MPI_TEST_TIMEOUT:-2400}" "$(mpirun_cmd)" -n "$MPI_NP" \
-      "$VENV/bin/python" -m pytest -m mpi -p no:cacheprovider "$@"
+      "$VENV/bin/python" -m pytest "${mpi_mark[@]}" -p no:cacheprovider "$@"
     say "mpirun -n $MPI_NP tests passed in $((SECONDS - t1)) s; all tests passed in $((SECONDS - t0)) s"
     ;;
   gearfem) setup; exec "$VENV/bin/gearfem" "$@" ;;
-  *) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 2 ;;
+  *) sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; exit 2 ;;
 esac
