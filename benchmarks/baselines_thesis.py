@@ -58,8 +58,10 @@ def main() -> None:
         )
 
     print(
-        f"PEEK 450G pair z = {z}/{z}, m = {m * 1e3:g} mm, alpha = {alpha:g} deg, b = {kg['face_width_mm']} mm, "
-        f"r_a = {r_a * 1e3:g} mm, x = {x:+.4f}, rho_fP = {opt.rack_fillet_coef:.4f} m, mu = {model['friction_coefficient']}, "
+        f"PEEK 450G pair z = {z}/{z}, m = {m * 1e3:g} mm, alpha = {alpha:g} deg, b = "
+        f"{kg['face_width_mm']} mm, "
+        f"r_a = {r_a * 1e3:g} mm, x = {x:+.4f}, rho_fP = {opt.rack_fillet_coef:.4f} m, mu = "
+        f"{model['friction_coefficient']}, "
         f"ambient {model['ambient_C']} C"
     )
     lines = [

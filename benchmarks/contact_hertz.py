@@ -3,15 +3,19 @@
 Two equal elastic half-cylinders (R = 1 m, E = 1 Pa, ν = 0.3) pressed together by 4 mm
 (`gearfem.contact.verification.hertz_case`, augmented Lagrangian with the default contact options),
 meshed as a 3D slab: ``--layers`` element layers of quadratic tetrahedra through the thickness, each
-layer twice the contact element size thick (as in the 1-layer plane-strain slab; the solution does not
-vary along z, and the thicker layers keep the far-field cells, 0.2 m wide, from being flat). Default:
+layer twice the contact element size thick (as in the 1-layer plane-strain slab; the solution does
+not
+vary along z, and the thicker layers keep the far-field cells, 0.2 m wide, from being flat).
+Default:
 contact size 0.0115 m (a/2.7), 3 layers, 0.069 m thick: 101 808 P2 displacement DOFs.
 
 Usage:
     python benchmarks/contact_hertz.py                   # the 3D case on 1 rank
     mpirun -n 2 python benchmarks/contact_hertz.py       # ... on 2 ranks
-    python benchmarks/contact_hertz.py --ranks-both      # re-launch with mpirun -n 1 and -n 2, both tables
-    python benchmarks/contact_hertz.py --refinement      # p0 and a errors vs contact size (convergence)
+    python benchmarks/contact_hertz.py --ranks-both      # re-launch with mpirun -n 1 and -n 2, both
+    tables
+    python benchmarks/contact_hertz.py --refinement      # p0 and a errors vs contact size
+    (convergence)
 
 Columns: DOFs; Newton iterations (all Uzawa steps); Uzawa (augmented Lagrangian) iterations; MUMPS
 factorizations; linear (GMRES) solves; wall time of the mesh build, of the problem setup (spaces,
@@ -142,15 +146,18 @@ def run_case(
 
 def format_timing(rows: list[dict]) -> str:
     head = (
-        f"{'ranks':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'fact.':>5} {'solves':>6} {'mesh s':>7} "
+        f"{'ranks':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'fact.':>5} {'solves':>6} "
+        f"{'mesh s':>7} "
         f"{'setup s':>7} {'solve s':>7} {'CPU s':>6} {'RSS max MiB':>11} {'RSS sum MiB':>11} "
         f"{'p0 err':>7} {'a err':>7}"
     )
     lines = [head, "-" * len(head)]
     for r in rows:
         lines.append(
-            f"{r['ranks']:>5} {r['dofs']:>8} {r['newton']:>6} {r['uzawa']:>5} {r['factorizations']:>5} "
-            f"{r['linear_solves']:>6} {r['mesh_s']:>7.1f} {r['setup_s']:>7.1f} {r['solve_s']:>7.1f} "
+            f"{r['ranks']:>5} {r['dofs']:>8} {r['newton']:>6} {r['uzawa']:>5} "
+            f"{r['factorizations']:>5} "
+            f"{r['linear_solves']:>6} {r['mesh_s']:>7.1f} {r['setup_s']:>7.1f} "
+            f"{r['solve_s']:>7.1f} "
             f"{r['solve_cpu_s']:>6.1f} {r['rss_max_MiB']:>11.0f} {r['rss_sum_MiB']:>11.0f} "
             f"{100 * r['p0_error']:>+6.2f}% {100 * r['a_error']:>+6.2f}%"
         )
@@ -159,7 +166,8 @@ def format_timing(rows: list[dict]) -> str:
 
 def format_refinement(rows: list[dict]) -> str:
     head = (
-        f"{'ranks':>5} {'h mm':>6} {'a/h':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} {'p0 err':>8} {'order':>5} "
+        f"{'ranks':>5} {'h mm':>6} {'a/h':>5} {'DOFs':>8} {'Newton':>6} {'Uzawa':>5} "
+        f"{'p0 err':>8} {'order':>5} "
         f"{'a err':>8} {'order':>5} {'a fit':>8} {'a cur.':>8} {'solve s':>7}"
     )
     lines = [head, "-" * len(head)]
@@ -171,12 +179,16 @@ def format_refinement(rows: list[dict]) -> str:
         def order(key):
             if prev is None or r[key] == 0 or prev[key] == 0 or prev[key] * r[key] < 0:
                 return f"{'':>5}"
-            return f"{math.log(abs(prev[key] / r[key])) / math.log(prev['contact_size_m'] / r['contact_size_m']):>5.2f}"
+            ratio = math.log(abs(prev[key] / r[key]))
+            return f"{ratio / math.log(prev['contact_size_m'] / r['contact_size_m']):>5.2f}"
 
         lines.append(
-            f"{r['ranks']:>5} {1e3 * r['contact_size_m']:>6.1f} {r['a_over_h']:>5.2f} {r['dofs']:>8} {r['newton']:>6} "
-            f"{r['uzawa']:>5} {100 * r['p0_error']:>+7.2f}% {order('p0_error')} {100 * r['a_error']:>+7.2f}% "
-            f"{order('a_error')} {100 * r['a_fit_error']:>+7.2f}% {100 * r['a_current_error']:>+7.2f}% "
+            f"{r['ranks']:>5} {1e3 * r['contact_size_m']:>6.1f} {r['a_over_h']:>5.2f} "
+            f"{r['dofs']:>8} {r['newton']:>6} "
+            f"{r['uzawa']:>5} {100 * r['p0_error']:>+7.2f}% {order('p0_error')} "
+            f"{100 * r['a_error']:>+7.2f}% "
+            f"{order('a_error')} {100 * r['a_fit_error']:>+7.2f}% "
+            f"{100 * r['a_current_error']:>+7.2f}% "
             f"{r['solve_s']:>7.1f}"
         )
         prev = r
@@ -249,8 +261,10 @@ def main(argv: list[str] | None = None) -> int:
     if comm.rank == 0:
         r = rows[-1]
         print(
-            f"Hertz line contact, {'refinement' if args.refinement else '3D slab'}: {r['layers']} layer(s), "
-            f"{comm.size} rank(s), {args.method}; load average {load0:.2f} before, {load1:.2f} after"
+            f"Hertz line contact, {'refinement' if args.refinement else '3D slab'}: "
+            f"{r['layers']} layer(s), "
+            f"{comm.size} rank(s), {args.method}; load average {load0:.2f} before, {load1:.2f} "
+            f"after"
         )
         print(format_refinement(rows) if args.refinement else format_timing(rows))
         if args.json:

@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 import diagnose_generator as G  # noqa: E402
 
 from gearfem.config import load_case  # noqa: E402
-from gearfem.cycle.cache import cache_root
+from gearfem.cycle.cache import cache_root  # noqa: E402
 from gearfem.diagnose.candidates import LIBRARY  # noqa: E402
 from gearfem.diagnose.forward import FullModel, Surrogate  # noqa: E402
 from gearfem.diagnose.select import diagnose, refine  # noqa: E402
@@ -80,8 +80,10 @@ def main() -> None:
         print(h.ljust(28) + " ".join(str(row[c]).rjust(10) for c in cols))
     ok = sum(matrix[n][n] for n in names)
     print(
-        f"rank-1 recovery: {ok}/{len(names) * args.seeds}; truth inside the 95 % interval when recovered: "
-        f"{sum(inside.values())}/{ok} (surrogate), {sum(inside_refined.values())}/{ok} (after full-model "
+        f"rank-1 recovery: {ok}/{len(names) * args.seeds}; truth inside the 95 % interval when "
+        f"recovered: "
+        f"{sum(inside.values())}/{ok} (surrogate), {sum(inside_refined.values())}/{ok} (after "
+        f"full-model "
         f"refinement); null false alarms: {args.seeds - matrix['null']['baseline']}/{args.seeds}"
     )
     print(

@@ -7,14 +7,18 @@ without the cycle cache, so the figures are those of a real cycle solve.
 Usage:
     python benchmarks/gear_cycle.py                      # the cycle on 1 rank
     mpirun -n 2 python benchmarks/gear_cycle.py          # ... on 2 ranks
-    python benchmarks/gear_cycle.py --ranks-both         # re-launch with mpirun -n 1 and -n 2, both rows
-    python benchmarks/gear_cycle.py --refinement         # max contact pressure at the pitch point vs mesh size
+    python benchmarks/gear_cycle.py --ranks-both         # re-launch with mpirun -n 1 and -n 2, both
+    rows
+    python benchmarks/gear_cycle.py --refinement         # max contact pressure at the pitch point
+    vs mesh size
 
 Columns: P2 displacement DOFs; positions solved; Newton iterations (sum over positions, all Uzawa
 passes); wall time of the mesh (build or cache load + DOLFINx import), of the model setup and of the
-cycle solve (max over ranks); peak resident memory (``getrusage`` ru_maxrss, max over ranks and summed).
+cycle solve (max over ranks); peak resident memory (``getrusage`` ru_maxrss, max over ranks and
+summed).
 ``--refinement`` solves the single position with the pitch point in mid-contact at the case mesh
-scaled by the factors given (flank, tip, root and tooth element sizes; layers with --scale-layers) and
+scaled by the factors given (flank, tip, root and tooth element sizes; layers with --scale-layers)
+and
 prints the largest contact pressure in the middle half of the face width and its change against
 the next finer mesh: the mesh is fine enough when that change is below 5 %. The machine's 1-minute
 load average is printed: timings on a shared machine are only as good as the load allows.
@@ -123,13 +127,17 @@ def cycle_row(args) -> dict:
 
 def print_rows(rows) -> None:
     print(
-        f"{'ranks':>5} {'DOFs':>8} {'pos':>4} {'Newton':>6} {'mesh s':>7} {'setup s':>7} {'cycle s':>8} "
-        f"{'cycle min':>9} {'mem max MB':>10} {'mem sum MB':>10} {'p_max MPa':>9} {'eps_eff':>7} {'TE um':>6}"
+        f"{'ranks':>5} {'DOFs':>8} {'pos':>4} {'Newton':>6} {'mesh s':>7} {'setup s':>7} "
+        f"{'cycle s':>8} "
+        f"{'cycle min':>9} {'mem max MB':>10} {'mem sum MB':>10} {'p_max MPa':>9} {'eps_eff':>7} "
+        f"{'TE um':>6}"
     )
     for r in rows:
         print(
-            f"{r['ranks']:5d} {r['dofs']:8d} {r['positions']:4d} {r['newton']:6d} {r['mesh_s']:7.1f} "
-            f"{r['setup_s']:7.1f} {r['cycle_s']:8.1f} {r['cycle_s'] / 60:9.2f} {r['mem_max_MB']:10.0f} "
+            f"{r['ranks']:5d} {r['dofs']:8d} {r['positions']:4d} {r['newton']:6d} "
+            f"{r['mesh_s']:7.1f} "
+            f"{r['setup_s']:7.1f} {r['cycle_s']:8.1f} {r['cycle_s'] / 60:9.2f} "
+            f"{r['mem_max_MB']:10.0f} "
             f"{r['mem_sum_MB']:10.0f} {r['p_max_MPa']:9.2f} {r['eps_eff']:7.3f} {r['te_um']:6.1f}"
         )
 
@@ -146,7 +154,7 @@ def refinement(args) -> None:
             size_tip_mm=m.size_tip_mm * f,
             size_root_mm=m.size_root_mm * f,
             size_tooth_mm=m.size_tooth_mm * f,
-            layers=max(1, int(round(m.layers / f))) if args.scale_layers else m.layers,
+            layers=max(1, round(m.layers / f)) if args.scale_layers else m.layers,
         )
         case = dataclasses.replace(base, mesh=mesh)
         t0 = time.perf_counter()
@@ -184,11 +192,13 @@ def refinement(args) -> None:
         )
     if comm.rank == 0:
         print(
-            f"pitch-point position, {base.operating.torque_Nm:g} N m, mu = {base.contact.friction_coefficient:g}, "
+            f"pitch-point position, {base.operating.torque_Nm:g} N m, mu = "
+            f"{base.contact.friction_coefficient:g}, "
             f"{comm.size} rank(s)"
         )
         print(
-            f"{'factor':>6} {'flank mm':>8} {'layers':>6} {'DOFs':>8} {'p_mid MPa':>9} {'change':>7} "
+            f"{'factor':>6} {'flank mm':>8} {'layers':>6} {'DOFs':>8} {'p_mid MPa':>9} "
+            f"{'change':>7} "
             f"{'p_max MPa':>9} {'change':>7} {'TE um':>6} {'wall s':>7}"
         )
         for i, r in enumerate(rows):
@@ -196,7 +206,8 @@ def refinement(args) -> None:
             c1 = f"{(r['p_mid_MPa'] / nxt['p_mid_MPa'] - 1) * 100:+6.2f}%" if nxt else "      -"
             c2 = f"{(r['p_max_MPa'] / nxt['p_max_MPa'] - 1) * 100:+6.2f}%" if nxt else "      -"
             print(
-                f"{r['factor']:6.2f} {r['flank_mm']:8.3f} {r['layers']:6d} {r['dofs']:8d} {r['p_mid_MPa']:9.2f} "
+                f"{r['factor']:6.2f} {r['flank_mm']:8.3f} {r['layers']:6d} {r['dofs']:8d} "
+                f"{r['p_mid_MPa']:9.2f} "
                 f"{c1:>7} {r['p_max_MPa']:9.2f} {c2:>7} {r['te_um']:6.1f} {r['wall_s']:7.1f}"
             )
         print("change: relative to the next finer mesh")

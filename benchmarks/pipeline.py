@@ -69,25 +69,31 @@ def main(argv=None) -> int:
     if comm.rank == 0:
         print(f"case: {case.name}; {comm.size} rank(s); {os.cpu_count()} CPUs")
         print(
-            f"{'run':32} {'cycle s':>8} {'thermal s':>9} {'total s':>8} {'total min':>9} {'T DOFs':>7} "
+            f"{'run':32} {'cycle s':>8} {'thermal s':>9} {'total s':>8} {'total min':>9} "
+            f"{'T DOFs':>7} "
             f"{'mem max MB':>10} {'mem sum MB':>10} {'T_max C':>8}"
         )
         for label, s, wall, mx, tot in rows:
             w = s["wall_time_s"]
             print(
-                f"{label:32} {w.get('cycle_s', 0.0):8.1f} {w['thermal_s']:9.1f} {wall:8.1f} {wall / 60:9.2f} "
-                f"{s['thermal']['dofs']:7d} {mx:10.0f} {tot:10.0f} {s['headline']['max_surface_temperature_C']:8.1f}"
+                f"{label:32} {w.get('cycle_s', 0.0):8.1f} {w['thermal_s']:9.1f} {wall:8.1f} "
+                f"{wall / 60:9.2f} "
+                f"{s['thermal']['dofs']:7d} {mx:10.0f} {tot:10.0f} "
+                f"{s['headline']['max_surface_temperature_C']:8.1f}"
             )
         cyc = rows[0][1].get("cycle", {})
         if cyc:
             print(
-                f"cycle: {cyc['positions']} positions, {cyc['info'].get('dofs', '?')} displacement DOFs, "
-                f"{cyc['newton_iterations']} Newton iterations, cycle {cyc['cycle_wall_time_s']:.0f} s, "
+                f"cycle: {cyc['positions']} positions, {cyc['info'].get('dofs', '?')} "
+                f"displacement DOFs, "
+                f"{cyc['newton_iterations']} Newton iterations, cycle "
+                f"{cyc['cycle_wall_time_s']:.0f} s, "
                 f"effective contact ratio {cyc['effective_contact_ratio']:.3f}, "
                 f"max pressure {cyc['max_contact_pressure_MPa']:.1f} MPa"
             )
         print(
-            f"load average (1 min): {load0:.2f} before, {os.getloadavg()[0]:.2f} after. Targets: first point "
+            f"load average (1 min): {load0:.2f} before, {os.getloadavg()[0]:.2f} after. Targets: "
+            f"first point "
             "< 15 min, extra speed < 2 min on 2 cores"
         )
     return 0

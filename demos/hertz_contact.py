@@ -14,9 +14,12 @@ similar bodies the shear traction does not change the pressure (Johnson §7.1), 
 ellipse is the reference; the shear traction is then q = μ p.
 
 Parameters (command-line options, defaults in brackets):
-    --contact-size H       element size near the contact line, m [0.01, about a/3 at the default load]
-    --compression D        downward displacement of the upper body's flat face, m [0.004: a ≈ 0.031 m]
-    --method M             contact enforcement: penalty | augmented_lagrangian [augmented_lagrangian]
+    --contact-size H       element size near the contact line, m [0.01, about a/3 at the default
+    load]
+    --compression D        downward displacement of the upper body's flat face, m [0.004: a ≈ 0.031
+    m]
+    --method M             contact enforcement: penalty | augmented_lagrangian
+    [augmented_lagrangian]
     --penalty-factor F     penalty ε = F · E / h per slave facet (h: facet size), dimensionless [1]
     --friction MU          Coulomb friction coefficient, dimensionless [0]
     --sliding-speed V      speed of the upper body in +x that sets the slip direction (gross slip;
@@ -165,7 +168,8 @@ def plot_pressure(path: Path, table, cmp, info: dict) -> None:
         fontsize=10.5,
     )
     txt = (
-        f"R = {RADIUS_M:g} m (both), E = {info['youngs_modulus_Pa']:g} Pa, ν = {info['poissons_ratio']:g}\n"
+        f"R = {RADIUS_M:g} m (both), E = {info['youngs_modulus_Pa']:g} Pa, ν = "
+        f"{info['poissons_ratio']:g}\n"
         f"P' = {cmp.force_per_length_N_m:.4g} N/m → a = {a * 1e3:.3f} mm, $p_0$ = {p0:.4g} Pa\n"
         f"h = {info['contact_size_m'] * 1e3:g} mm = a/{a / info['contact_size_m']:.1f}, "
         f"{_METHOD_NAMES[info['method']]}, μ = {mu:g}\n"
@@ -359,12 +363,14 @@ def main(argv: list[str] | None = None) -> int:
         tmp.write_text(json.dumps(result, indent=2) + "\n")
         os.replace(tmp, out / "summary.json")  # last: marks a complete run
         print(
-            f"Hertz line contact, {case.num_dofs()} DOFs on {comm.size} rank{'s' if comm.size > 1 else ''}: "
+            f"Hertz line contact, {case.num_dofs()} DOFs on {comm.size} "
+            f"rank{'s' if comm.size > 1 else ''}: "
             f"P' = {cmp.force_per_length_N_m:.5g} N/m, a = {cmp.a_analytic_m:.5g} m, "
             f"p0 = {cmp.p0_analytic_Pa:.5g} Pa"
         )
         print(
-            f"  p0 error {100 * cmp.p0_error:+.2f} %, a error {100 * cmp.a_error:+.2f} % (moments), "
+            f"  p0 error {100 * cmp.p0_error:+.2f} %, a error {100 * cmp.a_error:+.2f} % "
+            f"(moments), "
             f"{100 * (cmp.a_fit_m / cmp.a_analytic_m - 1):+.2f} % (ellipse fit)"
         )
         print(

@@ -1,6 +1,7 @@
 """A speed × torque study of the thesis gear pair: one structural cycle per torque, every speed.
 
-The study (written to OUT/study.toml, then run exactly as ``gearfem study OUT/study.toml --out OUT``)
+The study (written to OUT/study.toml, then run exactly as ``gearfem study OUT/study.toml --out
+OUT``)
 uses the thesis gears and material on a coarse mesh so that it finishes in minutes on 2 cores:
 6 of 30 teeth per gear, 2 element layers, flank elements of 0.3 mm, 8 positions per pitch,
 first-order thermal elements. The structural cycle is computed once per torque and cached; every
@@ -83,11 +84,13 @@ def main(argv=None) -> int:
     res = run_study(load_study(out / "study.toml"), out, comm)
     if comm.rank == 0:
         print(
-            f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T_max end C':>11} {'VDI flank C':>11}"
+            f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T_max end C':>11} "
+            f"{'VDI flank C':>11}"
         )
         for r in res["results"]:
             print(
-                f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} {r['max_surface_end_C']:11.1f} "
+                f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} "
+                f"{r['max_surface_end_C']:11.1f} "
                 f"{r['vdi2736_flank_C']:11.1f}"
             )
         print(

@@ -153,7 +153,8 @@ def table(rows, out: Path) -> str:
         lines.append(
             f"| {r['label']} | {r['speed_rpm']:g} | {r['torque_Nm']:g} | {r['time_s']:g} | "
             f"{'on' if r['hysteresis'] else 'off'} | {r['max_surface_C']:.1f} | "
-            f"{'' if at900 is None else f'{at900:.1f}'} | {r['mean_bulk_C']:.1f} | {r['friction_W']:.1f} | "
+            f"{'' if at900 is None else f'{at900:.1f}'} | {r['mean_bulk_C']:.1f} | "
+            f"{r['friction_W']:.1f} | "
             f"{r['hysteresis_W']:.2f} | {r['vdi2736_flank_C']:.1f} | {r['statement']} | "
             f"{'' if r['bench_C'] is None else r['bench_C']:} |"
         )
@@ -283,7 +284,8 @@ def main(argv=None) -> int:
             )
         )
         print(
-            f"wrote {out / 'reproduction.md'}, {out / 'reproduction.csv'}, {out / 'reproduction.png'}"
+            f"wrote {out / 'reproduction.md'}, {out / 'reproduction.csv'}, "
+            f"{out / 'reproduction.png'}"
         )
     comm.barrier()
     return 0

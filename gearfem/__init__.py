@@ -56,7 +56,8 @@ def _version_tuple(text: str) -> tuple[int, ...]:
 if _version_tuple(getattr(_dolfinx, "__version__", "0")) < MIN_DOLFINX:
     raise MissingDependencyError(
         f"gearfem needs DOLFINx >= {'.'.join(map(str, MIN_DOLFINX))}, found "
-        f"{getattr(_dolfinx, '__version__', 'unknown')} at {getattr(_dolfinx, '__file__', '?')}. {_INSTALL_HINT}"
+        f"{getattr(_dolfinx, '__version__', 'unknown')} at {getattr(_dolfinx, '__file__', '?')}. "
+        f"{_INSTALL_HINT}"
     )
 
 __all__ = ["MIN_DOLFINX", "__version__"]

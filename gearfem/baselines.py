@@ -11,7 +11,8 @@ argument names, each function citing the equation it implements:
 * Blok's flash temperature (thesis eqs. 2.1-2.5), as a curve along the path of contact that can be
   overlaid on the FE flank temperature -- :func:`flash_temperature_along_path`.
 * Hertz line contact: general cylinder formulas, the involute radii of curvature, and the AGMA
-  pitch-point form (thesis eq. 4.1) -- :func:`hertz_line_contact`, :func:`agma_pitch_contact_stress_Pa`.
+  pitch-point form (thesis eq. 4.1) -- :func:`hertz_line_contact`,
+  :func:`agma_pitch_contact_stress_Pa`.
 * Tooth root stress: ISO 6336-3 method B (30-degree tangent construction for a rack-generated
   fillet, load at the outer point of single contact) and the VDI 2736-2 check (load at the tip,
   Y_Fa, Y_Sa, Y_epsilon) -- :func:`root_form_factors`, :func:`root_stress_Pa`.
@@ -162,7 +163,8 @@ def _pair(
 
     Standard relations (ISO 21771): r_b = m z cos(alpha) / 2; cos(alpha_w) = (r_b1 + r_b2) / a;
     T1C = r_b1 tan(alpha_w); recess g_a = sqrt(r_a1^2 - r_b1^2) - T1C; approach
-    g_f = sqrt(r_a2^2 - r_b2^2) - T2C; eps_1 = g_a / p_b, eps_2 = g_f / p_b, eps_alpha = eps_1 + eps_2.
+    g_f = sqrt(r_a2^2 - r_b2^2) - T2C; eps_1 = g_a / p_b, eps_2 = g_f / p_b, eps_alpha = eps_1 +
+    eps_2.
     Raises ParameterError if the tips do not reach past the pitch point, if the path runs past a
     base-tangent point (interference) or if eps_alpha is not in [1, 2) (the rigid load-sharing
     model of this module has one or two pairs in contact).
@@ -541,7 +543,8 @@ def involute_curvature_radii_m(
     tip_radius2_m: float,
     centre_distance_m: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Radii of curvature of the two involute flanks at contact position ``s`` on the line of action.
+    """Radii of curvature of the two involute flanks at contact position ``s`` on the line of
+    action.
 
     An involute's radius of curvature at a point is its distance from the base-tangent point:
     rho1 = T1C + s, rho2 = T2C - s (s from the pitch point, positive towards the pinion tip).
@@ -921,7 +924,8 @@ def root_form_factors(
         rho_F/m = rho_fP/m + 2 G^2 / (cos(theta) (z cos^2(theta) - 2G))
         h_Fe/m = 1/2 [(cos(gamma_e) - sin(gamma_e) tan(alpha_Fen)) d_en/m - z cos(pi/3 - theta)
                       - G/cos(theta) + rho_fP/m]
-        alpha_en = arccos(d_b/d_en), gamma_e = (pi/2 + 2 x tan(alpha_n))/z + inv(alpha_n) - inv(alpha_en),
+        alpha_en = arccos(d_b/d_en), gamma_e = (pi/2 + 2 x tan(alpha_n))/z + inv(alpha_n) -
+        inv(alpha_en),
         alpha_Fen = alpha_en - gamma_e
         Y_F = 6 (h_Fe/m) cos(alpha_Fen) / ((s_Fn/m)^2 cos(alpha_n))
         Y_S = (1.2 + 0.13 L) q_s^(1/(1.21 + 2.3/L)),  L = s_Fn/h_Fe,  q_s = s_Fn/(2 rho_F)
@@ -940,7 +944,8 @@ def root_form_factors(
         profile_shift: x (generating), see :func:`profile_shift_from_thickness`.
         tip_radius_m: Tip radius r_a (m).
         rack_dedendum_coef: h_fP / m of the basic rack (the gear's dedendum), e.g. 1.25.
-        rack_fillet_coef: rho_fP / m, at most :func:`max_rack_fillet_coef`; 0.38 is ISO 53 profile A.
+        rack_fillet_coef: rho_fP / m, at most :func:`max_rack_fillet_coef`; 0.38 is ISO 53 profile
+        A.
         load_at: "single_contact" or "tip".
         contact_ratio: eps_alpha, required for "single_contact".
     """
@@ -1052,7 +1057,8 @@ def root_form_factors(
 
 
 def vdi2736_contact_ratio_factor(contact_ratio: float) -> float:
-    """Y_epsilon = 0.25 + 0.75 / eps_alpha, for the tip-load root stress (DIN 3990-3 method C, VDI 2736-2)."""
+    """Y_epsilon = 0.25 + 0.75 / eps_alpha, for the tip-load root stress (DIN 3990-3 method C, VDI
+    2736-2)."""
     eps = require_range("contact_ratio", contact_ratio, 1.0, 2.0, hi_open=True)
     return 0.25 + 0.75 / eps
 

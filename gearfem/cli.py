@@ -70,8 +70,10 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         c, t = report["counts"], report["timing"]
         q = report["quality"]
         print(
-            f"mesh {gm.cache_key}: {c['cells']} cells ({report['element']['cell_type']}), {c['nodes']} nodes, "
-            f"{c['dofs_p2_vector']} P2 vector DOFs; min scaled Jacobian {q['min_scaled_jacobian']:.3f}"
+            f"mesh {gm.cache_key}: {c['cells']} cells ({report['element']['cell_type']}), "
+            f"{c['nodes']} nodes, "
+            f"{c['dofs_p2_vector']} P2 vector DOFs; min scaled Jacobian "
+            f"{q['min_scaled_jacobian']:.3f}"
         )
         for body, v in report["volumes"].items():
             print(
@@ -98,7 +100,8 @@ def _cmd_thermal(args: argparse.Namespace) -> int:
     if MPI.COMM_WORLD.rank == 0:
         T = summary["final_temperatures_C"]
         print(
-            f"thermal: t = {summary['time_s']:g} s, {summary['steps']} steps, {summary['dofs']} DOFs, "
+            f"thermal: t = {summary['time_s']:g} s, {summary['steps']} steps, {summary['dofs']} "
+            f"DOFs, "
             f"T max surface {T['max_surface']:.1f} C, mean bulk {T['mean_bulk']:.1f} C; "
             f"results in {args.out} (thermal_history.csv, temperature.bp, thermal_history.png, "
             f"thermal_summary.json)"
@@ -129,9 +132,12 @@ def _cmd_cycle(args: argparse.Namespace) -> int:
         write_cycle_outputs(res, args.out)
         s = cycle_summary_dict(res)
         _say(
-            f"cycle at {case.operating.torque_Nm:g} N m ({'cached' if cached else 'computed'}, {directory}): "
-            f"{s['positions']} positions, effective contact ratio {s['effective_contact_ratio']:.3f} "
-            f"(theory {s['theoretical_contact_ratio']:.3f}), TE {s['transmission_error_um']['mean']:.1f} um, "
+            f"cycle at {case.operating.torque_Nm:g} N m ({'cached' if cached else 'computed'}, "
+            f"{directory}): "
+            f"{s['positions']} positions, effective contact ratio "
+            f"{s['effective_contact_ratio']:.3f} "
+            f"(theory {s['theoretical_contact_ratio']:.3f}), TE "
+            f"{s['transmission_error_um']['mean']:.1f} um, "
             f"max pressure {s['max_contact_pressure_MPa']:.1f} MPa, friction power "
             f"{s['mean_friction_power_W_per_rad_s']:.3f} W per rad/s; results in {args.out} "
             "(cycle_history.csv, cycle_summary.json, load_sharing.png, transmission_error.png, "
@@ -159,7 +165,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"{case.name}: {case.operating.speed_rpm:g} rpm, {case.operating.torque_Nm:g} N m, "
         f"t = {h['time_s']:g} s: max surface {h['max_surface_temperature_C']:.1f} C "
         f"(steady {h.get('steady_max_surface_temperature_C') or float('nan'):.1f} C), "
-        f"mean bulk {h['mean_bulk_temperature_C']:.1f} C; VDI 2736 flank {h.get('vdi2736_flank1_C', float('nan')):.1f} C, "
+        f"mean bulk {h['mean_bulk_temperature_C']:.1f} C; VDI 2736 flank "
+        f"{h.get('vdi2736_flank1_C', float('nan')):.1f} C, "
         f"root {h.get('vdi2736_root1_C', float('nan')):.1f} C"
     )
     _say(f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/")
@@ -178,16 +185,19 @@ def _cmd_study(args: argparse.Namespace) -> int:
     res = run_study(study, args.out, MPI.COMM_WORLD, index=args.index, collect_only=args.collect)
     if args.index is not None:
         _say(
-            f"study {study.name}: task {args.index} {'ran' if res['ran'] else 'was already finished'}; "
+            f"study {study.name}: task {args.index} "
+            f"{'ran' if res['ran'] else 'was already finished'}; "
             f"collect with: gearfem study {args.study} --out {args.out} --collect"
         )
         return 0
     _say(
-        f"study {study.name}: {len(res['results'])} operating points, {len(res['ran'])} computed now, "
+        f"study {study.name}: {len(res['results'])} operating points, {len(res['ran'])} computed "
+        f"now, "
         f"{len(res['missing'])} missing"
     )
     _say(
-        f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T max end C':>11} {'T max steady C':>14} "
+        f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T max end C':>11} "
+        f"{'T max steady C':>14} "
         f"{'VDI flank C':>11}"
     )
     for r in res["results"]:
@@ -196,11 +206,14 @@ def _cmd_study(args: argparse.Namespace) -> int:
             continue
         steady = r.get("max_surface_steady_C")
         _say(
-            f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} {r['max_surface_end_C']:11.1f} "
-            f"{steady if steady is not None else float('nan'):14.1f} {r.get('vdi2736_flank_C') or float('nan'):11.1f}"
+            f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} "
+            f"{r['max_surface_end_C']:11.1f} "
+            f"{steady if steady is not None else float('nan'):14.1f} "
+            f"{r.get('vdi2736_flank_C') or float('nan'):11.1f}"
         )
     _say(
-        f"results in {args.out}: results.csv, study.json, temperature_histories.png, steady_temperature.png, "
+        f"results in {args.out}: results.csv, study.json, temperature_histories.png, "
+        f"steady_temperature.png, "
         "cases/<label>/"
     )
     return 0 if res["complete"] else 1
@@ -222,14 +235,16 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     )
     for row in r["vv20"]["rows"]:
         _say(
-            f"  {row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = {row['E_K']:+.1f} K, "
+            f"  {row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = "
+            f"{row['E_K']:+.1f} K, "
             f"u_val = {row['u_val_K']:.1f} K{' (resolved)' if row['resolved'] else ''}"
         )
     g = r["gain"]
     _say(f"verdict: {r['verdict']['text']}")
     if g["loo_rmse_before_K"] is not None and g["loo_rmse_after_K"] is not None:
         _say(
-            f"held-out RMS error: {g['loo_rmse_before_K']:.1f} K before, {g['loo_rmse_after_K']:.1f} K after"
+            f"held-out RMS error: {g['loo_rmse_before_K']:.1f} K before, "
+            f"{g['loo_rmse_after_K']:.1f} K after"
         )
     _say(f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, ranking.png")
     return 0

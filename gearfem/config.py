@@ -5,7 +5,8 @@ A case file has one table per stage, each a frozen dataclass of the module that 
     name = "thesis bench 1000 rpm 8 Nm"
     [geometry]   # gearfem.geometry.involute.GearPairGeometry (mm, degrees)
     [mesh]       # gearfem.geometry.gmsh_pair.MeshOptions
-    [material]   # gearfem.core.materials.Material (both gears; [material_wheel] overrides the wheel)
+    [material]   # gearfem.core.materials.Material (both gears; [material_wheel] overrides the
+    wheel)
     [contact]    # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5: thesis 5.1.2)
     [cycle]      # gearfem.cycle.model.CycleOptions
     [operating]  # OperatingPoint: speed_rpm (pinion), torque_Nm (resisting torque on the wheel)
@@ -15,7 +16,8 @@ A case file has one table per stage, each a frozen dataclass of the module that 
 
 Every table and key is optional; missing ones take the defaults, which are the thesis case
 (Doll 2015: PEEK 450G 30/30 teeth, m = 2 mm, 30°, bench point 1000 rpm / 8 N·m). Unknown keys and
-bad values raise :class:`~gearfem.core.errors.ParameterError` naming the key, value and allowed range.
+bad values raise :class:`~gearfem.core.errors.ParameterError` naming the key, value and allowed
+range.
 """
 
 from __future__ import annotations
@@ -101,7 +103,8 @@ def load_case(path: str | Path | None = None) -> Case:
 
 
 def read_toml(path: str | Path, what: str) -> dict[str, Any]:
-    """The table of a TOML file; a missing or malformed file raises ParameterError naming ``what``."""
+    """The table of a TOML file; a missing or malformed file raises ParameterError naming
+    ``what``."""
     path = Path(path)
     if not path.is_file():
         raise ParameterError(what, str(path), "an existing TOML file")

@@ -71,7 +71,8 @@ def cycle(
     rebuild: bool = False,
     progress=None,
 ):
-    """The structural cycle of the case's torque (cached). Returns (CycleResult, directory, from_cache)."""
+    """The structural cycle of the case's torque (cached). Returns (CycleResult, directory,
+    from_cache)."""
 
     heat_fraction = case.sources.heat_fraction(case.materials)
 
@@ -317,7 +318,8 @@ def read_case(path: str | Path | None):
 def run_thermal_case(
     case, out_dir: str | Path, cache_dir: str | Path | None = None, comm=None
 ) -> dict[str, Any]:
-    """Run the thermal stage of a :class:`gearfem.config.Case` and write its outputs; return the summary."""
+    """Run the thermal stage of a :class:`gearfem.config.Case` and write its outputs; return the
+    summary."""
     comm = comm or MPI.COMM_WORLD
     cyc = None
     if case.sources.mode == "cycle":

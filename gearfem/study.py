@@ -7,7 +7,8 @@ table ``[study]``::
     [study]
     speeds_rpm = [500.0, 1000.0, 2000.0]   # with torques_Nm: the full grid
     torques_Nm = [4.0, 8.0]
-    # points = [[1000.0, 8.0], [2000.0, 4.0]]   # or (also) an explicit list of (speed_rpm, torque_Nm)
+    # points = [[1000.0, 8.0], [2000.0, 4.0]]   # or (also) an explicit list of (speed_rpm,
+    torque_Nm)
     parallel = "auto"                      # "cases", "mpi" or "auto" (see below)
     [thermal]
     duration_s = 900.0
@@ -73,7 +74,8 @@ class StudyOptions:
         speeds_rpm: Pinion speeds (rpm); with ``torques_Nm`` they span the full grid.
         torques_Nm: Resisting torques on the wheel (N m).
         points: Extra explicit (speed_rpm, torque_Nm) pairs.
-        parallel: ``"cases"`` (independent tasks side by side, one rank each), ``"mpi"`` (each task on
+        parallel: ``"cases"`` (independent tasks side by side, one rank each), ``"mpi"`` (each task
+        on
             all ranks) or ``"auto"`` (cases when a stage has at least as many tasks as ranks).
         write_fields: Write the VTX temperature fields of every case (large; off by default).
     """

@@ -4,7 +4,8 @@ identity between two formulas -- never the module's own output.
 
 Published calculation used: the POM/POM pair "S30" of Fernandes et al. (2018), Tribology
 International 120, 255-268, as computed and printed by their program GEARpie (C. Fernandes, MIT
-licence; github.com/cfernandesFEUP/GEARpie, REPORT/S30.txt at commit 7580f0c5): m = 2 mm, z = 30/30, alpha = 20 deg,
+licence; github.com/cfernandesFEUP/GEARpie, REPORT/S30.txt at commit 7580f0c5): m = 2 mm, z = 30/30,
+alpha = 20 deg,
 x = 0, b = 15 mm, a = 60 mm, r_a = 32 mm, 1000 rpm, 10 N m (P_in = 1047.2 W), mu = 0.28 (VDI 2736
 POM/POM), theta_0 = 20 C, open drive. The report prints: H_V = 0.1494 (Ohlendorf) and
 H_VL = 0.1400 (Wimmer, numerical), P_vzp = 41.04 W (computed with H_VL), root 69.4 C, flank
@@ -97,7 +98,8 @@ def test_vdi2736_published_example_from_printed_power_loss():
 
 
 def test_vdi2736_unit_handling_and_scaling():
-    """The bracket uses b, m in mm and v in m/s: check against the formula written in those units."""
+    """The bracket uses b, m in mm and v in m/s: check against the formula written in those
+    units."""
     base = dict(
         ambient_C=23.0,
         power_W=500.0,
@@ -137,7 +139,7 @@ def test_tooth_loss_factor_is_the_sliding_loss_integral():
     """Quadrature of the loss integral with the rigid equal load share converges to H_V, also where
     eps_1 > 1 and Ohlendorf's closed form no longer applies."""
     for geo in (S30_GEO, THESIS_GEO, (20, 60, 1e-3, 20.0, 11.7e-3, 30.5e-3, 40e-3)):
-        z1, z2, m, al, ra1, ra2, a = geo
+        z1, z2, m, al, _ra1, _ra2, _a = geo
         p = B._pair(*geo)
         H = B.tooth_loss_factor(*geo)
         errs = []
@@ -183,7 +185,8 @@ def test_mao_from_the_energy_balance():
 
 def test_mao_dimensional_consistency():
     """Delta T depends on T / (rho c_p L^3) only: scaling every length by 3 and the torque by 27
-    leaves it unchanged; doubling rho c_p halves it; it does not depend on speed (no speed input)."""
+    leaves it unchanged; doubling rho c_p halves it; it does not depend on speed (no speed
+    input)."""
     kw = dict(
         mu=0.3,
         torque_Nm=5.0,
@@ -264,11 +267,12 @@ def test_agma_equals_hertz_at_the_pitch_point():
 
 
 def _duhamel_max(shape):
-    """max over x of int_{-1}^{x} g(x') / sqrt(x - x') dx' for a band source of mean flux 1 on [-1, 1]
+    """max over x of int_{-1}^{x} g(x') / sqrt(x - x') dx' for a band source of mean flux 1 on [-1,
+    1]
     (surface temperature of a semi-infinite body passing under it, in units of
     q_mean sqrt(a / v) / (b sqrt(pi)))."""
 
-    def I(x):
+    def I(x):  # noqa: E743 - the integral I(x) of the reference
         if x <= 1.0:  # substitute x' = x - t^2
             return integrate.quad(lambda t: 2 * shape(x - t * t), 0, math.sqrt(x + 1), limit=200)[0]
         return integrate.quad(lambda xp: shape(xp) / math.sqrt(x - xp), -1, 1, limit=200)[0]
@@ -299,7 +303,8 @@ def test_band_source_is_the_semi_infinite_solid_under_constant_flux():
 
 
 def test_blok_partition_gives_equal_temperatures():
-    """With b1 != b2 the split q_i ~ b_i sqrt(v_i) makes both bodies equally hot (Blok's postulate)."""
+    """With b1 != b2 the split q_i ~ b_i sqrt(v_i) makes both bodies equally hot (Blok's
+    postulate)."""
     mu, w, a, v1, v2, b1, b2 = 0.4, 2e4, 2e-4, 3.0, 1.0, 700.0, 11000.0
     theta = float(B.blok_flash_temperature_K(mu, w, a, v1, v2, b1, b2))
     q = mu * (w / (2 * a)) * abs(v1 - v2)

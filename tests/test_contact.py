@@ -82,11 +82,11 @@ def test_segmentation_of_a_facet_by_a_tiling_recovers_its_area():
             a, b, c, d = (g[i], g[j]), (g[i + 1], g[j]), (g[i], g[j + 1]), (g[i + 1], g[j + 1])
             tris += [[a, b, d], [a, d, c]]
     tris = np.array(tris)
-    master = np.concatenate([tris, np.full(tris.shape[:2] + (1,), 0.01)], axis=2)
+    master = np.concatenate([tris, np.full((*tris.shape[:2], 1), 0.01)], axis=2)
     master += rng.normal(0, 1e-3, master.shape) * np.array([0, 0, 1])  # slightly warped
     P = len(master)
     pts, wts = basix.make_quadrature(basix.CellType.triangle, 4)
-    pair, xi, w = segment(
+    _pair, xi, w = segment(
         ref, np.repeat(slave[None], P, axis=0), master, np.asarray(pts), np.asarray(wts)
     )
     assert w.sum() == pytest.approx(0.5, rel=1e-12)  # reference-triangle area
@@ -182,7 +182,8 @@ def test_sliding_block_gross_slip_traction_is_mu_p_and_balances_the_support():
         -s.normal_force_N[2] > 0 and s.tangential_force_N[0] > 0
     )  # lower block pushed down, dragged +x
     # equilibrium of the upper block, supported only at its top: the internal force there (K u on
-    # the Dirichlet rows) balances what the interface applies to it, i.e. minus the force on the lower
+    # the Dirichlet rows) balances what the interface applies to it, i.e. minus the force on the
+    # lower
     # block
     from dolfinx import fem
 
@@ -211,7 +212,8 @@ HERTZ_FINE_SIZE = 0.007
 
 @pytest.mark.slow
 def test_hertz_line_contact_p0_and_a_converge(tmp_out):
-    """Two equal cylinders in plane strain: p0 and a within 3 % at the default mesh, closer when finer."""
+    """Two equal cylinders in plane strain: p0 and a within 3 % at the default mesh, closer when
+    finer."""
     errors = {}
     for h in (HERTZ_DEFAULT_SIZE, HERTZ_FINE_SIZE):
         case = hertz_case(MPI.COMM_WORLD, HERTZ, contact_size=h)

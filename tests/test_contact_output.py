@@ -15,7 +15,8 @@ from gearfem.contact.verification import block_case, hertz_line_contact, hertz_p
 
 
 def test_hertz_pressure_is_the_ellipse_carrying_the_force():
-    """∫ p dx over the contact equals the force per length P' (Johnson eq. 4.41/4.43), p = 0 outside."""
+    """∫ p dx over the contact equals the force per length P' (Johnson eq. 4.41/4.43), p = 0
+    outside."""
     P, R, E, nu = 1.7e3, 0.02, 3.8e9, 0.4
     a, p0 = hertz_line_contact(P, R, R, E, nu, E, nu)
     integral, _ = quad(lambda x: float(hertz_pressure(x, a, p0)), -a, a)

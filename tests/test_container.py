@@ -56,7 +56,8 @@ def test_image_installs_and_tests_through_dev_sh_only():
 
 @pytest.mark.slow
 def test_dev_sh_setup_takes_the_image_route(tmp_path):
-    """An interpreter that sees DOLFINx through PYTHONPATH (as in the image) gets a venv without the wheel."""
+    """An interpreter that sees DOLFINx through PYTHONPATH (as in the image) gets a venv without the
+    wheel."""
     bash = shutil.which("bash")
     assert bash is not None
     site = sysconfig.get_paths()["purelib"]  # this environment's DOLFINx stands in for the image's

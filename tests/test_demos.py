@@ -34,7 +34,8 @@ def _run_demo(name: str, args: list[str], cwd: Path) -> subprocess.CompletedProc
 
 
 def test_hertz_contact_demo(tmp_path):
-    """Serial run on a coarse mesh (h = 0.014 m ≈ a/2.2; measured p0 +2.2 %, a +0.6 %): files complete, CSV and summary agree with
+    """Serial run on a coarse mesh (h = 0.014 m ≈ a/2.2; measured p0 +2.2 %, a +0.6 %): files
+    complete, CSV and summary agree with
     each other and with Hertz's formulas, and p0, a are within the issue's 3 % (required at a/3)."""
     out = tmp_path / "hertz"
     proc = _run_demo("hertz_contact.py", ["--contact-size", "0.014", "--out", str(out)], tmp_path)

@@ -1,6 +1,7 @@
 """Diagnosis (issue 8): hidden effects in synthetic data from the full model must be found.
 
-The synthetic data come from gearfem's full forward model on the coarse case (tests/cases/coarse.toml,
+The synthetic data come from gearfem's full forward model on the coarse case
+(tests/cases/coarse.toml,
 P1 thermal, cycle at 8 N m cached under $GEARFEM_CACHE or ./cache); the analysis uses the surrogate
 built from the same model (cached there too). The generator (tests/diagnose_generator.py) keeps the
 truth; only the assertions read it.
@@ -114,7 +115,8 @@ def test_candidate_priors_and_nodes():
         by_name("telepathy")
 
 
-# ---------------------------------------------------------------- hidden effects (full model + surrogate)
+# ---------------------------------------------------------------- hidden effects (full model +
+# surrogate)
 
 
 @pytest.fixture(scope="session")
@@ -191,7 +193,8 @@ def test_pair_found_and_confirmed_on_full_model(models):
     for name, value in truth.items():
         lo, hi = r["refined"]["intervals"][name]
         assert lo <= value <= hi, (name, value, lo, hi)
-    # the full model at the refined parameters reproduces the data to the noise: the RMS of N(0, 1 K)
+    # the full model at the refined parameters reproduces the data to the noise: the RMS of N(0, 1
+    # K)
     # noise over n samples lies below 1 + 3/sqrt(2n) K with probability > 99.8 %
     n = len(data)
     assert r["refined"]["full_rmse_K"] < 1.0 + 3.0 / math.sqrt(2 * n)

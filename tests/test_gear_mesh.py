@@ -66,7 +66,8 @@ def _to_tooth_frame(gm, body: str, k: int, X: np.ndarray) -> np.ndarray:
 
 
 def _max_profile_edge(gm, name: str) -> float:
-    """Largest in-plane (constant z) edge of the facets of a group [m] (the profile-direction size)."""
+    """Largest in-plane (constant z) edge of the facets of a group [m] (the profile-direction
+    size)."""
     f = gm.facets(name)
     g = (
         dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False)[:, :3]
@@ -288,7 +289,8 @@ def test_coast_side_clearance_is_the_normal_backlash(default_mesh):
 
 
 def _exact_body_outline(gm, body: str, spacing: float = 1e-6) -> np.ndarray:
-    """Closed polygon of the exact section of a body (teeth, cut lines, bore arc) in the pair frame."""
+    """Closed polygon of the exact section of a body (teeth, cut lines, bore arc) in the pair
+    frame."""
     prof = GearPair(gm.geometry).profile(body)
     c = gm.center(body)[:2]
     n = int(0.02 / spacing)  # dense: the tooth outline is ~15 mm long
@@ -524,7 +526,8 @@ def test_cli_mesh_writes_mesh_json_and_picture(tmp_path, capsys):
     case = tmp_path / "case.toml"
     case.write_text(
         "[geometry]\nteeth_pinion = 30\n\n"
-        "[mesh]\nteeth_in_model = 5\nsize_flank_mm = 0.4\nsize_tip_mm = 0.4\nsize_root_mm = 0.4\nlayers = 1\n"
+        "[mesh]\nteeth_in_model = 5\nsize_flank_mm = 0.4\nsize_tip_mm = 0.4\nsize_root_mm = "
+        "0.4\nlayers = 1\n"
         'bodies = ["pinion", "wheel"]\n\n'
         "[material]\nname = 'ignored by the mesh command'\n"
     )

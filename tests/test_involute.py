@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -72,7 +73,8 @@ def test_radii_and_thickness_at_pitch_circle(pair):
     assert p.tip_radius_m == pytest.approx(m * z / 2 + m)
     assert p.root_radius_m == pytest.approx(m * z / 2 - 1.25 * m)
     assert p.thickness(p.operating_pitch_radius_m) == pytest.approx(2.995e-3, rel=1e-14)
-    # thickness at another radius from the involute relation s(r) = 2 r (s_w/(2 r_w) + inv a_w - inv a_r)
+    # thickness at another radius from the involute relation s(r) = 2 r (s_w/(2 r_w) + inv a_w - inv
+    # a_r)
     r = 31e-3
     a_r = math.acos(p.base_radius_m / r)
     expected = 2 * r * (2.995e-3 / (2 * 30e-3) + (math.tan(a) - a) - (math.tan(a_r) - a_r))
@@ -135,7 +137,7 @@ def test_outline_is_continuous_symmetric_and_tangent(pair):
     for prof in (pair.pinion, pair.wheel):
         o = prof.outline(n_flank=400, n_fillet=400)
         keys = list(o)
-        for a, b in zip(keys[:-1], keys[1:]):
+        for a, b in itertools.pairwise(keys):
             assert np.linalg.norm(o[a][-1] - o[b][0]) < 1e-15
         # ends at the gap middles on the root circle
         half = math.pi / prof.teeth
@@ -186,7 +188,8 @@ def test_tooth_sector_area_against_polar_integrals(geometry):
     p = GearPair(geometry).pinion
     rb, ra, rho = p.base_radius_m, p.tip_radius_m, p.tip_round_radius_m
     xi = lambda r: math.sqrt((r / rb) ** 2 - 1.0)
-    # the involute ends at r_Fa = r_b sqrt(1 + xi_e^2), xi_e = (rho + sqrt((r_a - rho)^2 - r_b^2)) / r_b
+    # the involute ends at r_Fa = r_b sqrt(1 + xi_e^2), xi_e = (rho + sqrt((r_a - rho)^2 - r_b^2)) /
+    # r_b
     L = math.sqrt((ra - rho) ** 2 - rb**2)
     r_fa = rb * math.hypot(1.0, (rho + L) / rb)
     flank = rb**2 * (xi(r_fa) ** 3 - xi(p.form_radius_m) ** 3) / 6.0  # one flank, |d theta|
@@ -229,7 +232,8 @@ def test_tooth_sector_area_against_polar_integrals(geometry):
 
 def _round_center_angle_by_search(prof, rho):
     """Polar angle of the point at radius r_a - rho whose distance from the exact drive involute
-    is rho (inside the tooth), by bisection on the distance alone (independent of the closed form)."""
+    is rho (inside the tooth), by bisection on the distance alone (independent of the closed
+    form)."""
     d = prof.tip_radius_m - rho
     f = lambda th: prof.distance_to_flank(np.array([[d * math.cos(th), d * math.sin(th)]]))[0] - rho
     lo, hi = -0.1, prof.half_thickness_angle(d)  # far inside (distance > rho) .. on the flank (0)
@@ -280,7 +284,7 @@ def test_tip_round_is_tangent_to_the_involute_and_the_tip_circle(coef):
             tp["round_drive"],
             o["drive_flank"],
         ]
-        for a, b in zip(chain[:-1], chain[1:]):
+        for a, b in itertools.pairwise(chain):
             assert np.array_equal(a[-1], b[0])
             t1, t2 = a[-1] - a[-2], b[1] - b[0]
             assert (
@@ -528,7 +532,8 @@ def test_bad_geometry_raises_parameter_error(changes, name):
 
 
 def test_undercut_is_refused():
-    # 20 deg rack, dedendum 1.25 m, small tip radius: limit z = 2 (h_f - rho (1 - sin a)) / (m sin^2 a)
+    # 20 deg rack, dedendum 1.25 m, small tip radius: limit z = 2 (h_f - rho (1 - sin a)) / (m sin^2
+    # a)
     a = 20 * DEG
     z_lim = 2 * (1.25 - 0.1 * (1 - math.sin(a))) / math.sin(a) ** 2  # 20.6
     kw = dict(

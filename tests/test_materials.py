@@ -1,4 +1,5 @@
-"""Materials: shipped data equals the shared reference, tables behave, UFL form equals numpy form."""
+"""Materials: shipped data equals the shared reference, tables behave, UFL form equals numpy
+form."""
 
 from __future__ import annotations
 

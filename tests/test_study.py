@@ -81,7 +81,8 @@ def test_grid_and_points_give_each_operating_point_once(tmp_path):
         "[study]\nspeeds_rpm = [1000.0]\ntorques_Nm = [8.0, 4.0]\n[operating]\nspeed_rpm = 1.0\n"
     )
     study = load_study(f)
-    # the operating point of every case is the study's (in the file's order), the rest the case file's
+    # the operating point of every case is the study's (in the file's order), the rest the case
+    # file's
     assert [(c.operating.speed_rpm, c.operating.torque_Nm) for _, c in study.cases()] == [
         (1000.0, 8.0),
         (1000.0, 4.0),

@@ -1,4 +1,5 @@
-"""Thesis convection correlations (eq. 5.1-5.6), air properties, Reynolds-range warnings, boundary model."""
+"""Thesis convection correlations (eq. 5.1-5.6), air properties, Reynolds-range warnings, boundary
+model."""
 
 from __future__ import annotations
 
@@ -20,7 +21,8 @@ from gearfem.thermal import convection as conv
 
 
 def test_correlations_by_hand_at_1000_rpm():
-    """Eq. 5.1-5.6 typed out independently, thesis gear (D_p 60 mm, r_b = 30 cos 30 mm, r_i 15 mm)."""
+    """Eq. 5.1-5.6 typed out independently, thesis gear (D_p 60 mm, r_b = 30 cos 30 mm, r_i 15
+    mm)."""
     radii = GearRadii.thesis_gear()
     c = thesis_convection(1000.0, radii, AirProperties(), 298.15)
     omega, nu, k = 1000.0 * 2 * math.pi / 60, 1.557e-5, 0.0261
@@ -38,7 +40,8 @@ def test_correlations_by_hand_at_1000_rpm():
 
 
 def test_sutherland_air_against_tabulated_values():
-    """nu(25 C) vs the thesis's 1.557e-5 m^2/s; mu and k at 300 and 400 K vs Incropera & DeWitt Table A.4
+    """nu(25 C) vs the thesis's 1.557e-5 m^2/s; mu and k at 300 and 400 K vs Incropera & DeWitt
+    Table A.4
     (mu 184.6e-7 / 230.1e-7 Pa s, k 0.0263 / 0.0338 W/(m K))."""
     assert conv.air_kinematic_viscosity_m2_s(298.15) == pytest.approx(
         conv.THESIS_AIR_NU_m2_s, rel=0.005

@@ -78,7 +78,8 @@ def test_domain_from_pair_and_single_body_meshes(cache):
 
 
 def test_sector_with_adiabatic_cuts_equals_full_gear_for_symmetric_heating(cache):
-    """Cuts at mid-gap are symmetry planes of the full gear when both flanks are heated alike, so the
+    """Cuts at mid-gap are symmetry planes of the full gear when both flanks are heated alike, so
+    the
     2-tooth sector with adiabatic cuts has the full gear's solution: over the monitored temperatures
     the two P2 solutions (different meshes) differ by far less than P1 and P2 on the same mesh (an
     estimate of the P1 discretisation error, an upper bound of the P2 one)."""

@@ -1,4 +1,5 @@
-"""Bad inputs raise ParameterError naming the parameter; the [thermal]/[sources] tables parse from TOML."""
+"""Bad inputs raise ParameterError naming the parameter; the [thermal]/[sources] tables parse from
+TOML."""
 
 from __future__ import annotations
 
@@ -106,7 +107,7 @@ def test_domain_checks():
             msh,
             ft,
             groups,
-            teeth=dom.teeth + ("pinion_bore",),
+            teeth=(*dom.teeth, "pinion_bore"),
             sides=dom.sides,
             bore=dom.bore,
             cuts=dom.cuts,
@@ -126,7 +127,8 @@ def test_domain_checks():
 
 
 def test_prescribed_flank_heat_is_scaled_to_the_sector():
-    """40 W per gear on a 2-of-30-tooth sector: the drive flanks of the sector receive 40 * 2/30 W."""
+    """40 W per gear on a 2-of-30-tooth sector: the drive flanks of the sector receive 40 * 2/30
+    W."""
     dom = sector_domain(MPI.COMM_SELF, teeth=2, total_teeth=30)
     src = prescribed_heat_sources(
         PrescribedSources(flank_heat_per_gear_W=40.0), dom, Material(), 1000.0, 30

@@ -95,7 +95,7 @@ def test_failed_run_leaves_no_summary(tmp_path, monkeypatch):
 
 def test_steady_mode_writes_one_row(tmp_path):
     prob = _problem(MPI.COMM_SELF, mode="steady")
-    records, summ = solve_and_write(prob, tmp_path / "steady", write_fields=False)
+    records, _summ = solve_and_write(prob, tmp_path / "steady", write_fields=False)
     assert len(records) == 1 and records[0].balance.stored_W == 0.0
     assert records[0].balance.relative_imbalance < 1e-9
     assert (tmp_path / "steady" / "thermal_summary.json").exists()

@@ -47,7 +47,8 @@ def test_serial_and_parallel_agree(comms, linear_solver):
     rs, n_s = _run(serial, linear_solver)
     rw, n_w = _run(world, linear_solver)
     assert n_s == n_w
-    # same adaptive step sequence and the same temperatures to the solver tolerance (Newton rtol 1e-10)
+    # same adaptive step sequence and the same temperatures to the solver tolerance (Newton rtol
+    # 1e-10)
     assert len(rs) == len(rw)
     for a, b in zip(rs, rw):
         assert a.time_s == pytest.approx(b.time_s, rel=1e-9, abs=1e-12)

@@ -47,7 +47,8 @@ def _bdf2_step_linear(lam, y0, ym, h, h1):
 
 @pytest.mark.parametrize("ratios", [(1.0, 1.0), (1.8, 0.6), (0.5, 1.5)])
 def test_estimator_matches_true_local_error(ratios):
-    """For y' = -y from exact history, estimate / true local error -> 1 as h -> 0, with error O(h)."""
+    """For y' = -y from exact history, estimate / true local error -> 1 as h -> 0, with error
+    O(h)."""
     lam = 1.0
     y = lambda t: math.exp(-lam * t)
     devs = []

@@ -115,7 +115,8 @@ def test_mms_spatial_order(degree, sizes, order, k_of_T):
 
 @pytest.mark.parametrize("cp_of_T", [False, True])
 def test_mms_temporal_order(cp_of_T):
-    """T = 300 + s(x) sin(2t), s quadratic (exact in P2): the error is the BDF2 time error, order 2."""
+    """T = 300 + s(x) sin(2t), s quadratic (exact in P2): the error is the BDF2 time error, order
+    2."""
     mat = Material(
         density_kg_m3=1.0,
         specific_heat_J_kgK=1.0,
@@ -243,8 +244,10 @@ def test_radiation_only_cooling_matches_ode():
 
 @pytest.mark.mpi
 def test_heat_balance_closes_every_step():
-    """Everything on (H(T) hysteresis, flank flux with mu(T) factor, film-temperature h(T), k(T), c_p(T),
-    radiation, bore heat path): generated = stored + convected + radiated + bore at every step to the
+    """Everything on (H(T) hysteresis, flank flux with mu(T) factor, film-temperature h(T), k(T),
+    c_p(T),
+    radiation, bore heat path): generated = stored + convected + radiated + bore at every step to
+    the
     Newton tolerance, and the heat content change equals the time integral of the net flow."""
     dom = sector_domain(MPI.COMM_WORLD, teeth=2)
     mat = Material(
@@ -287,7 +290,8 @@ def test_heat_balance_closes_every_step():
         b = r.balance
         assert abs(b.imbalance_W) <= 0.005 * b.generated_W
         assert abs(b.imbalance_W) <= 1e-8 * b.generated_W  # exact up to the Newton tolerance
-    # content check independent of the BDF2 quotient: Delta E = int (gen - losses) dt (trapezoid, from t_1)
+    # content check independent of the BDF2 quotient: Delta E = int (gen - losses) dt (trapezoid,
+    # from t_1)
     t = np.array([r.time_s for r in recs[1:]])
     net = np.array(
         [
@@ -304,8 +308,10 @@ def test_heat_balance_closes_every_step():
 
 
 def test_custom_boundary_object_extension():
-    """A model extension passes its own ThermalBoundary (T-dependent h, ambient offset) without solver changes;
-    with h(T) = h0 + c (T - Ta) and no radiation the lumped steady state solves h(theta) theta A = P."""
+    """A model extension passes its own ThermalBoundary (T-dependent h, ambient offset) without
+    solver changes;
+    with h(T) = h0 + c (T - Ta) and no radiation the lumped steady state solves h(theta) theta A =
+    P."""
     dom, mat, vol, area = _lumped_box()
     offset, h0, c, P = 2.0, 10.0, 0.1, 3.0
     amb = TA + offset
@@ -321,7 +327,8 @@ def test_custom_boundary_object_extension():
 
 
 def test_hysteresis_source_uses_local_temperature():
-    """Uniform U_max, lumped body held at steady state by convection: q = H(T) U f with T the solution,
+    """Uniform U_max, lumped body held at steady state by convection: q = H(T) U f with T the
+    solution,
     so P = H(T_ss) U f V = h A (T_ss - Ta) (solved by bisection on the table)."""
     dom, mat, vol, area = _lumped_box()
     H = TemperatureTable.from_celsius([20.0, 100.0, 140.0], [0.002, 0.004, 0.04], "H")
@@ -351,7 +358,7 @@ def test_lumped_estimate_equals_high_conductivity_steady_state():
     one-node estimate used for plausibility checks (convection + radiation)."""
     from gearfem.thermal.lumped import lumped_estimate
 
-    dom, mat, vol, area = _lumped_box()
+    dom, mat, vol, _area = _lumped_box()
     P = 2.0
     opts = ThermalOptions(h_teeth_W_m2K=20.0, h_sides_W_m2K=30.0, mode="steady")
     prob = ThermalProblem(
@@ -374,10 +381,11 @@ def test_lumped_estimate_equals_high_conductivity_steady_state():
 
 
 def test_newton_failure_raises_convergence_error():
-    """A Newton budget too small for the radiation nonlinearity fails with the reason and the time."""
+    """A Newton budget too small for the radiation nonlinearity fails with the reason and the
+    time."""
     from gearfem.core.errors import ConvergenceError
 
-    dom, mat, vol, area = _lumped_box()
+    dom, mat, _vol, _area = _lumped_box()
     opts = ThermalOptions(
         convection="none",
         emissivity=0.9,
@@ -403,9 +411,10 @@ def test_newton_failure_raises_convergence_error():
 
 
 def test_flux_function_with_temperature_factor_lumped_steady():
-    """Flux given as a Function (the cycle stage's form) times a factor 1 - c (T - Ta) (the mu(T)/mu_ref
+    """Flux given as a Function (the cycle stage's form) times a factor 1 - c (T - Ta) (the
+    mu(T)/mu_ref
     hook), on a lumped body: P0 (1 - c theta) = h A theta, so theta = P0 / (h A + c P0)."""
-    dom, mat, vol, area = _lumped_box()
+    dom, mat, _vol, area = _lumped_box()
     h, q0, c = 25.0, 2000.0, 0.004
     flux = fem.Function(fem.functionspace(dom.mesh, ("Lagrange", 1)))
     flux.x.array[:] = q0

@@ -32,7 +32,7 @@ def _tag(msh, groups_markers):
 
 def box_domain(comm, n=(4, 4, 4), size=(0.02, 0.02, 0.01), cell=dmesh.CellType.tetrahedron):
     """Box [0,Lx]x[0,Ly]x[0,Lz]: z faces are 'sides', the four others 'teeth'."""
-    Lx, Ly, Lz = size
+    _Lx, _Ly, Lz = size
     msh = dmesh.create_box(comm, [np.zeros(3), np.array(size)], list(n), cell)
     ft, groups = _tag(
         msh,

@@ -1,7 +1,8 @@
 """Two-body frictional contact for DOLFINx on curved P2 (and P1) meshes.
 
 ``surface`` (facets of a body), ``kinematics`` (curved-facet evaluation, projection, segmentation),
-``interface`` (gaps, tractions, linearisation of one surface pair), ``problem`` (elasticity + contact,
+``interface`` (gaps, tractions, linearisation of one surface pair), ``problem`` (elasticity +
+contact,
 Newton / augmented Lagrangian), ``rigid`` (rigid motions of bodies), ``verification`` (verification
 geometries and the Hertz formulas).
 """

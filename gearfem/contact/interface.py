@@ -105,8 +105,10 @@ class ContactInterface:
         shared = np.intersect1d(a.gathered().blocks, b.gathered().blocks)
         if len(shared):
             raise GearfemError(
-                f"contact surfaces {a.name!r} and {b.name!r} share {len(shared)} mesh node(s): the bodies are "
-                "joined in the mesh (coincident vertices fused by the mesher); mesh them as separate volumes"
+                f"contact surfaces {a.name!r} and {b.name!r} share {len(shared)} mesh node(s): "
+                f"the bodies are "
+                "joined in the mesh (coincident vertices fused by the mesher); mesh them as "
+                "separate volumes"
             )
         roles = [(a, b), (b, a)] if options.two_pass else [(a, b)]
         w = 0.5 if options.two_pass else 1.0
@@ -252,7 +254,8 @@ class ContactInterface:
         return sdata, xs, mdata, xm
 
     def evaluate(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> list[ContactPoints]:
-        """Contact state at all slave points of all passes for displacement ``u_array`` (collective).
+        """Contact state at all slave points of all passes for displacement ``u_array``
+        (collective).
 
         Uses the segmentation of the last :meth:`update_segmentation` (made now if there is none).
         """
@@ -542,13 +545,14 @@ class ContactInterface:
 
     # -------------------------------------------------------------------------------------------
     def update_multipliers(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
-        """Uzawa step λ ← ⟨λ − εg⟩ at the fixed points; returns the largest penetration (global, m)."""
+        """Uzawa step λ ← ⟨λ − εg⟩ at the fixed points; returns the largest penetration (global,
+        m)."""
         worst = 0.0
         if self._segments is None:
             self.update_segmentation(u_array, motions)
         for ps, seg in zip(self.passes, self._segments):
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
-            sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
+            _sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
             # the facet pairs that overlap in the current segmentation
             pairs = (

@@ -88,7 +88,8 @@ def project(
 def _affine_coords(
     origin: np.ndarray, e1: np.ndarray, e2: np.ndarray, pts: np.ndarray
 ) -> np.ndarray:
-    """Least-squares coordinates (a, b) with pts ≈ origin + a e1 + b e2; pts (P, k, 3) -> (P, k, 2)."""
+    """Least-squares coordinates (a, b) with pts ≈ origin + a e1 + b e2; pts (P, k, 3) -> (P, k,
+    2)."""
     g11 = np.einsum("pd,pd->p", e1, e1)
     g12 = np.einsum("pd,pd->p", e1, e2)
     g22 = np.einsum("pd,pd->p", e2, e2)
@@ -103,7 +104,7 @@ def _affine_coords(
 
 def _signed_area(poly: np.ndarray, count: np.ndarray) -> np.ndarray:
     """Signed area of padded polygons poly (P, m, 2) with ``count`` valid vertices."""
-    P, m, _ = poly.shape
+    _P, m, _ = poly.shape
     idx = np.arange(m)
     nxt = (idx[None, :] + 1) % np.maximum(count, 1)[:, None]
     valid = idx[None, :] < count[:, None]
@@ -173,7 +174,8 @@ def segment(
     For each (slave facet, master facet) pair, the master facet's vertices are projected into the
     slave facet's reference coordinates (affine map of its vertices), the reference slave facet is
     clipped by that polygon, the intersection is split into a fan of triangles, and the triangle
-    rule (``points``, ``weights`` on the reference triangle) is mapped onto each. For flat facets the
+    rule (``points``, ``weights`` on the reference triangle) is mapped onto each. For flat facets
+    the
     integrand of the master shape functions is then polynomial on every piece and is integrated
     exactly (what makes the contact patch test pass with non-matching meshes).
 

@@ -46,10 +46,13 @@ class ContactOptions:
         two_pass: both surfaces act as slave in turn, each pass weighted 1/2.
         quadrature_degree: degree of the triangle rule on each segment of a slave facet.
         search_distance_rel: pairs farther apart than this many facet sizes are ignored.
-        max_normal_angle_deg: candidate pairs whose normals are not opposed within this angle are ignored.
+        max_normal_angle_deg: candidate pairs whose normals are not opposed within this angle are
+        ignored.
         projection_tolerance: a slave point counts only if its closest-point foot lies on its master
-            facet within this distance in reference coordinates (curvature makes it slightly outside).
-        newton_rtol, newton_atol_N: residual tolerances (relative to the internal force norm; absolute, N).
+            facet within this distance in reference coordinates (curvature makes it slightly
+            outside).
+        newton_rtol, newton_atol_N: residual tolerances (relative to the internal force norm;
+        absolute, N).
         newton_max_it: Newton iterations per solve.
         newton_stall_rtol: A Newton solve whose line search can no longer decrease the residual is
             accepted, with a warning and counted in ``SolveReport.stalled``, when the residual is

@@ -142,7 +142,8 @@ def summary(problem: ContactProblem, interface: int = 0) -> ContactSummary:
 
 
 def facet_fields(problem: ContactProblem, interface: int = 0):
-    """DG0 facet fields ``contact_pressure`` (Pa) and ``contact_traction`` (Pa, vector) (collective).
+    """DG0 facet fields ``contact_pressure`` (Pa) and ``contact_traction`` (Pa, vector)
+    (collective).
 
     Returns:
         (submesh, pressure, traction): the submesh of both surfaces' facets and the two Functions.
@@ -183,7 +184,8 @@ def facet_fields(problem: ContactProblem, interface: int = 0):
 def write_vtx(
     problem: ContactProblem, path: str | Path, interface: int = 0, time: float = 0.0
 ) -> Path:
-    """Write the facet fields of :func:`facet_fields` to a VTX (.bp) folder for ParaView (collective)."""
+    """Write the facet fields of :func:`facet_fields` to a VTX (.bp) folder for ParaView
+    (collective)."""
     from dolfinx.io import VTXWriter
 
     sub, p, t = facet_fields(problem, interface)

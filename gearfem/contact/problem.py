@@ -150,7 +150,8 @@ class ContactProblem:
             "pc_type": "lu",
             "pc_factor_mat_solver_type": "mumps",
             "mat_mumps_icntl_14": 200,  # workspace increase (%) for contact fill-in
-            "mat_mumps_icntl_24": 1,  # detect null pivots: report singular systems instead of garbage
+            # detect null pivots: report singular systems instead of garbage
+            "mat_mumps_icntl_24": 1,
         }
         for k, val in defaults.items():
             if not opts.hasName(petsc_options_prefix + k):
@@ -258,7 +259,7 @@ class ContactProblem:
     def _linear_solve(self, A: PETSc.Mat, b: PETSc.Vec, x: PETSc.Vec, label: str, it: int) -> None:
         """Solve A x = b with GMRES + LU factors (reused from an earlier A while they work)."""
         reuse = self.options.reuse_factorization and self._P is not None and not self._refactor
-        for attempt in range(2):
+        for _attempt in range(2):
             if not reuse:
                 if self._P is not None:
                     self._P.destroy()
@@ -358,7 +359,8 @@ class ContactProblem:
                     if not (D > 0.0 and np.isfinite(D)):
                         raise ConvergenceError(
                             "contact Newton (torque control)",
-                            f"no rotational contact stiffness of {ctl.body!r} (k = {D:.3e} N m/rad): the body "
+                            f"no rotational contact stiffness of {ctl.body!r} (k = {D:.3e} N "
+                            f"m/rad): the body "
                             "is not in contact; close the gap first (prescribe its angle)",
                             step=label,
                             iteration=it,
@@ -367,7 +369,8 @@ class ContactProblem:
                     du.axpy(dpsi, db)
             finally:
                 A.destroy()
-            # backtracking line search on the residual norm (the last trial is kept if none decreases it)
+            # backtracking line search on the residual norm (the last trial is kept if none
+            # decreases it)
             u0 = u_vec.copy()
             psi0 = self.controlled_angle if ctl is not None else 0.0
             alpha, tries = 1.0, (12 if o.line_search else 1)
@@ -393,7 +396,8 @@ class ContactProblem:
                     u0.destroy()
                     self.stalled += 1
                     log.warning(
-                        "%s: Newton stalled at |R| = %.3e N (%.1e of the force scale; tolerance %.3e N, "
+                        "%s: Newton stalled at |R| = %.3e N (%.1e of the force scale; tolerance "
+                        "%.3e N, "
                         "stall tolerance %.1e): accepted",
                         label,
                         rnorm,
@@ -449,7 +453,8 @@ class ContactProblem:
         for uz in range(1, o.max_uzawa + 1):
             its, rnorm = self.newton(f"{label} (outer {uz})", rtol=loose)
             total_it += its
-            # penetration where the multipliers live (the fixed points; measured before updating them)
+            # penetration where the multipliers live (the fixed points; measured before updating
+            # them)
             pen = (
                 max(
                     (
@@ -470,7 +475,8 @@ class ContactProblem:
                 else 0.0
             )
             log.debug(
-                "%s outer %d: max penetration at the multiplier points %.3e m (tol %.3e m), slip direction "
+                "%s outer %d: max penetration at the multiplier points %.3e m (tol %.3e m), slip "
+                "direction "
                 "change %.2e (tol %.2e)",
                 label,
                 uz,

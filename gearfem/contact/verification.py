@@ -51,7 +51,8 @@ def _to_dolfinx(comm: MPI.Comm, build) -> object:
 
 
 def _box_surfaces(vol: int) -> dict[str, int]:
-    """Bounding-box named faces of an axis-aligned box volume: xmin, xmax, ymin, ... -> surface tag."""
+    """Bounding-box named faces of an axis-aligned box volume: xmin, xmax, ymin, ... -> surface
+    tag."""
     out = {}
     for dim, tag in gmsh.model.getBoundary([(3, vol)], oriented=False):
         xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(dim, tag)
@@ -94,9 +95,7 @@ def two_blocks(
             if hexahedra:
                 for dim, tag in gmsh.model.getBoundary([(3, vol)], recursive=False):
                     for _, c in gmsh.model.getBoundary([(dim, tag)], recursive=False):
-                        gmsh.model.mesh.setTransfiniteCurve(
-                            abs(c), max(2, int(round(width / h)) + 1)
-                        )
+                        gmsh.model.mesh.setTransfiniteCurve(abs(c), max(2, round(width / h) + 1))
                     gmsh.model.mesh.setTransfiniteSurface(tag)
                     gmsh.model.mesh.setRecombine(2, tag)
                 gmsh.model.mesh.setTransfiniteVolume(vol)
@@ -120,12 +119,14 @@ def hertz_cylinders(
 
     The upper body is the lower half of a disc of ``radius`` centred at (0, R), the lower body the
     upper half of a disc centred at (0, −R(1 + INITIAL_GAP)) (a 1e-6 R initial gap keeps the mesher
-    from joining the bodies; it is negligible next to the displacements); both extruded over ``thickness`` in z with ``layers``
+    from joining the bodies; it is negligible next to the displacements); both extruded over
+    ``thickness`` in z with ``layers``
     element layers (tetrahedra). The mesh is graded from ``contact_size`` within
     ``refine_half_width`` of the contact line to ``far_size``.
 
     Physical groups: ``upper``, ``lower`` (volumes); ``upper_flat``, ``lower_flat`` (the cut
-    planes y = ±R), ``upper_curved``, ``lower_curved`` (cylindrical faces), ``{body}_front`` (z = 0),
+    planes y = ±R), ``upper_curved``, ``lower_curved`` (cylindrical faces), ``{body}_front`` (z =
+    0),
     ``{body}_back`` (z = t).
     """
     for name, val in (
@@ -174,8 +175,8 @@ def hertz_cylinders(
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        for name, (surf, a1, a2, ln, ext) in out.items():
-            vol = [t for d, t in ext if d == 3][0]
+        for name, (surf, _a1, _a2, _ln, ext) in out.items():
+            vol = next(t for d, t in ext if d == 3)
             gmsh.model.addPhysicalGroup(3, [vol], name=name)
             faces = {"front": [surf], "back": [ext[0][1]], "curved": [], "flat": []}
             for d, t in ext[2:]:
@@ -274,7 +275,8 @@ def block_case(
     size_upper: float = 0.17,
     clamped: bool = False,
 ) -> ContactCase:
-    """Two unit blocks pressed together by moving the top of the upper one down by ``compression_m``.
+    """Two unit blocks pressed together by moving the top of the upper one down by
+    ``compression_m``.
 
     Default supports: symmetry planes x = 0 and y = 0 (both bodies), bottom of the lower block on
     rollers: the exact solution is uniaxial compression, so the interface pressure is uniform
@@ -442,7 +444,8 @@ class HertzComparison:
 
 
 def compare_hertz(case: ContactCase, radius: float = 1.0) -> HertzComparison:
-    """Read the pressure distribution of a solved :func:`hertz_case` and compare with Hertz (collective)."""
+    """Read the pressure distribution of a solved :func:`hertz_case` and compare with Hertz
+    (collective)."""
     prob, comm = case.problem, case.comm
     fn, _ = prob.contact_force()
     P = abs(fn[1]) / case.thickness_m

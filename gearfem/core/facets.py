@@ -22,7 +22,8 @@ _FACET_TYPE = {
     basix.CellType.hexahedron: basix.CellType.quadrilateral,
 }
 
-# Counter-clockwise vertex cycle of the reference facet (basix numbers quad vertices in tensor order).
+# Counter-clockwise vertex cycle of the reference facet (basix numbers quad vertices in tensor
+# order).
 _VERTEX_CYCLE = {
     basix.CellType.triangle: np.array([0, 1, 2]),
     basix.CellType.quadrilateral: np.array([0, 1, 3, 2]),
@@ -185,7 +186,8 @@ def _triangle_shape(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
 
 
 def _lagrange_1d(t: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """1D Lagrange basis on [0, 1] with nodes (0, 1[, 0.5]): values, first, second derivatives (n, k)."""
+    """1D Lagrange basis on [0, 1] with nodes (0, 1[, 0.5]): values, first, second derivatives (n,
+    k)."""
     o = np.ones_like(t)
     if degree == 1:
         return np.stack([1 - t, t], axis=1), np.stack([-o, o], axis=1), np.zeros((len(t), 2))

@@ -35,7 +35,8 @@ def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
 
 
 def write_json(path: Path, data: dict[str, Any]) -> None:
-    """Write JSON (numpy arrays and scalars, paths allowed) atomically: temporary file, rename (one rank)."""
+    """Write JSON (numpy arrays and scalars, paths allowed) atomically: temporary file, rename (one
+    rank)."""
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     tmp.write_text(json.dumps(data, indent=2, default=_default))
     os.replace(tmp, path)

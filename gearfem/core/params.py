@@ -2,7 +2,8 @@
 
 gearfem's configuration is a tree of frozen dataclasses, one per physics concept, composed into a
 :class:`gearfem.config.Case`. Each dataclass validates itself in ``__post_init__`` with the
-``require_*`` helpers below, so that a bad value raises a :class:`~gearfem.core.errors.ParameterError`
+``require_*`` helpers below, so that a bad value raises a
+:class:`~gearfem.core.errors.ParameterError`
 naming the parameter, its value and the allowed range, whether it came from a TOML file, the
 command line or Python. Nothing is clamped.
 """
@@ -139,7 +140,7 @@ def _convert(tp: Any, value: Any, name: str) -> Any:
     return value
 
 
-def from_dict(cls: type[T], data: Mapping[str, Any], prefix: str = "") -> T:
+def from_dict[T](cls: type[T], data: Mapping[str, Any], prefix: str = "") -> T:
     """Build the frozen dataclass ``cls`` from a (TOML) mapping.
 
     Unknown keys are an error (a misspelt key must not be silently ignored); missing keys take

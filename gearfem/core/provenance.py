@@ -1,4 +1,5 @@
-"""Versions and run metadata: what ``gearfem info`` prints and what is stored next to every result."""
+"""Versions and run metadata: what ``gearfem info`` prints and what is stored next to every
+result."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from typing import Any
 
 
 def git_hash(path: Path | None = None) -> str | None:
-    """Commit of the gearfem source tree (with ``-dirty`` when modified), None outside a checkout."""
+    """Commit of the gearfem source tree (with ``-dirty`` when modified), None outside a
+    checkout."""
     root = Path(path or Path(__file__).resolve().parent.parent)
     try:
         out = subprocess.run(

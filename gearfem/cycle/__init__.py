@@ -1,4 +1,5 @@
-"""Gear meshing cycle: torque-controlled contact solve over the mesh cycle, load sharing, U_max and friction flux."""
+"""Gear meshing cycle: torque-controlled contact solve over the mesh cycle, load sharing, U_max and
+friction flux."""
 
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.options import CycleOptions

@@ -156,7 +156,8 @@ def cached_cycle(
     **run_kwargs,
 ) -> tuple[CycleResult, Path, bool]:
     """The cycle result for ``key`` from the cache, or computed (``model_factory()`` then
-    :func:`~gearfem.cycle.solve.run_cycle`) and stored. Collective. Returns (result, dir, from_cache)."""
+    :func:`~gearfem.cycle.solve.run_cycle`) and stored. Collective. Returns (result, dir,
+    from_cache)."""
 
     directory = (cache_dir or cache_root()) / "cycles" / key
     done = (directory / "cycle.json").exists() and (directory / "cycle.npz").exists()

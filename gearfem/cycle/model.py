@@ -54,7 +54,7 @@ class GearContactModel:
         materials: dict[str, Material],
         contact: ContactOptions,
         torque_Nm: float,
-        options: CycleOptions = CycleOptions(),
+        options: CycleOptions = CycleOptions(),  # noqa: B008 - frozen, immutable
     ) -> None:
         require_positive("operating.torque_Nm", torque_Nm)
         if set(gm.bodies) != set(BODIES):
@@ -146,7 +146,7 @@ class GearContactModel:
         gm, surf = self.gm, self.surfaces[body]
         tag_to_tooth = {}
         for name in gm.names(body=body):
-            b, k, kind = parse_group_name(name)
+            _b, k, _kind = parse_group_name(name)
             if k is not None:
                 tag_to_tooth[gm.tag(name)] = k
         ft = gm.facet_tags

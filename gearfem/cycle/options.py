@@ -25,16 +25,19 @@ class CycleOptions:
         contact_kinds: Tooth surfaces that may touch the other gear.
         mesh_stiffness_guess_N_mm_um: Only for the first predictor of the wind-up (a gear pair's
             mesh stiffness per unit face width, scaled from PEEK with the Young's modulus).
-        initial_interference_m: Rigid pre-rotation of the wheel (along the line of action) that gives
+        initial_interference_m: Rigid pre-rotation of the wheel (along the line of action) that
+        gives
             the first Newton iteration contact stiffness before the torque is balanced.
         creep_ratio: Slip (relative to the rolling speed) at which friction approaches μ p. Near the
-            pitch point the flanks roll with little sliding and the contact is in micro-slip (Carter;
+            pitch point the flanks roll with little sliding and the contact is in micro-slip
+            (Carter;
             Johnson, Contact Mechanics §8.2: full slip of a rolling line contact needs a creep of
             about μ a / R). The gross-sliding law is regularised there with
             v_ε = creep_ratio · v_roll (v_roll: rolling speed of the flanks at the pitch point);
             None: Carter's estimate μ a / (2 R) from the Hertz half-width at the nominal load.
             This sets ``ContactOptions.slip_regularization_m_s`` for the gear cycle.
-        pressure_smoothing_fraction: δ of the C1 pressure ramp (``ContactOptions.pressure_smoothing_Pa``)
+        pressure_smoothing_fraction: δ of the C1 pressure ramp
+        (``ContactOptions.pressure_smoothing_Pa``)
             as a fraction of the nominal Hertz pressure at the pitch point, used when the contact
             options leave it 0. With friction, the exact ramp's kink at the edge of the contact zone
             (rounded tips entering and leaving contact) can make Newton cycle at a residual just

@@ -97,7 +97,8 @@ def periodic_sum(values: np.ndarray, imap: ImageMap) -> np.ndarray:
 
 
 def history(values: np.ndarray, imap: ImageMap, entity: int) -> tuple[np.ndarray, np.ndarray]:
-    """One reference entity's values over the images: (image m per sample, value) ordered by m then position."""
+    """One reference entity's values over the images: (image m per sample, value) ordered by m then
+    position."""
     ms, vs = [], []
     for m in sorted(imap.images):
         if imap.valid[m][entity]:

@@ -138,7 +138,8 @@ def plot_cycle(r: CycleResult, out: Path) -> None:
     ax.plot(deg(phi + p), load, "--", color="C0", alpha=0.4)
     ax.axhline(float(np.median(total)), color="0.4", lw=0.8, ls=":", label="total normal load")
     eps = r.theoretical_contact_ratio
-    # rigid path of contact: the tooth is at the pitch point at 0; approach/recess split equally here
+    # rigid path of contact: the tooth is at the pitch point at 0; approach/recess split equally
+    # here
     ax.axvspan(
         -deg(0.5 * eps * p),
         deg(0.5 * eps * p),
@@ -149,7 +150,8 @@ def plot_cycle(r: CycleResult, out: Path) -> None:
     ax.set_xlabel("pinion angle from the pitch-point position (deg)")
     ax.set_ylabel("normal load on the tooth (N)")
     ax.set_title(
-        f"Load sharing at {r.torque_Nm:g} N m, μ = {r.friction_coefficient:g}: effective contact ratio "
+        f"Load sharing at {r.torque_Nm:g} N m, μ = {r.friction_coefficient:g}: effective contact "
+        f"ratio "
         f"{r.effective_contact_ratio():.2f}"
     )
     ax.legend(fontsize=8, loc="upper right")
@@ -190,10 +192,11 @@ def plot_cycle(r: CycleResult, out: Path) -> None:
     order = np.argsort(f.history_angle_rad)
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(deg(f.history_angle_rad[order]), f.u_history_J_m3[order, c] / 1e3, "-", color="C3")
-    ax.set_xlabel("pinion angle (deg, one pitch is %.0f deg)" % deg(p))
+    ax.set_xlabel(f"pinion angle (deg, one pitch is {deg(p):.0f} deg)")
     ax.set_ylabel("strain energy density (kJ/m³)")
     ax.set_title(
-        f"Strain energy of a flank cell over its engagement (U_max = {f.u_max_J_m3[c] / 1e3:.1f} kJ/m³)"
+        f"Strain energy of a flank cell over its engagement (U_max = {f.u_max_J_m3[c] / 1e3:.1f} "
+        f"kJ/m³)"
     )
     ax.grid(alpha=0.3)
     fig.tight_layout()

@@ -80,7 +80,8 @@ class CycleResult:
         k = self.reference_tooth["pinion"]
         phis, loads = [], []
         p = self.pitch_angle_rad
-        # tooth k at φ - m·pitch  <->  tooth k - m (pinion) at φ ... the pinion's next tooth is k - 1
+        # tooth k at φ - m·pitch  <->  tooth k - m (pinion) at φ ... the pinion's next tooth is k -
+        # 1
         for m in (-2, -1, 0, 1, 2):
             kk = k + m
             if kk in self.tooth_load_N:
@@ -94,10 +95,11 @@ class CycleResult:
         """Loaded part of one tooth's engagement over the pitch: Δφ × (number of positions at which
         the tooth carries more than ``load_fraction`` of the total normal load) / pitch.
 
-        A sample count (midpoint rule) is unbiased whether the load sets in with a jump (stiff teeth,
+        A sample count (midpoint rule) is unbiased whether the load sets in with a jump (stiff
+        teeth,
         low torque) or a ramp (soft teeth); its resolution is ±½ position step at each end.
         """
-        phi, load = self.engagement_curve()
+        _phi, load = self.engagement_curve()
         total = float(np.median(np.sum(np.stack(list(self.tooth_load_N.values())), axis=0)))
         return float(
             np.count_nonzero(load > load_fraction * total) * self.step_rad / self.pitch_angle_rad

@@ -1,4 +1,5 @@
-"""Solve the contact problem at each pinion angle of the mesh cycle and extract load sharing and heat sources.
+"""Solve the contact problem at each pinion angle of the mesh cycle and extract load sharing and
+heat sources.
 
 Per position: transmission error, normal load per tooth pair, contact pressure, root stress,
 friction power and the torque balance. Per cell: strain energy density, whose maximum over the
@@ -147,7 +148,7 @@ def solve_cycle(
     gm, comm = model.gm, model.comm
     pair = model.pair
     pitch = 2.0 * math.pi / gm.geometry.teeth_pinion
-    n = max(1, int(round(n_pitch * pitches)))
+    n = max(1, round(n_pitch * pitches))
     phis = start + pitch * pitches * np.arange(n) / n
     if heat_fraction is None:
         b1, b2 = (model.materials[b].thermal_effusivity for b in BODIES)
@@ -199,7 +200,8 @@ def solve_cycle(
             area = np.bincount(pts.facet, weights=pts.dA / ps.weight, minlength=nf)
             pint = np.bincount(pts.facet, weights=pts.dA * pts.pressure / ps.weight, minlength=nf)
             per_facet_press[slave] = np.where(area > 0, pint / np.where(area > 0, area, 1.0), 0.0)
-            # normal load per pinion tooth: the pinion is the slave in one pass, the master in the other
+            # normal load per pinion tooth: the pinion is the slave in one pass, the master in the
+            # other
             if slave == "pinion":
                 tooth = model.tooth_of_facet["pinion"]["local"][pts.facet]
             else:
@@ -242,7 +244,8 @@ def solve_cycle(
                 Ss[k].append(tS[k] / tl[k] if tl[k] > 0 else np.nan)
             w_cells.append(w)
         log.info(
-            "position %d/%d: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, %.1f s",
+            "position %d/%d: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, "
+            "%.1f s",
             i + 1,
             n,
             math.degrees(phi),

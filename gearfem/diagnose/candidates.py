@@ -30,7 +30,8 @@ from gearfem.core.errors import ParameterError
 
 @dataclasses.dataclass(frozen=True)
 class Parameter:
-    """A candidate's parameter: ``null`` leaves the model unchanged; prior [lo, hi] (log: uniform in log)."""
+    """A candidate's parameter: ``null`` leaves the model unchanged; prior [lo, hi] (log: uniform in
+    log)."""
 
     name: str
     unit: str
@@ -157,9 +158,11 @@ class FrictionScale(Candidate):
 
 @dataclasses.dataclass(frozen=True)
 class FrictionTemperature(Candidate):
-    """Friction coefficient falling with the local flank temperature, mu = mu_ref exp(-beta (T - 25 C))
+    """Friction coefficient falling with the local flank temperature, mu = mu_ref exp(-beta (T - 25
+    C))
     (thesis 4.3.5: PEEK-PEEK mu fell from 0.55 at 50 C to 0.40 at 75 C, about 0.013 /K, and kept
-    falling up to 175 C). Acts like extra cooling that scales with the friction power (load x speed)."""
+    falling up to 175 C). Acts like extra cooling that scales with the friction power (load x
+    speed)."""
 
     name: ClassVar[str] = "friction_temperature"
     parameter: ClassVar[Parameter] = Parameter("beta_mu", "1/K", 0.0, 0.0, 0.008)

@@ -12,7 +12,8 @@ Format (one measurement per row; lines starting with ``#`` are comments; header 
   thermal equilibrium").
 * ``quantity``: what was measured, one of :data:`QUANTITIES` (the thermal model's reported
   temperatures of the gear: ``max_surface`` is what an IR camera's maximum spot reads when it sees
-  the hottest surface, ``mean_bulk`` the volume mean, ``flank_mean`` the mean over the drive flanks...).
+  the hottest surface, ``mean_bulk`` the volume mean, ``flank_mean`` the mean over the drive
+  flanks...).
 * ``value_C``: measured temperature, C. ``uncertainty_K``: its standard uncertainty (u_D of ASME
   V&V 20), K, > 0. ``ambient_C``: the recorded air/surroundings temperature of that run, C.
 
@@ -138,7 +139,7 @@ class Dataset:
 
     def n_effective(self) -> int:
         """Honest count of independent data: sum over curves of min(samples, 2)."""
-        return int(round(sum(self.series_weights())))
+        return round(sum(self.series_weights()))
 
     def subset(self, keep: Iterable[bool]) -> Dataset:
         return Dataset(tuple(m for m, k in zip(self.measurements, keep) if k), self.source)
@@ -238,7 +239,8 @@ def camera_uncertainty_K(value_C: float) -> float:
 
 
 def thesis_bench(text: str, source: str = "") -> Dataset:
-    """Convert the thesis bench file (``testbench/thesis_testbench.csv``): the camera maximum surface
+    """Convert the thesis bench file (``testbench/thesis_testbench.csv``): the camera maximum
+    surface
     temperature as an end (equilibrium) value, ambient = the camera's atmospheric temperature,
     uncertainty :func:`camera_uncertainty_K`."""
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]

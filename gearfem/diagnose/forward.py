@@ -2,7 +2,8 @@
 
 :class:`FullModel` runs, for an operating point and a set of candidate extensions, the gearfem
 thermal model of one gear with heat sources from the cached structural cycle of the torque
-(:func:`gearfem.pipeline.cycle`, one cycle solve per torque, speed-independent) and returns the requested
+(:func:`gearfem.pipeline.cycle`, one cycle solve per torque, speed-independent) and returns the
+requested
 temperatures: end values from the steady state, time samples from a transient run from ambient.
 
 :class:`Surrogate` is for screening: per (speed, torque) it tabulates the full model's rises
@@ -276,7 +277,8 @@ class Surrogate:
         return got
 
     def predict(self, data: Dataset, model: dict[str, float] | None = None) -> np.ndarray:
-        """Predicted temperatures (C) of every measurement of ``data`` with the candidates of ``model``.
+        """Predicted temperatures (C) of every measurement of ``data`` with the candidates of
+        ``model``.
 
         theta = theta_0 prod_c theta_c(p_c)/theta_0; an additive candidate (and the difference
         between a measurement's ambient and the case's) enters through the tabulated response to
@@ -321,7 +323,8 @@ def _lagrange_weights_many(x: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def confirm(full: FullModel, surrogate: Surrogate, data: Dataset, model: dict[str, float]) -> dict:
-    """Full-model check of a surrogate prediction: both predictions and their largest difference (K)."""
+    """Full-model check of a surrogate prediction: both predictions and their largest difference
+    (K)."""
     s = surrogate.predict(data, model)
     f = full.predict(data, model)
     return {

@@ -42,7 +42,8 @@ def run_diagnosis(
     cache_dir: str | Path | None = None,
     u_model_K: float = 1.0,
 ) -> dict[str, Any]:
-    """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns the result."""
+    """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns
+    the result."""
 
     comm = comm or MPI.COMM_WORLD
     out = prepare_output(out_dir, "diagnosis.json", comm)
@@ -64,7 +65,8 @@ def run_diagnosis(
         u_num = 1.25 * np.abs(S - S1) / 3.0
         num_note = "1.25 |S(P2) - S(P1)| / (2^2 - 1)"
     mat = case.material
-    # input: conductivity 0.25-0.29 W/(m K) (material.toml range), emissivity 0.90 +- 0.05 (assumed),
+    # input: conductivity 0.25-0.29 W/(m K) (material.toml range), emissivity 0.90 +- 0.05
+    # (assumed),
     # both uniform: one-sided step of the full range / half-range, scaled to a standard uncertainty
     pert = {
         "thermal_conductivity_W_mK (0.25-0.29, uniform)": (
@@ -133,7 +135,8 @@ def _default(o):
 
 
 def _probes(sur: Surrogate, data: Dataset) -> Dataset:
-    """Measurements one could add at the data's operating points: every quantity, every tabulated time."""
+    """Measurements one could add at the data's operating points: every quantity, every tabulated
+    time."""
     rows, seen = [], set()
     for m in data.measurements:
         if m.point in seen:
@@ -212,8 +215,10 @@ def markdown(result: dict, data: Dataset) -> str:
     ]
     for r in result["vv20"]["rows"]:
         lines.append(
-            f"| {r['measurement']} | {r['S_C']:.1f} | {r['D_C']:.1f} | {r['E_K']:+.1f} | {r['u_num_K']:.2f} "
-            f"| {r['u_input_K']:.2f} | {r['u_D_K']:.2f} | {r['u_val_K']:.2f} | {'yes' if r['resolved'] else 'no'} |"
+            f"| {r['measurement']} | {r['S_C']:.1f} | {r['D_C']:.1f} | {r['E_K']:+.1f} | "
+            f"{r['u_num_K']:.2f} "
+            f"| {r['u_input_K']:.2f} | {r['u_D_K']:.2f} | {r['u_val_K']:.2f} | "
+            f"{'yes' if r['resolved'] else 'no'} |"
         )
     lines += [
         "",
@@ -244,7 +249,8 @@ def markdown(result: dict, data: Dataset) -> str:
         "## Gain",
         "",
         f"Held-out (leave one operating point out) RMS error: {fmt(g['loo_rmse_before_K'])} "
-        f"before, {fmt(g['loo_rmse_after_K'])} after; in-sample RMS {fmt(g['rmse_before_K'])} before, "
+        f"before, {fmt(g['loo_rmse_after_K'])} after; in-sample RMS {fmt(g['rmse_before_K'])} "
+        f"before, "
         f"{fmt(g['rmse_after_K'])} after.",
     ]
     if result.get("refined"):
@@ -255,8 +261,10 @@ def markdown(result: dict, data: Dataset) -> str:
         )
         lines += [
             "",
-            f"Full-model confirmation of the chosen model (surrogate corrected by the full model at the "
-            f"optimum, refitted): {ps}; full-model RMS error {c['full_rmse_K']:.2f} K; correction applied "
+            f"Full-model confirmation of the chosen model (surrogate corrected by the full model "
+            f"at the "
+            f"optimum, refitted): {ps}; full-model RMS error {c['full_rmse_K']:.2f} K; "
+            f"correction applied "
             f"{c['max_correction_K'][0]:.2f} K, remaining full-vs-corrected difference "
             f"{c['full_vs_corrected_max_K']:.2f} K.",
         ]

@@ -99,7 +99,8 @@ def profile_interval(
     library: tuple[Candidate, ...] = LIBRARY,
     points: int = 21,
 ) -> tuple[float, float, bool]:
-    """95 % profile-likelihood interval of ``which`` (clipped to the prior): (lo, hi, spans whole prior)."""
+    """95 % profile-likelihood interval of ``which`` (clipped to the prior): (lo, hi, spans whole
+    prior)."""
     p = by_name(which, library).parameter
     best, _ = fit(predict, data, names, u_model_K, library)
     u_best = p.to_unit(best[which])
@@ -349,8 +350,10 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
         return fmt(chosen)
     if kind == "partial":
         return (
-            f"no candidate explains the data: the best, {fmt(chosen)}, still fails the chi-square test "
-            f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}); the cause is outside the library "
+            f"no candidate explains the data: the best, {fmt(chosen)}, still fails the "
+            f"chi-square test "
+            f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}); the cause is "
+            f"outside the library "
             "or needs more candidates at once than these data can test"
         )
     rivals = " vs ".join("+".join(c) for c in [chosen["candidates"], *verdict["competitors"]])
@@ -360,7 +363,10 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
     sep = verdict.get("separate_by")
     if sep:
         best = max(sep, key=lambda s: s["difference_K"])
-        text += f"; measure {best['measurement']} to separate them (fits differ by {best['difference_K']:.1f} K)"
+        text += (
+            f"; measure {best['measurement']} to separate them "
+            f"(fits differ by {best['difference_K']:.1f} K)"
+        )
     return text
 
 
@@ -397,7 +403,7 @@ def refine(
         delta = full_predict(data, params) - surrogate_predict(data, params)
         corrections.append(float(np.max(np.abs(delta))))
 
-        def corrected(d, m, _delta=delta):
+        def corrected(d, m, _delta=delta):  # noqa: F811 - the corrected surrogate of this iteration
             return surrogate_predict(d, m) + _delta
 
         params, c2 = fit(corrected, data, names, u_model_K, library)

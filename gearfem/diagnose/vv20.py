@@ -80,7 +80,8 @@ def input_uncertainty(
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """u_input by finite differences: ``perturbations[name] = (argument for predict, scale)``, where
     ``predict(argument)`` is the prediction with input ``name`` moved by ``delta`` and ``scale`` =
-    u_x / delta (1 when the move is one standard uncertainty). Returns (u_input, per-input parts)."""
+    u_x / delta (1 when the move is one standard uncertainty). Returns (u_input, per-input
+    parts)."""
     parts = {}
     for name, (arg, scale) in perturbations.items():
         parts[name] = (np.asarray(predict(arg)) - np.asarray(nominal)) * scale

@@ -204,7 +204,7 @@ def extrude(sec: Section2D, face_width_m: float, layers: int, order: int) -> Swe
         lmap = []  # hex local node -> (quad local node, plane offset)
         for x in href:
             k = int(np.flatnonzero(np.all(np.isclose(qref, x[:2]), axis=1))[0])
-            lmap.append((k, int(round((x[2] + 1.0) * 0.5 * q))))
+            lmap.append((k, round((x[2] + 1.0) * 0.5 * q)))
         cells = np.vstack(
             [
                 np.column_stack([sw.idx(sec.cells[:, k], lay * q + off) for k, off in lmap])
@@ -216,7 +216,7 @@ def extrude(sec: Section2D, face_width_m: float, layers: int, order: int) -> Swe
         fmap = []
         for x in _ref_coords(face_type):
             k = int(np.flatnonzero(np.isclose(lref, x[0]))[0])
-            fmap.append((k, int(round((x[1] + 1.0) * 0.5 * q))))
+            fmap.append((k, round((x[1] + 1.0) * 0.5 * q)))
         for name, e in sec.edges.items():
             facets[name] = np.vstack(
                 [

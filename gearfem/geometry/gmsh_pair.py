@@ -411,7 +411,8 @@ def _group_sort_key(name: str) -> tuple:
 
 
 def section_angles_deg(sec: Section2D) -> tuple[float, float]:
-    """Smallest and largest corner angle of the 2D section cells [deg] (their shape; the extrusion adds
+    """Smallest and largest corner angle of the 2D section cells [deg] (their shape; the extrusion
+    adds
     the face-width direction with the deliberate layer thickness)."""
     nv = GMSH_REF[sec.cell_type][0]
     P = sec.nodes[sec.cells[:, :nv]]
@@ -463,14 +464,18 @@ def _statistics(gmsh, bodies: list[SweptBody], cell_tags: dict[str, np.ndarray])
     q = {
         "min_scaled_jacobian": float(sj.min()),
         "scaled_jacobian_definition": (
-            "gmsh minSJ of the curved cells: > 0 means no inverted cell; for tetrahedra it is relative to the "
-            "straight-sided cell (1 = straight, so it measures the curvature distortion only), for hexahedra "
+            "gmsh minSJ of the curved cells: > 0 means no inverted cell; for tetrahedra it is "
+            "relative to the "
+            "straight-sided cell (1 = straight, so it measures the curvature distortion only), "
+            "for hexahedra "
             "it is the corner-normalised scaled Jacobian"
         ),
         "scaled_jacobian_percentiles": {f"p{p}": float(np.percentile(sj, p)) for p in (1, 5, 50)},
         "skewness_definition": (
-            "tetrahedra: equilateral-volume skewness 1 - V/V_eq (V_eq: regular tetrahedron with the same "
-            "circumradius); hexahedra: normalised equiangular skewness over the face corner angles; the "
+            "tetrahedra: equilateral-volume skewness 1 - V/V_eq (V_eq: regular tetrahedron with "
+            "the same "
+            "circumradius); hexahedra: normalised equiangular skewness over the face corner "
+            "angles; the "
             "ANSYS Meshing definitions behind thesis Fig. 43-44, computed on the corner vertices"
         ),
         "skewness_max": float(skew.max()),

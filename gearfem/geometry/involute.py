@@ -124,7 +124,8 @@ class GearPairGeometry:
             the default). Default 0.1 m (0.2 mm): injection-moulded teeth have no sharp tip edges
             (a wire-EDM-cut cavity cannot have a sharper concave corner than the wire radius plus
             the spark gap, about 0.1-0.2 mm), and a sharp corner makes the FE contact pressure
-            singular. It must leave a tip land: ``rho_a <`` :attr:`ToothProfile.max_tip_round_radius_m`
+            singular. It must leave a tip land: ``rho_a <``
+            :attr:`ToothProfile.max_tip_round_radius_m`
             (0.2449 m for the thesis pair, whose tooth is only 0.513 mm thick at the tip circle).
         bore_radius_mm: Inner radius of the (filled) gear body [mm]; the surface held by the hub.
         center_distance_mm: Operating centre distance a [mm]; ``None`` = ``m (z1 + z2) / 2``.
@@ -295,7 +296,8 @@ class ToothProfile:
         meet on the tooth centre line in a corner). The land half angle decreases strictly with the
         round radius (``d theta_C / d rho = (L / (r_a - rho) - 1) / r_b < 0``, see
         :meth:`tip_round_geometry`), so the limit is found by bisection; it is capped at
-        ``r_a - r_b`` (the round's centre must lie outside the base circle). 0 for a pointed tooth."""
+        ``r_a - r_b`` (the round's centre must lie outside the base circle). 0 for a pointed
+        tooth."""
         hi = self.tip_radius_m - self.base_radius_m
         if not self.tip_round_geometry(0.0)[1] > 0.0:
             return 0.0
@@ -348,10 +350,12 @@ class ToothProfile:
         normal of an involute is tangent to the base circle (the generating line), so with T the
         base tangent point of the normal and xi_e the roll angle of the tangency point
         ``P_e = T + r_b xi_e n`` (``n`` the unit normal pointing out of the tooth):
-        ``C = T + (r_b xi_e - rho) n`` and ``|C|^2 = r_b^2 + (r_b xi_e - rho)^2``. Tangency to the tip
+        ``C = T + (r_b xi_e - rho) n`` and ``|C|^2 = r_b^2 + (r_b xi_e - rho)^2``. Tangency to the
+        tip
         circle from inside, ``|C| = r_a - rho``, gives in closed form
 
-            L = sqrt((r_a - rho)^2 - r_b^2),   xi_e = (rho + L) / r_b,   r_Fa = r_b sqrt(1 + xi_e^2).
+            L = sqrt((r_a - rho)^2 - r_b^2),   xi_e = (rho + L) / r_b,   r_Fa = r_b sqrt(1 +
+            xi_e^2).
 
         The polar angle of C (and of the round's tangency point on the tip circle, which is on the
         ray through C) is ``theta_C = psi_b - xi_e + atan(L / r_b)`` (T is at the polar angle
@@ -443,7 +447,8 @@ class ToothProfile:
             c, s = np.cos(beta), np.sin(beta)
             return rb * np.column_stack([c - xi * s, s + xi * c]), c, s
 
-        # Newton on the roll angle xi for the foot point: g(xi) = (P - q) . t = 0, t = (cos b, sin b)
+        # Newton on the roll angle xi for the foot point: g(xi) = (P - q) . t = 0, t = (cos b, sin
+        # b)
         xi = np.sqrt(np.maximum(r * r / (rb * rb) - 1.0, 0.0))
         for _ in range(50):
             P, c, s = point(xi)
@@ -563,7 +568,8 @@ class ToothProfile:
         return area - 0.5 * self.pitch_angle_rad * inner_radius_m**2
 
     def body_area_m2(self, teeth_in_model: int) -> float:
-        """Area [m^2] of the section of ``teeth_in_model`` consecutive tooth sectors down to the bore."""
+        """Area [m^2] of the section of ``teeth_in_model`` consecutive tooth sectors down to the
+        bore."""
         return teeth_in_model * self.tooth_sector_area_m2(self.bore_radius_m)
 
 
@@ -705,7 +711,8 @@ class GearPair:
     @property
     def contact_ratio(self) -> float:
         """Transverse contact ratio eps_alpha = (g_a + g_f) / p_b (of the rigid teeth: tip rounds
-        shorten the involutes and so reduce it; see :attr:`GearPairGeometry.tip_round_coefficient`)."""
+        shorten the involutes and so reduce it; see
+        :attr:`GearPairGeometry.tip_round_coefficient`)."""
         return self.eps_1 + self.eps_2
 
     def path_of_contact(self) -> PathOfContact:
@@ -868,7 +875,8 @@ def _check_pair(g: GearPairGeometry) -> None:
             fail(
                 "addendum_coefficient",
                 "a smaller addendum (or a thicker tooth)",
-                f"the {body} tooth is pointed below its tip circle (tip thickness {mm(prof.tip_thickness_m)})",
+                f"the {body} tooth is pointed below its tip circle (tip thickness "
+                f"{mm(prof.tip_thickness_m)})",
             )
         rho_max = prof.max_rack_tip_radius_m
         if rho_max <= 0:
@@ -881,13 +889,15 @@ def _check_pair(g: GearPairGeometry) -> None:
             fail(
                 "root_fillet_coefficient",
                 f"(0, {rho_max / prof.module_m:.4g}]",
-                f"the rack tip radius does not fit on the {body}'s generating rack tooth (full-round tip)",
+                f"the rack tip radius does not fit on the {body}'s generating rack tooth "
+                f"(full-round tip)",
             )
         if prof.is_undercut():
             fail(
                 "teeth_pinion" if body == "pinion" else "teeth_wheel",
                 "more teeth (or a smaller dedendum / larger pressure angle)",
-                f"the generating rack undercuts the {body} flank (undercut margin {mm(prof.undercut_margin_m)})",
+                f"the generating rack undercuts the {body} flank (undercut margin "
+                f"{mm(prof.undercut_margin_m)})",
             )
         if prof.tip_round_radius_m > 0.0:
             rho_max = prof.max_tip_round_radius_m
@@ -896,7 +906,8 @@ def _check_pair(g: GearPairGeometry) -> None:
                     "tip_round_coefficient",
                     f"[0, {rho_max / prof.module_m:.4g})",
                     f"two tip rounds and a tip land must fit on the {body} tooth (tip thickness "
-                    f"{mm(prof.tip_thickness_m)}); at the limit the land vanishes and the rounds meet in a "
+                    f"{mm(prof.tip_thickness_m)}); at the limit the land vanishes and the rounds "
+                    f"meet in a "
                     "corner (a full-round tip is not modelled)",
                 )
             if not prof.tip_form_radius_m > prof.form_radius_m:
@@ -932,6 +943,8 @@ def _check_pair(g: GearPairGeometry) -> None:
             fail(
                 "addendum_coefficient",
                 "a smaller addendum (or a smaller root fillet)",
-                f"the mating tip reaches below the {body}'s involute into its fillet (start of active "
-                f"profile of the sharp mating tip {1e3 * sap:.3f} mm < form radius {1e3 * prof.form_radius_m:.3f} mm)",
+                f"the mating tip reaches below the {body}'s involute into its fillet (start of "
+                f"active "
+                f"profile of the sharp mating tip {1e3 * sap:.3f} mm < form radius "
+                f"{1e3 * prof.form_radius_m:.3f} mm)",
             )

@@ -156,7 +156,7 @@ class GearMesh:
 
         def key(n: str) -> tuple:
             b, k, kd = parse_group_name(n)
-            kinds = ("volume",) + TOOTH_KINDS + BODY_KINDS
+            kinds = ("volume", *TOOTH_KINDS, *BODY_KINDS)
             return (BODIES.index(b), -1 if k is None else k, kinds.index(kd) if kd in kinds else 99)
 
         return sorted(out, key=key)
@@ -208,7 +208,8 @@ class GearMesh:
         return reference_tooth(body, self.options.teeth_in_model)
 
     def tooth_angles(self, body: str) -> np.ndarray:
-        """Polar angles of the tooth centre lines about the body's own axis [rad] (mesh as built)."""
+        """Polar angles of the tooth centre lines about the body's own axis [rad] (mesh as
+        built)."""
         return placement(self.pair, self.options, body).tooth_angles_rad.copy()
 
 

@@ -49,7 +49,8 @@ log = logging.getLogger(__name__)
 
 # Thesis section 5.1.5 (dry air at 25 C).
 THESIS_AIR_NU_m2_s = 1.557e-5
-# Not stated in the thesis: Sutherland (White 2006) at 298.15 K, = 0.02610; Incropera A.4 interpolated: 0.0261.
+# Not stated in the thesis: Sutherland (White 2006) at 298.15 K, = 0.02610; Incropera A.4
+# interpolated: 0.0261.
 THESIS_AIR_K_W_mK = 0.0261
 
 RE_TEETH_RANGE = (2.0e3, 4.0e4)  # thesis eq. 5.3 (Özerdem)
@@ -110,13 +111,15 @@ class AirProperties:
                 )
 
     def nu(self, T_film_K: Any) -> Any:
-        """Kinematic viscosity at the film temperature (ignored by the ``"thesis"`` model), m^2/s."""
+        """Kinematic viscosity at the film temperature (ignored by the ``"thesis"`` model),
+        m^2/s."""
         if self.model == "thesis":
             return self.kinematic_viscosity_m2_s or THESIS_AIR_NU_m2_s
         return air_kinematic_viscosity_m2_s(T_film_K)
 
     def k(self, T_film_K: Any) -> Any:
-        """Thermal conductivity at the film temperature (ignored by the ``"thesis"`` model), W/(m K)."""
+        """Thermal conductivity at the film temperature (ignored by the ``"thesis"`` model), W/(m
+        K)."""
         if self.model == "thesis":
             return self.conductivity_W_mK or THESIS_AIR_K_W_mK
         return air_conductivity_W_mK(T_film_K)
@@ -155,7 +158,8 @@ class GearRadii:
 
     @classmethod
     def thesis_gear(cls) -> GearRadii:
-        """The thesis test gear: D_p = 60 mm, pressure angle 30 deg, r_i = 15 mm (assumed, see thesis_gear.toml)."""
+        """The thesis test gear: D_p = 60 mm, pressure angle 30 deg, r_i = 15 mm (assumed, see
+        thesis_gear.toml)."""
         return cls(0.060, 0.030 * math.cos(math.radians(30.0)), 0.015)
 
 

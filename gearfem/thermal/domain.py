@@ -13,7 +13,8 @@ Roles of the exterior facets (every exterior facet must have exactly one):
   teeth next to the cuts of the 8-tooth thesis gear are 2-4 K off the full gear at 40 W.
 
 ``monitors`` name the surface sets whose mean and maximum temperature are reported over time
-(flank, coast flank, root, tip; interior teeth of a sector). ``model_fraction`` is the part of the whole gear the mesh represents (8/30
+(flank, coast flank, root, tip; interior teeth of a sector). ``model_fraction`` is the part of the
+whole gear the mesh represents (8/30
 for the thesis's fractional model) so that per-gear heat is scaled to the modelled sector.
 """
 
@@ -203,7 +204,8 @@ class ThermalDomain:
 
     def cell_field_from_parent(self, field):
         """A DG0 Function on this mesh from a DG0 Function on the parent (pair) mesh, cell by cell
-        (e.g. U_max of the contact cycle); on a mesh that is not a submesh ``field`` must live on it."""
+        (e.g. U_max of the contact cycle); on a mesh that is not a submesh ``field`` must live on
+        it."""
         from dolfinx import fem
 
         V = field.function_space

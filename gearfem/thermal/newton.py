@@ -155,7 +155,8 @@ class NewtonSolver:
 
     # ------------------------------------------------------------------------------------------
     def set_time_terms(self, alpha: float, history) -> None:
-        """alpha = a0/dt and the history combination (a1 T^n + a2 T^{n-1})/dt as a PETSc Vec (or None)."""
+        """alpha = a0/dt and the history combination (a1 T^n + a2 T^{n-1})/dt as a PETSc Vec (or
+        None)."""
         self.alpha = float(alpha)
         self._have_c = history is not None and self.M is not None
         if self._have_c:
@@ -248,7 +249,8 @@ class NewtonSolver:
                         None  # a stale preconditioner may be the cause: rebuild next time
                     )
                 self._fail(
-                    f"DIVERGED_LINEAR_SOLVE; KSP {_names(PETSc.KSP.ConvergedReason).get(kr, '?')} ({kr})",
+                    f"DIVERGED_LINEAR_SOLVE; KSP "
+                    f"{_names(PETSc.KSP.ConvergedReason).get(kr, '?')} ({kr})",
                     where,
                     it,
                     norm,

@@ -30,7 +30,8 @@ class PrescribedSources:
     """``[sources]`` table: prescribed sources until the contact cycle provides them.
 
     Args:
-        flank_heat_per_gear_W: Friction heat into this gear, W, over the whole gear; spread uniformly
+        flank_heat_per_gear_W: Friction heat into this gear, W, over the whole gear; spread
+        uniformly
             over the chosen flanks (scaled to the modelled sector by its fraction of the gear).
         flanks: ``"drive"``, ``"coast"`` or ``"both"``: flanks receiving it.
         u_max_J_m3: Uniform maximum strain energy density, J/m^3 (0: no hysteresis).
@@ -78,12 +79,14 @@ class ThermalOptions:
     Time stepping (:mod:`gearfem.thermal.timestepping`):
         mode: ``"transient"`` or ``"steady"``.
         duration_s: Simulated time (thesis: 8000 s).
-        time_stepping: ``"adaptive"`` (BDF2 with local error control) or ``"fixed"`` (dt_initial_s throughout).
+        time_stepping: ``"adaptive"`` (BDF2 with local error control) or ``"fixed"`` (dt_initial_s
+        throughout).
         dt_initial_s, dt_min_s, dt_max_s: Step sizes. The first two steps (backward Euler, then
             BDF2) use ``dt_initial_s`` without an error estimate (it needs three solutions): keep
             it small against the flank heating time (default 0.25 s).
         time_error_K: Accepted local error per step (max norm over the nodes), kelvin.
-        output_times_s: Times at which fields are written (and steps land exactly); the end is always written.
+        output_times_s: Times at which fields are written (and steps land exactly); the end is
+        always written.
 
     Discretisation and solver:
         degree: Lagrange degree of the temperature, 1 or 2. Default 2: on the default gear mesh

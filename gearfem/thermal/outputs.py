@@ -37,7 +37,8 @@ log = logging.getLogger(__name__)
 class ThermalWriter:
     """Observer for :meth:`ThermalProblem.run` writing the files above into ``out_dir``.
 
-    Use as a context manager; :meth:`finish` writes the plot and the summary (the completion marker).
+    Use as a context manager; :meth:`finish` writes the plot and the summary (the completion
+    marker).
     """
 
     def __init__(
@@ -200,7 +201,8 @@ def solve_and_write(
     more: Callable[[list[StepRecord]], dict[str, Any]] | None = None,
     write_plot: bool = True,
 ) -> tuple[list[StepRecord], dict[str, Any]]:
-    """Solve (transient or steady, as ``problem.options.mode`` says) and write CSV, VTX, plot, summary.
+    """Solve (transient or steady, as ``problem.options.mode`` says) and write CSV, VTX, plot,
+    summary.
 
     ``extra`` and ``more(records)`` (computed after the run, collectively) are added to the
     summary. The summary (``thermal_summary.json``) is written last: a run that fails leaves none.
@@ -223,7 +225,8 @@ def solve_and_write(
         writer.finish(summ)
     last = records[-1]
     log.info(
-        "thermal %s: t = %g s, %d steps, T_max surface %.2f C, mean bulk %.2f C, max |imbalance| %.2e, "
+        "thermal %s: t = %g s, %d steps, T_max surface %.2f C, mean bulk %.2f C, max |imbalance| "
+        "%.2e, "
         "%.1f s wall",
         problem.options.mode,
         last.time_s,

@@ -312,7 +312,8 @@ class ThermalProblem:
         return self.comm.allreduce(fem.assemble_scalar(fem.form(expr)), op=MPI.SUM)
 
     def _weights(self, linear_form):
-        """The vector int phi_i (assembled once): w . T is the integral of T (exact, same quadrature)."""
+        """The vector int phi_i (assembled once): w . T is the integral of T (exact, same
+        quadrature)."""
         from dolfinx import fem
         from dolfinx.fem.petsc import assemble_vector
         from petsc4py import PETSc
@@ -560,7 +561,7 @@ class ThermalProblem:
         self._T_nm1.x.array[:] = self._T_n.x.array
         self._T_n.x.array[:] = self.T.x.array
         self.time_s = self.time_s + dt
-        self._history_times = [self.time_s] + self._history_times[:2]
+        self._history_times = [self.time_s, *self._history_times[:2]]
         self._n_steps += 1
         return self._record(self._n_steps, dt, order, its, err, balance)
 

@@ -1,4 +1,5 @@
-"""Heat sources of the thermal model: the interface between the contact cycle and the thermal solver.
+"""Heat sources of the thermal model: the interface between the contact cycle and the thermal
+solver.
 
 Two physical sources (thesis 5.2.2, 5.2.3):
 
@@ -42,7 +43,8 @@ class HeatSources:
     """Heat sources on the thermal mesh (see the module docstring).
 
     Args:
-        u_max: DG0 Function, maximum strain energy density over a load cycle, J/m^3 (None: no hysteresis).
+        u_max: DG0 Function, maximum strain energy density over a load cycle, J/m^3 (None: no
+        hysteresis).
         loading_frequency_Hz: f in q_h = H(T) U_max f.
         hysteresis: H(T) (kelvin -> loss fraction), e.g. ``Material.hysteresis_table()``.
         flank_flux_W_m2: Rotation-averaged friction flux into this body on ``flux_surfaces``.

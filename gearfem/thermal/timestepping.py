@@ -45,7 +45,8 @@ def bdf2_coefficients(dt: float, dt_prev: float | None) -> tuple[float, float, f
 def extrapolation_weights(
     times: tuple[float, float, float], t: float
 ) -> tuple[float, float, float]:
-    """Weights of the quadratic Lagrange extrapolation through ``times`` (t_n, t_{n-1}, t_{n-2}) at t."""
+    """Weights of the quadratic Lagrange extrapolation through ``times`` (t_n, t_{n-1}, t_{n-2}) at
+    t."""
     t0, t1, t2 = times
     return (
         (t - t1) * (t - t2) / ((t0 - t1) * (t0 - t2)),
@@ -61,7 +62,8 @@ def bdf2_error_constant(dt: float, dt_prev: float) -> float:
 
 
 def estimator_factor(dt: float, dt1: float, dt2: float) -> float:
-    """Factor f with LTE ~ f (T_B - T_P) for the BDF2 step dt after steps dt1, dt2 (see module doc)."""
+    """Factor f with LTE ~ f (T_B - T_P) for the BDF2 step dt after steps dt1, dt2 (see module
+    doc)."""
     c = bdf2_error_constant(dt, dt1) * dt**3
     p = dt * (dt + dt1) * (dt + dt1 + dt2) / 6.0
     return c / (c + p)
