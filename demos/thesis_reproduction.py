@@ -223,7 +223,7 @@ def main(argv=None) -> int:
     pipeline.pair_mesh(c0, comm)
     from gearfem.geometry.mesh import build_gear_mesh
 
-    build_gear_mesh(c0.geometry, dataclasses.replace(c0.mesh, bodies=("pinion",)), comm)
+    build_gear_mesh(c0.geometry, c0.mesh, comm, bodies=("pinion",))
     reps = {}
     for _, c, _ in todo:
         reps.setdefault(c.operating.torque_Nm, c)

@@ -33,6 +33,7 @@ from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.report import write_cycle_outputs
 from gearfem.geometry.involute import GearPair
 from gearfem.geometry.mesh import build_gear_mesh
+from gearfem.geometry.options import BODIES
 from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.domain import ThermalDomain
 from gearfem.thermal.lumped import gear_radii, lumped_estimate
@@ -44,18 +45,13 @@ log = logging.getLogger(__name__)
 
 
 def pair_mesh(case: Case, comm: MPI.Comm, cache_dir: Path | None = None):
-    return build_gear_mesh(
-        case.geometry,
-        dataclasses.replace(case.mesh, bodies=("pinion", "wheel")),
-        comm,
-        cache_dir=cache_dir,
-    )
+    return build_gear_mesh(case.geometry, case.mesh, comm, cache_dir=cache_dir, bodies=BODIES)
 
 
 def case_cycle_key(case: Case) -> str:
     return cycle_key(
         case.geometry,
-        dataclasses.replace(case.mesh, bodies=("pinion", "wheel")),
+        case.mesh,
         case.materials,
         case.contact,
         case.cycle,
@@ -111,9 +107,7 @@ def thermal(
     if body not in ("pinion", "wheel"):
         raise ParameterError("thermal.body", body, "'pinion' or 'wheel'")
     # the thermal model meshes only its body: balanced over the ranks
-    gm = build_gear_mesh(
-        case.geometry, dataclasses.replace(case.mesh, bodies=(body,)), comm, cache_dir=mesh_cache
-    )
+    gm = build_gear_mesh(case.geometry, case.mesh, comm, cache_dir=mesh_cache, bodies=(body,))
     src = case.sources
     domain = ThermalDomain.from_gear_mesh(
         gm, body, flux_flanks=src.flanks if src.mode == "prescribed" else "drive"

@@ -184,7 +184,7 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     assert back.effective_contact_ratio() == loaded.effective_contact_ratio()
     # the flank heat on the thermal mesh of one gear: (teeth modelled) × (heat per tooth) × ω
     case = _case(8.0, 0.5)
-    gm = build_gear_mesh(case.geometry, dataclasses.replace(TINY, bodies=("pinion",)), comm)
+    gm = build_gear_mesh(case.geometry, TINY, comm, bodies=("pinion",))
     dom = ThermalDomain.from_gear_mesh(gm, "pinion")
     speed = 1000.0
     src = cycle_heat_sources(dom, gm, "pinion", back, SourceOptions(), case.material, speed)

@@ -14,6 +14,7 @@ import pytest
 import ufl
 from mpi4py import MPI
 
+from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
 from gearfem.geometry.extrude import GMSH_REF
 from gearfem.geometry.gmsh_pair import gmsh_session
@@ -85,9 +86,11 @@ def _max_profile_edge(gm, name: str) -> float:
     return gm.mesh.comm.allreduce(h, op=MPI.MAX)
 
 
-def _expected_names(options: MeshOptions, full: bool = False) -> set[str]:
+def _expected_names(
+    options: MeshOptions, bodies: tuple[str, ...] = ("pinion", "wheel"), full: bool = False
+) -> set[str]:
     names = set()
-    for body in options.bodies:
+    for body in bodies:
         names.add(body)
         names |= {
             f"{body}_tooth{k}_{kind}" for k in range(options.teeth_in_model) for kind in TOOTH_KINDS
@@ -114,7 +117,7 @@ def test_gmsh_reference_node_orderings():
 
 def _check_groups(gm, full: bool = False) -> None:
     comm = gm.mesh.comm
-    assert set(gm.physical_groups) == _expected_names(gm.options, full)
+    assert set(gm.physical_groups) == _expected_names(gm.options, gm.bodies, full)
     tdim = gm.mesh.topology.dim
     gm.mesh.topology.create_connectivity(tdim - 1, tdim)
     n_owned = gm.mesh.topology.index_map(tdim - 1).size_local
@@ -405,8 +408,8 @@ def test_hex_variant(cache):
 
 def test_full_gear_is_closed(cache):
     g = GearPairGeometry(teeth_pinion=16, teeth_wheel=16, bore_radius_mm=8.0)
-    options = dataclasses.replace(COARSE, teeth_in_model=16, bodies=("pinion",))
-    gm = build_gear_mesh(g, options, MPI.COMM_WORLD, cache_dir=cache)
+    options = dataclasses.replace(COARSE, teeth_in_model=16)
+    gm = build_gear_mesh(g, options, MPI.COMM_WORLD, cache_dir=cache, bodies=("pinion",))
     _check_groups(gm, full=True)
     prof = GearPair(g).pinion
     v = body_volumes_m3(gm)["pinion"]
@@ -426,10 +429,8 @@ def test_full_gear_is_closed(cache):
 
 
 def test_single_body_mesh(cache):
-    gm = build_gear_mesh(
-        THESIS, dataclasses.replace(COARSE, bodies=("wheel",)), MPI.COMM_WORLD, cache_dir=cache
-    )
-    assert set(gm.physical_groups) == _expected_names(gm.options)
+    gm = build_gear_mesh(THESIS, COARSE, MPI.COMM_WORLD, cache_dir=cache, bodies=("wheel",))
+    assert set(gm.physical_groups) == _expected_names(gm.options, gm.bodies)
     assert all(n.startswith("wheel") for n in gm.physical_groups)
 
 
@@ -479,22 +480,23 @@ def test_cache_key_depends_on_the_tip_rounds():
 
 
 def test_cache_hit_and_interrupted_build(tmp_path, monkeypatch):
-    opts = dataclasses.replace(COARSE, bodies=("pinion",), teeth_in_model=3)
-    gm = build_gear_mesh(THESIS, opts, MPI.COMM_SELF, cache_dir=tmp_path)
+    opts = dataclasses.replace(COARSE, teeth_in_model=3)
+    pinion = ("pinion",)
+    gm = build_gear_mesh(THESIS, opts, MPI.COMM_SELF, cache_dir=tmp_path, bodies=pinion)
     mtime = gm.msh_path.stat().st_mtime_ns
-    again = build_gear_mesh(THESIS, opts, MPI.COMM_SELF, cache_dir=tmp_path)
+    again = build_gear_mesh(THESIS, opts, MPI.COMM_SELF, cache_dir=tmp_path, bodies=pinion)
     assert again.cache_key == gm.cache_key and again.msh_path.stat().st_mtime_ns == mtime
 
     import gearfem.geometry.mesh as meshmod
 
-    def broken(path, geometry, options):
+    def broken(path, geometry, options, bodies):
         Path(path).write_text("partial")
         raise RuntimeError("interrupted")
 
     monkeypatch.setattr(meshmod, "write_model", broken)
     other = dataclasses.replace(opts, layers=1)
     with pytest.raises(RuntimeError, match="interrupted"):
-        build_gear_mesh(THESIS, other, MPI.COMM_SELF, cache_dir=tmp_path)
+        build_gear_mesh(THESIS, other, MPI.COMM_SELF, cache_dir=tmp_path, bodies=pinion)
     assert sorted(p.name for p in tmp_path.iterdir()) == [gm.cache_key]  # nothing half-built left
 
 
@@ -508,8 +510,6 @@ def test_cache_hit_and_interrupted_build(tmp_path, monkeypatch):
         (dict(layers=0), "mesh.layers"),
         (dict(element="prism"), "mesh.element"),
         (dict(order=3), "mesh.order"),
-        (dict(bodies=("gear",)), "mesh.bodies"),
-        (dict(bodies=()), "mesh.bodies"),
     ],
 )
 def test_bad_mesh_options_raise_parameter_error(changes, name, tmp_path):
@@ -520,6 +520,24 @@ def test_bad_mesh_options_raise_parameter_error(changes, name, tmp_path):
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("bodies", [("gear",), (), ("pinion", "pinion")])
+def test_bad_bodies_raise_parameter_error(bodies, tmp_path):
+    """Which bodies to mesh is an argument of the build (not a case-file key)."""
+    with pytest.raises(ParameterError) as err:
+        build_gear_mesh(THESIS, MeshOptions(), MPI.COMM_SELF, cache_dir=tmp_path, bodies=bodies)
+    assert err.value.name == "bodies"
+    assert not any(tmp_path.iterdir())
+
+
+def test_bodies_is_not_a_case_file_key(tmp_path):
+    """The old ``[mesh] bodies`` key, which every caller overwrote, is rejected by name."""
+    case = tmp_path / "case.toml"
+    case.write_text('[mesh]\nbodies = ["pinion"]\n')
+    with pytest.raises(ParameterError) as err:
+        load_case(case)
+    assert "bodies" in err.value.name
+
+
 def test_cli_mesh_writes_mesh_json_and_picture(tmp_path, capsys):
     from gearfem.cli import main
 
@@ -527,8 +545,7 @@ def test_cli_mesh_writes_mesh_json_and_picture(tmp_path, capsys):
     case.write_text(
         "[geometry]\nteeth_pinion = 30\n\n"
         "[mesh]\nteeth_in_model = 5\nsize_flank_mm = 0.4\nsize_tip_mm = 0.4\nsize_root_mm = "
-        "0.4\nlayers = 1\n"
-        'bodies = ["pinion", "wheel"]\n\n'
+        "0.4\nlayers = 1\n\n"
         "[material]\nname = 'ignored by the mesh command'\n"
     )
     out = tmp_path / "out"

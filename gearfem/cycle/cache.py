@@ -56,12 +56,14 @@ def cache_root() -> Path:
 
 
 def _code_hash() -> str:
+    """Hash of the source of everything a stored cycle depends on: the layers below and including
+    the cycle (core: materials, facet geometry; geometry: the mesh; contact; cycle). Any edit there
+    invalidates stored cycles; this module's own edits do too (conservative)."""
     root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
-    for sub in ("contact", "cycle"):
+    for sub in ("core", "geometry", "contact", "cycle"):
         for f in sorted((root / sub).glob("*.py")):
-            if f.name != "store.py":
-                h.update(f.read_bytes())
+            h.update(f.read_bytes())
     return h.hexdigest()[:12]
 
 

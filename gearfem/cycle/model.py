@@ -59,7 +59,7 @@ class GearContactModel:
         require_positive("operating.torque_Nm", torque_Nm)
         if set(gm.bodies) != set(BODIES):
             raise ParameterError(
-                "mesh.bodies", gm.bodies, "both ('pinion', 'wheel') for the contact cycle"
+                "bodies", gm.bodies, "both ('pinion', 'wheel') for the contact cycle"
             )
         self.gm, self.materials, self.torque_Nm, self.options = gm, materials, torque_Nm, options
         self.pair = gm.pair

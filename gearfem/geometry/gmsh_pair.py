@@ -43,9 +43,11 @@ import numpy as np
 from gearfem.geometry.extrude import GMSH_REF, Section2D, SweptBody, extrude
 from gearfem.geometry.involute import GearPair, GearPairGeometry, ToothProfile
 from gearfem.geometry.options import (
+    BODIES,
     BODY_KINDS,
     TOOTH_KINDS,
     MeshOptions,
+    check_bodies,
     check_options,
     refined_tooth_indices,
 )
@@ -278,17 +280,18 @@ def _curve_groups(body: str, sec: _BodyCurves) -> dict[str, list[int]]:
 
 
 def mesh_sections(
-    gmsh, geometry: GearPairGeometry, options: MeshOptions, bodies: tuple[str, ...] | None = None
+    gmsh, geometry: GearPairGeometry, options: MeshOptions, bodies: tuple[str, ...] = BODIES
 ) -> dict[str, Section2D]:
-    """Mesh the z = 0 sections of ``bodies`` (default: ``options.bodies``) in 2D, in the current
-    gmsh model (built in millimetres; the returned coordinates are in metres)."""
-    check_options(geometry, options)
+    """Mesh the z = 0 sections of ``bodies`` in 2D, in the current gmsh model (built in
+    millimetres; the returned coordinates are in metres)."""
+    bodies = check_bodies(bodies)
+    check_options(geometry, options, bodies)
     pair = GearPair(geometry)
     geo = gmsh.model.geo
     gmsh.option.setNumber("Geometry.AutoCoherence", 0)
     sections: dict[str, _BodyCurves] = {}
     places: dict[str, BodyPlacement] = {}
-    for body in bodies or options.bodies:
+    for body in bodies:
         places[body] = placement(pair, options, body)
         sections[body] = _add_section(gmsh, pair.profile(body), places[body])
     geo.synchronize()
@@ -496,21 +499,24 @@ def _statistics(gmsh, bodies: list[SweptBody], cell_tags: dict[str, np.ndarray])
     return stats
 
 
-def write_model(path: Path, geometry: GearPairGeometry, options: MeshOptions) -> dict[str, Any]:
-    """Build the swept mesh of the pair and write it to ``path`` (msh 4.1 binary, metres).
+def write_model(
+    path: Path, geometry: GearPairGeometry, options: MeshOptions, bodies: tuple[str, ...] = BODIES
+) -> dict[str, Any]:
+    """Build the extruded mesh of ``bodies`` and write it to ``path`` (msh 4.1 binary, metres).
 
     Serial (gmsh): call on one rank. Returns counts, quality (:func:`_statistics`), the physical
     groups (name -> (dim, tag)) and ``mesh_time_s`` / ``build_time_s``.
     """
     t0 = time.perf_counter()
     sections: dict[str, Section2D] = {}
-    for body in options.bodies:  # one model per body: each size field sees only its own curves
+    bodies = check_bodies(bodies)
+    for body in bodies:  # one model per body: each size field sees only its own curves
         with gmsh_session(f"gearfem_section_{body}") as gmsh:
             sections.update(mesh_sections(gmsh, geometry, options, bodies=(body,)))
     t_2d = time.perf_counter() - t0
     angles = [section_angles_deg(sec) for sec in sections.values()]
     b = geometry.face_width_mm * 1e-3
-    bodies = [extrude(sections[body], b, options.layers, options.order) for body in options.bodies]
+    bodies = [extrude(sections[body], b, options.layers, options.order) for body in bodies]
     with gmsh_session("gearfem_pair") as gmsh:
         groups, cell_tags, surfaces = _write_discrete(gmsh, bodies)
         t_mesh = time.perf_counter() - t0

@@ -30,7 +30,6 @@ from typing import Any
 import numpy as np
 
 from gearfem.core.params import to_dict
-from gearfem.geometry import gmsh_pair, involute
 from gearfem.geometry.extrude import GMSH_REF
 from gearfem.geometry.gmsh_pair import gmsh_session, placement, write_model
 from gearfem.geometry.involute import GearPair, GearPairGeometry
@@ -40,6 +39,7 @@ from gearfem.geometry.options import (
     GEOMETRY_CODE_VERSION,
     TOOTH_KINDS,
     MeshOptions,
+    check_bodies,
     check_options,
     reference_tooth,
 )
@@ -60,15 +60,19 @@ def default_cache_dir() -> Path:
 
 
 def _source_hash() -> str:
-    """Hash of the source of the modules that generate meshes (any edit invalidates the cache)."""
-
+    """Hash of the source of the modules that generate meshes: every module of
+    :mod:`gearfem.geometry` but this one (any edit invalidates the cache)."""
     h = hashlib.sha256()
-    for mod in (involute, gmsh_pair):
-        h.update(Path(mod.__file__).read_bytes())
+    here = Path(__file__).resolve()
+    for f in sorted(here.parent.glob("*.py")):
+        if f != here:
+            h.update(f.read_bytes())
     return h.hexdigest()[:16]
 
 
-def cache_key(geometry: GearPairGeometry, options: MeshOptions) -> str:
+def cache_key(
+    geometry: GearPairGeometry, options: MeshOptions, bodies: tuple[str, ...] = BODIES
+) -> str:
     """Hash of everything that determines the mesh (16 hex digits): all parameters, the
     geometry-code version and source, and the gmsh version."""
     import gmsh
@@ -80,6 +84,7 @@ def cache_key(geometry: GearPairGeometry, options: MeshOptions) -> str:
     payload = {
         "geometry": g,
         "mesh": to_dict(options),
+        "bodies": list(check_bodies(bodies)),
         "code": GEOMETRY_CODE_VERSION,
         "source": _source_hash(),
         "gmsh": gmsh.__version__,
@@ -110,6 +115,7 @@ class GearMesh:
         cell_tags, facet_tags: Meshtags with the physical-group tags.
         physical_groups: name -> ``dolfinx.io.gmsh.PhysicalGroup(dim, tag)``.
         geometry, options: The parameters it was built from.
+        bodies: The meshed bodies (``("pinion", "wheel")`` or one of them).
         cache_key: Hash of the parameters (the cache directory name).
         msh_path: The cached ``.msh`` file (metres).
         build_info: Counts, quality and timings recorded when the mesh was generated.
@@ -121,6 +127,7 @@ class GearMesh:
     physical_groups: dict[str, Any]
     geometry: GearPairGeometry
     options: MeshOptions
+    bodies: tuple[str, ...]
     cache_key: str
     msh_path: Path
     build_info: dict[str, Any] = field(default_factory=dict, repr=False)
@@ -160,10 +167,6 @@ class GearMesh:
             return (BODIES.index(b), -1 if k is None else k, kinds.index(kd) if kd in kinds else 99)
 
         return sorted(out, key=key)
-
-    @property
-    def bodies(self) -> tuple[str, ...]:
-        return self.options.bodies
 
     # --- entities --------------------------------------------------------------------------------
     def facets(self, *names: str) -> np.ndarray:
@@ -219,16 +222,17 @@ class GearMesh:
 
 
 def _build_into_cache(
-    geometry: GearPairGeometry, options: MeshOptions, final: Path
+    geometry: GearPairGeometry, options: MeshOptions, bodies: tuple[str, ...], final: Path
 ) -> dict[str, Any]:
     """Generate the mesh into a temporary directory next to ``final`` and rename it into place."""
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{final.name}-", dir=final.parent))
     try:
-        stats = write_model(tmp / MSH_NAME, geometry, options)
+        stats = write_model(tmp / MSH_NAME, geometry, options, bodies)
         info = {
             "geometry": to_dict(geometry),
             "mesh": to_dict(options),
+            "bodies": list(bodies),
             "geometry_code_version": GEOMETRY_CODE_VERSION,
             **stats,
         }
@@ -251,6 +255,7 @@ def build_gear_mesh(
     comm=None,
     cache_dir: Path | str | None = None,
     rebuild: bool = False,
+    bodies: tuple[str, ...] = BODIES,
 ) -> GearMesh:
     """Build (or load from the cache) the mesh of the pair and distribute it on ``comm``.
 
@@ -263,6 +268,8 @@ def build_gear_mesh(
         comm: MPI communicator (default ``MPI.COMM_WORLD``).
         cache_dir: Cache root (default: see :func:`default_cache_dir`).
         rebuild: Regenerate even if cached (the old entry is replaced).
+        bodies: The bodies to mesh: both (the contact cycle) or one (a thermal model of one gear,
+            better balanced in parallel).
     """
     from dolfinx.io import gmsh as dgmsh
     from mpi4py import MPI
@@ -270,9 +277,10 @@ def build_gear_mesh(
     geometry = geometry or GearPairGeometry()
     options = options or MeshOptions()
     comm = comm or MPI.COMM_WORLD
-    check_options(geometry, options)  # on every rank, before any collective step
+    bodies = check_bodies(bodies)  # on every rank, before any collective step
+    check_options(geometry, options, bodies)
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    key = cache_key(geometry, options)
+    key = cache_key(geometry, options, bodies)
     final = root / key
     error: str | None = None
     t0 = time.perf_counter()
@@ -291,7 +299,7 @@ def build_gear_mesh(
                     options.teeth_in_model,
                     options.order,
                 )
-                _build_into_cache(geometry, options, final)
+                _build_into_cache(geometry, options, bodies, final)
         except Exception as err:
             error = f"{type(err).__name__}: {err}"
             exc = err
@@ -320,6 +328,7 @@ def build_gear_mesh(
         physical_groups=dict(data.physical_groups),
         geometry=geometry,
         options=options,
+        bodies=bodies,
         cache_key=key,
         msh_path=final / MSH_NAME,
         build_info=info,
@@ -331,13 +340,15 @@ def build_gear_mesh(
 # ------------------------------------------------------------------------------------------------
 
 
-def analytic_areas_mm2(geometry: GearPairGeometry, options: MeshOptions) -> dict[str, float]:
+def analytic_areas_mm2(
+    geometry: GearPairGeometry, options: MeshOptions, bodies: tuple[str, ...] = BODIES
+) -> dict[str, float]:
     """Exact areas [mm^2] of the named facet groups of one tooth kind / body face, from the
     tooth outline (curve length x face width, or section area for the side faces)."""
     pair = GearPair(geometry)
     b = geometry.face_width_mm
     out: dict[str, float] = {}
-    for body in options.bodies:
+    for body in check_bodies(bodies):
         prof = pair.profile(body)
         o = prof.outline(n_flank=4000, n_fillet=4000, n_land=400, n_tip=400)
         length = lambda xy: float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=1))) * 1e3
@@ -387,11 +398,11 @@ def mesh_report(gm: GearMesh) -> dict[str, Any]:
 
     vol_fe = body_volumes_m3(gm)
     volumes = {}
-    for body in o.bodies:
+    for body in gm.bodies:
         fe = vol_fe[body] * 1e9
         exact = pair.profile(body).body_area_m2(o.teeth_in_model) * 1e6 * b_mm
         volumes[body] = {"fe_mm3": fe, "analytic_mm3": exact, "rel_error": (fe - exact) / exact}
-    exact_areas = analytic_areas_mm2(g, o)
+    exact_areas = analytic_areas_mm2(g, o, gm.bodies)
     groups = {}
     for name in gm.names():
         dim, tag = gm.physical_groups[name]
@@ -430,7 +441,7 @@ def mesh_report(gm: GearMesh) -> dict[str, Any]:
         "quality": info["quality"],
         "groups": groups,
         "reference": {
-            "reference_tooth": {body: gm.reference_tooth(body) for body in o.bodies},
+            "reference_tooth": {body: gm.reference_tooth(body) for body in gm.bodies},
             "pitch_point_mm": [1e3 * path.pitch_xy[0], 0.0],
             "contact_ratio": pair.contact_ratio,
             "eps_1": pair.eps_1,

@@ -43,7 +43,6 @@ class MeshOptions:
             (the loaded teeth; thesis: at most 4 loaded).
         pinion_angle_deg: Pinion rotation from the reference position (counter-clockwise); the
             wheel is placed at the rigid conjugate angle. Tooth numbering is unchanged.
-        bodies: Which bodies to mesh (``("pinion",)`` or ``("wheel",)`` for a single gear).
     """
 
     teeth_in_model: int = 8
@@ -58,7 +57,6 @@ class MeshOptions:
     size_growth: float = 0.6
     refined_teeth: int = 4
     pinion_angle_deg: float = 0.0
-    bodies: tuple[str, ...] = ("pinion", "wheel")
 
     def __post_init__(self) -> None:
         p = "mesh."
@@ -81,16 +79,6 @@ class MeshOptions:
             "pinion_angle_deg",
             require_range(p + "pinion_angle_deg", self.pinion_angle_deg, -360.0, 360.0, unit="deg"),
         )
-        bodies = tuple(self.bodies)
-        if not bodies or len(set(bodies)) != len(bodies):
-            raise ParameterError(
-                p + "bodies",
-                self.bodies,
-                "a non-empty list of distinct names from 'pinion', 'wheel'",
-            )
-        for b in bodies:
-            require_choice(p + "bodies", b, BODIES)
-        set_("bodies", tuple(b for b in BODIES if b in bodies))  # canonical order
 
 
 # ------------------------------------------------------------------------------------------------
@@ -110,9 +98,25 @@ def refined_tooth_indices(options: MeshOptions, teeth_in_model: int) -> list[int
     return list(range(first, first + n))
 
 
-def check_options(geometry: GearPairGeometry, options: MeshOptions) -> None:
-    """Checks that need both tables (N <= Z)."""
-    for body in options.bodies:
+def check_bodies(bodies: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """Which bodies to mesh, validated, in canonical order (``("pinion", "wheel")``, or one of
+    them for a single gear). An argument of the mesh build, not a case-file key: the cycle needs
+    both bodies, a thermal model one, whatever the case says."""
+    given = tuple(bodies)
+    if not given or len(set(given)) != len(given):
+        raise ParameterError(
+            "bodies", bodies, "a non-empty list of distinct names from 'pinion', 'wheel'"
+        )
+    for b in given:
+        require_choice("bodies", b, BODIES)
+    return tuple(b for b in BODIES if b in given)
+
+
+def check_options(
+    geometry: GearPairGeometry, options: MeshOptions, bodies: tuple[str, ...] = BODIES
+) -> None:
+    """Checks that need both tables (N <= Z for each meshed body)."""
+    for body in check_bodies(bodies):
         z = geometry.teeth_pinion if body == "pinion" else geometry.teeth_wheel
         if options.teeth_in_model > z:
             raise ParameterError(

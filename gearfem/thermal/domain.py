@@ -161,7 +161,8 @@ class ThermalDomain:
         Uses ``gear_mesh.mesh``, ``facet_tags``, ``cell_tags``, ``physical_groups`` (name ->
         (dim, tag)) and ``geometry.teeth_<body>``. When the mesh holds both bodies, the body's
         cells are extracted as a submesh (its facet tags transferred); a single-body mesh
-        (``[mesh] bodies = ["pinion"]``) is used as it is and is better balanced in parallel.
+        (``build_gear_mesh(..., bodies=("pinion",))``) is used as it is and is better balanced in
+        parallel.
         """
         import dolfinx
 
@@ -174,7 +175,7 @@ class ThermalDomain:
         }
         if body not in gear_mesh.physical_groups:
             raise ParameterError(
-                "mesh.bodies", tuple(gear_mesh.physical_groups)[:4], f"a mesh containing {body!r}"
+                "bodies", tuple(gear_mesh.physical_groups)[:4], f"a mesh containing {body!r}"
             )
         body_tag = int(gear_mesh.physical_groups[body].tag)
         ct = gear_mesh.cell_tags
