@@ -85,6 +85,62 @@ class _Pass:
     lam: np.ndarray  # (nf, n_fixed) multipliers at the fixed points
 
 
+@dataclasses.dataclass(frozen=True)
+class MasterCandidates:
+    """Master facets overlapping each local slave facet in the segmentation (CSR layout: the
+    masters of slave facet f are ``facets[ptr[f]:ptr[f + 1]]``)."""
+
+    ptr: np.ndarray
+    facets: np.ndarray
+
+    def of(self, slave_facets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(row, master facet) for every candidate of every entry of ``slave_facets``."""
+        cnt = self.ptr[slave_facets + 1] - self.ptr[slave_facets]
+        rows = np.repeat(np.arange(len(slave_facets)), cnt)
+        if not len(slave_facets):
+            return rows, np.zeros(0, np.int64)
+        idx = np.concatenate([np.arange(self.ptr[f], self.ptr[f + 1]) for f in slave_facets])
+        return rows, self.facets[idx]
+
+
+@dataclasses.dataclass
+class Segmentation:
+    """The integration points of one pass, fixed between re-segmentations (one Newton solve).
+
+    ``slip_direction`` is the frozen friction slip direction ŝ at the points (set by
+    :meth:`ContactInterface.update_slip`; ``None`` until then).
+    """
+
+    slave_facet: np.ndarray  # local slave facet of each point
+    master_facet: np.ndarray  # gathered master facet it was segmented against
+    xi: np.ndarray  # (n, 2) slave reference coordinates
+    weight_ref: np.ndarray  # reference-facet quadrature weight
+    candidates: MasterCandidates
+    slip_direction: np.ndarray | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class _Placement:
+    """The current configuration of one pass: nodal data and placed node coordinates of the slave
+    (local facets) and master (gathered facets) surfaces, and the bodies' rigid motions."""
+
+    slave_data: object
+    xs: np.ndarray
+    master_data: object
+    xm: np.ndarray
+    slave_motion: RigidMotion
+    master_motion: RigidMotion
+
+
+def _closest_master_points(ref_m, xm: np.ndarray, fm: np.ndarray, x: np.ndarray):
+    """Closest-point projection of the points ``x`` onto the master facets ``fm`` (an affine
+    first guess on the facet's vertex triangle, then Newton on the curved facet): (ζ, distance)."""
+    nv = ref_m.num_vertices
+    v = xm[fm, :nv]
+    zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[:, 0, :]
+    return project(ref_m, xm[fm], x, zeta0)
+
+
 class ContactInterface:
     """Two surfaces that may touch, with their penalty parameters and multipliers.
 
@@ -123,7 +179,7 @@ class ContactInterface:
             lam = np.zeros((s.local.num_facets, len(self.fixed_points)))
             self.passes.append(_Pass(s, m, w, eps, lam))
         self._tri_points, self._tri_weights = _triangle_rule(options.quadrature_degree)
-        self._segments: list | None = None
+        self._segments: list[Segmentation] | None = None
 
     # -------------------------------------------------------------------------------------------
     def reset_multipliers(self) -> None:
@@ -213,7 +269,8 @@ class ContactInterface:
                 else np.zeros((0, 2), np.int64)
             )
             ptr = np.searchsorted(used[:, 0], np.arange(xs.shape[0] + 1))
-            self._segments.append([si[pair], mj[pair], xi, wref, None, (ptr, used[:, 1])])
+            cand = MasterCandidates(ptr, used[:, 1])
+            self._segments.append(Segmentation(si[pair], mj[pair], xi, wref, cand))
         self.update_slip(u_array, motions)
 
     def update_slip(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
@@ -227,31 +284,22 @@ class ContactInterface:
         """
         worst = 0.0
         for ps, seg in zip(self.passes, self._segments):
-            fs, fm, xi, wref, old, cand = seg
-            seg[4] = None
-            pts = self._points(
-                ps,
-                *self._configuration(ps, u_array, motions),
-                fs,
-                fm,
-                xi,
-                wref,
-                motions[ps.slave.body],
-                motions[ps.master.body],
-                frozen=False,
-                candidates=cand,
-            )
+            old = seg.slip_direction
+            pts = self._points(ps, self._placement(ps, u_array, motions), seg, frozen=False)
             if old is not None and len(old) == pts.num_points:
                 on = pts.pressure > 0.0
                 if on.any():
                     worst = max(worst, float(np.abs(pts.slip_direction[on] - old[on]).max()))
-            seg[4] = pts.slip_direction
+            seg.slip_direction = pts.slip_direction
         return self.a.comm.allreduce(worst, op=_mpi_max())
 
-    def _configuration(self, ps: _Pass, u_array: np.ndarray, motions: dict[str, RigidMotion]):
-        sdata, xs = self._nodes(ps.slave, u_array, motions[ps.slave.body], gathered=False)
-        mdata, xm = self._nodes(ps.master, u_array, motions[ps.master.body], gathered=True)
-        return sdata, xs, mdata, xm
+    def _placement(
+        self, ps: _Pass, u_array: np.ndarray, motions: dict[str, RigidMotion]
+    ) -> _Placement:
+        ms, mm = motions[ps.slave.body], motions[ps.master.body]
+        sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
+        mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
+        return _Placement(sdata, xs, mdata, xm, ms, mm)
 
     def evaluate(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> list[ContactPoints]:
         """Contact state at all slave points of all passes for displacement ``u_array``
@@ -261,150 +309,123 @@ class ContactInterface:
         """
         if self._segments is None:
             self.update_segmentation(u_array, motions)
-        out = []
-        for ps, (fs, fm, xi, wref, s_hat, cand) in zip(self.passes, self._segments):
-            ms, mm = motions[ps.slave.body], motions[ps.master.body]
-            out.append(
-                self._points(
-                    ps,
-                    *self._configuration(ps, u_array, motions),
-                    fs,
-                    fm,
-                    xi,
-                    wref,
-                    ms,
-                    mm,
-                    frozen=True,
-                    s_hat=s_hat,
-                    candidates=cand,
-                )
-            )
-        return out
+        return [
+            self._points(ps, self._placement(ps, u_array, motions), seg, frozen=True)
+            for ps, seg in zip(self.passes, self._segments)
+        ]
 
     def _points(
-        self,
-        ps: _Pass,
-        sdata,
-        xs,
-        mdata,
-        xm,
-        fs,
-        fm,
-        xi,
-        wref,
-        ms: RigidMotion,
-        mm: RigidMotion,
-        frozen: bool = False,
-        s_hat: np.ndarray | None = None,
-        candidates=None,
+        self, ps: _Pass, place: _Placement, seg: Segmentation, frozen: bool
     ) -> ContactPoints:
+        """Contact state at the points of ``seg`` in the configuration ``place``. ``frozen``: use
+        the segmentation's frozen slip direction (within a Newton solve) if it has one."""
         ref_s, ref_m = ps.slave.ref, ps.master.ref
+        fs, xi = seg.slave_facet, seg.xi
         n = len(fs)
-        x, _, _, Ns = evaluate(ref_s, xs[fs], xi)
-        _, T1, T2, _ = evaluate(ref_s, sdata.X[fs], xi)  # reference area scale (small strain)
+        x, _, _, Ns = evaluate(ref_s, place.xs[fs], xi)
+        _, T1, T2, _ = evaluate(ref_s, place.slave_data.X[fs], xi)  # reference area (small strain)
         jac = np.linalg.norm(np.cross(T1, T2), axis=1)
-        nv = ref_m.num_vertices
-        v = xm[fm, :nv]
-        zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[
-            :, 0, :
-        ]
-        zeta, _ = project(ref_m, xm[fm], x, zeta0)
-        tol = self.options.projection_tolerance
-        valid = ref_m.inside(zeta, tol=tol)
-        # A point whose closest-point foot left the master facet it was segmented against is
-        # projected onto the other master facets overlapping the same slave facet and takes the
-        # one its foot lies on: the gap stays the (continuous) distance to the master surface, and
-        # the segmentation only partitions the slave facet for integration. Points with no foot on
-        # any of them (beyond the master surface) carry no contact; without this test facets that
-        # overlap in the slave plane but are not closest-point neighbours would extrapolate the
-        # master polynomial and invent penetrations.
-        if candidates is not None and not valid.all():
-            fm = fm.copy()
-            zeta = zeta.copy()
-            ptr, cm = candidates
-            bad = np.nonzero(~valid)[0]
-            cnt = ptr[fs[bad] + 1] - ptr[fs[bad]]
-            rows = np.repeat(bad, cnt)
-            mcand = (
-                cm[np.concatenate([np.arange(ptr[f], ptr[f + 1]) for f in fs[bad]])]
-                if len(bad)
-                else np.zeros(0, np.int64)
-            )
-            keep = mcand != fm[rows]
-            rows, mcand = rows[keep], mcand[keep]
-            if len(rows):
-                v = xm[mcand, :nv]
-                z0 = _affine_coords(
-                    v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[rows][:, None, :]
-                )[:, 0, :]
-                z, dist = project(ref_m, xm[mcand], x[rows], z0)
-                ok = ref_m.inside(z, tol=tol)
-                rows, mcand, z, dist = rows[ok], mcand[ok], z[ok], dist[ok]
-                order = np.lexsort((dist, rows))
-                first = np.unique(rows[order], return_index=True)[1]
-                pick = order[first]
-                fm[rows[pick]] = mcand[pick]
-                zeta[rows[pick]] = z[pick]
-                valid[rows[pick]] = True
-        xmp, t1, t2, Nm = evaluate(ref_m, xm[fm], zeta)
-        normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
+        fm, zeta, valid = self._master_feet(ref_m, place.xm, x, seg)
+        xmp, t1, t2, Nm = evaluate(ref_m, place.xm[fm], zeta)
+        normal, _ = unit_normal(t1, t2, place.master_data.orientation[fm])
         gap = np.einsum("pd,pd->p", x - xmp, normal)
         gap = np.where(valid, gap, np.inf)
         eps = ps.eps[fs]
         coef = np.einsum("kq,fq->fk", self.fit, ps.lam)  # linear fit per slave facet
         lam = coef[fs, 0] + coef[fs, 1] * xi[:, 0] + coef[fs, 2] * xi[:, 1] if n else np.zeros(0)
         trial = np.where(valid, lam - eps * np.where(valid, gap, 0.0), -np.inf)
+        pressure, slope, active = self._pressure(trial, valid)
+        vrel = place.slave_motion.velocity(x) - place.master_motion.velocity(x)
+        vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
+        s_hat = self._slip_direction(vt, normal, seg.slip_direction if frozen else None)
+        mu = self.options.friction_coefficient
+        traction = pressure[:, None] * (normal - mu * s_hat)
+        return ContactPoints(
+            slave=ps.slave.name,
+            master=ps.master.name,
+            facet=fs,
+            mfacet=fm,
+            xi=xi,
+            zeta=zeta,
+            dA=ps.weight * seg.weight_ref * jac,
+            x=x,
+            normal=normal,
+            gap=gap,
+            pressure=pressure,
+            active=active,
+            slip_direction=s_hat,
+            slip_velocity=vt,
+            traction=traction,
+            eps=eps,
+            slope=slope,
+            Ns=Ns,
+            Nm=Nm,
+        )
+
+    def _master_feet(self, ref_m, xm: np.ndarray, x: np.ndarray, seg: Segmentation):
+        """Master facet, reference coordinates and validity of the closest-point foot of each
+        slave point.
+
+        A point whose foot left the master facet it was segmented against is projected onto the
+        other master facets overlapping the same slave facet and takes the one its foot lies on:
+        the gap stays the (continuous) distance to the master surface, and the segmentation only
+        partitions the slave facet for integration. Points with no foot on any of them (beyond the
+        master surface) carry no contact; without this test facets that overlap in the slave plane
+        but are not closest-point neighbours would extrapolate the master polynomial and invent
+        penetrations.
+        """
+        fm = seg.master_facet
+        zeta, _ = _closest_master_points(ref_m, xm, fm, x)
+        tol = self.options.projection_tolerance
+        valid = ref_m.inside(zeta, tol=tol)
+        if valid.all():
+            return fm, zeta, valid
+        fm, zeta = fm.copy(), zeta.copy()
+        bad = np.nonzero(~valid)[0]
+        rows, mcand = seg.candidates.of(seg.slave_facet[bad])
+        rows = bad[rows]
+        keep = mcand != fm[rows]
+        rows, mcand = rows[keep], mcand[keep]
+        if len(rows):
+            z, dist = _closest_master_points(ref_m, xm, mcand, x[rows])
+            ok = ref_m.inside(z, tol=tol)
+            rows, mcand, z, dist = rows[ok], mcand[ok], z[ok], dist[ok]
+            order = np.lexsort((dist, rows))
+            pick = order[np.unique(rows[order], return_index=True)[1]]
+            fm[rows[pick]] = mcand[pick]
+            zeta[rows[pick]] = z[pick]
+            valid[rows[pick]] = True
+        return fm, zeta, valid
+
+    def _pressure(self, trial: np.ndarray, valid: np.ndarray):
+        """Pressure p = ⟨trial⟩, its slope dp/d(trial) and the active set; with the C1 ramp
+        p = (t + sqrt(t² + δ²)) / 2 when ``pressure_smoothing_Pa`` δ > 0 (see
+        :class:`ContactOptions`)."""
         delta = self.options.pressure_smoothing_Pa
-        if (
-            delta > 0.0
-        ):  # C1 ramp p = (t + sqrt(t² + δ²)) / 2 (see ContactOptions.pressure_smoothing_Pa)
+        if delta > 0.0:
             tt = np.where(valid, trial, 0.0)
             root = np.sqrt(tt * tt + delta * delta)
             pressure = np.where(valid, 0.5 * (tt + root), 0.0)
             slope = np.where(valid, 0.5 * (1.0 + tt / root), 0.0)
             active = slope > 1e-6
-            slope = np.where(active, slope, 0.0)
-        else:
-            active = trial > 0.0
-            pressure = np.where(active, trial, 0.0)
-            slope = active.astype(np.float64)
-        mu = self.options.friction_coefficient
-        vrel = ms.velocity(x) - mm.velocity(x)
-        vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
-        if not (frozen and s_hat is not None):
+            return pressure, np.where(active, slope, 0.0), active
+        active = trial > 0.0
+        return np.where(active, trial, 0.0), active.astype(np.float64), active
+
+    def _slip_direction(
+        self, vt: np.ndarray, normal: np.ndarray, frozen: np.ndarray | None
+    ) -> np.ndarray:
+        """Regularised slip direction ŝ = v_T / sqrt(|v_T|² + v_ε²), or the ``frozen`` one kept in
+        the current tangent plane with its magnitude."""
+        if frozen is None:
             vt2 = np.einsum("pd,pd->p", vt, vt)
-            s_hat = (
-                vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None]
-                if n
-                else np.zeros((0, 3))
-            )
-        else:  # frozen direction, kept in the current tangent plane with its magnitude
-            mag = np.linalg.norm(s_hat, axis=1)
-            st = s_hat - np.einsum("pd,pd->p", s_hat, normal)[:, None] * normal
-            nst = np.linalg.norm(st, axis=1)
-            s_hat = st * np.where(nst > 0.0, mag / np.where(nst > 0.0, nst, 1.0), 0.0)[:, None]
-        traction = pressure[:, None] * (normal - mu * s_hat)
-        return ContactPoints(
-            ps.slave.name,
-            ps.master.name,
-            fs,
-            fm,
-            xi,
-            zeta,
-            ps.weight * wref * jac,
-            x,
-            normal,
-            gap,
-            pressure,
-            active,
-            s_hat,
-            vt,
-            traction,
-            eps,
-            slope,
-            Ns,
-            Nm,
-        )
+            if not len(vt):
+                return np.zeros((0, 3))
+            return vt / np.sqrt(vt2 + self.options.slip_regularization_m_s**2)[:, None]
+        mag = np.linalg.norm(frozen, axis=1)
+        st = frozen - np.einsum("pd,pd->p", frozen, normal)[:, None] * normal
+        nst = np.linalg.norm(st, axis=1)
+        return st * np.where(nst > 0.0, mag / np.where(nst > 0.0, nst, 1.0), 0.0)[:, None]
 
     # -------------------------------------------------------------------------------------------
     def assemble(self, points: list[ContactPoints], motions: dict[str, RigidMotion], matrix: bool):
@@ -556,8 +577,8 @@ class ContactInterface:
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
             # the facet pairs that overlap in the current segmentation
             pairs = (
-                np.unique(np.stack([seg[0], seg[1]], axis=1), axis=0)
-                if len(seg[0])
+                np.unique(np.stack([seg.slave_facet, seg.master_facet], axis=1), axis=0)
+                if len(seg.slave_facet)
                 else np.zeros((0, 2), np.int64)
             )
             si, mj = pairs[:, 0], pairs[:, 1]
@@ -569,12 +590,7 @@ class ContactInterface:
                 fm = np.repeat(mj, q)
                 xi = np.tile(self.fixed_points, (len(si), 1))
                 x = evaluate(ps.slave.ref, xs[fs], xi)[0]
-                nv = ps.master.ref.num_vertices
-                v = xm[fm, :nv]
-                zeta0 = _affine_coords(
-                    v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :]
-                )[:, 0, :]
-                zeta, _ = project(ps.master.ref, xm[fm], x, zeta0)
+                zeta, _ = _closest_master_points(ps.master.ref, xm, fm, x)
                 inside = ps.master.ref.inside(zeta, tol=1e-9)
                 xmp, t1, t2, _ = evaluate(ps.master.ref, xm[fm], zeta)
                 normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
