@@ -70,8 +70,6 @@ def cycle(
     """The structural cycle of the case's torque (cached). Returns (CycleResult, directory,
     from_cache)."""
 
-    heat_fraction = case.sources.heat_fraction(case.materials)
-
     def factory():
         gm = pair_mesh(case, comm, mesh_cache)
         return GearContactModel(
@@ -84,7 +82,6 @@ def cycle(
         comm,
         cache_dir=cache_dir,
         rebuild=rebuild,
-        heat_fraction=heat_fraction,
         progress=progress,
     )
 
@@ -115,7 +112,7 @@ def thermal(
     material = case.materials[body]
     profile = gm.pair.profile(body)
     n1 = case.operating.speed_rpm
-    speed = n1 if body == "pinion" else n1 * case.geometry.teeth_pinion / profile.teeth
+    speed = case.geometry.speed_rpm(body, n1)
     boundary = ThermalBoundary.from_options(case.thermal, material, speed, gear_radii(profile))
     if src.mode == "prescribed":
         sources = prescribed_heat_sources(src.prescribed(), domain, material, speed, profile.teeth)
@@ -129,7 +126,7 @@ def thermal(
                 "cycle",
                 "a cycle result (run `gearfem cycle` or `gearfem run`) or mode = 'prescribed'",
             )
-        sources = cycle_heat_sources(domain, gm, body, cycle_result, src, material, n1)
+        sources = cycle_heat_sources(domain, gm, body, cycle_result, src, case.materials, n1)
         title = (
             f"{body}, {n1:g} rpm, {case.operating.torque_Nm:g} N m (sources from the contact cycle)"
         )
@@ -144,6 +141,8 @@ def thermal(
         "teeth_modelled": domain.teeth_modelled,
         "mesh_cache_key": gm.cache_key,
     }
+    if src.mode == "cycle":
+        info["friction_heat_fraction"] = src.heat_fractions(case.materials)[body]
     info.update(extra or {})
 
     def more(records) -> dict[str, Any]:

@@ -560,3 +560,14 @@ def test_fillet_limit_is_the_full_round_rack_tip(pair):
     GearPairGeometry(root_fillet_coefficient=rho_max / 2e-3 * (1 - 1e-9))  # full round: accepted
     with pytest.raises(ParameterError):
         GearPairGeometry(root_fillet_coefficient=rho_max / 2e-3 * 1.001)
+
+
+def test_teeth_and_speed_of_each_body():
+    """Gear facts asked of the geometry, not recomputed by callers: z per body and n2 = n1 z1/z2."""
+    g = GearPairGeometry(teeth_pinion=20, teeth_wheel=40, module_mm=2.0, tooth_thickness_mm=3.0)
+    assert (g.teeth("pinion"), g.teeth("wheel")) == (20, 40)
+    assert g.speed_rpm("pinion", 1000.0) == 1000.0
+    assert g.speed_rpm("wheel", 1000.0) == pytest.approx(500.0, rel=1e-15)
+    with pytest.raises(ParameterError) as err:
+        g.teeth("gear")
+    assert err.value.name == "body"

@@ -86,9 +86,11 @@ def friction_flux_function(
     body: str,
     fields,
     omega1_rad_s: float,
+    heat_fraction: float,
     kinds: tuple[str, ...] = ("drive_flank", "tip", "root"),
 ):
-    """DG0 flank flux (W/m²) on the cells next to the contact surfaces, and those surfaces' names.
+    """DG0 flank flux (W/m²) into this gear on the cells next to the contact surfaces, and those
+    surfaces' names: ``heat_fraction`` of the generated flux at pinion speed ``omega1_rad_s``.
 
     Each facet of the drive flanks, tips and roots takes the reference facet nearest to its
     congruent place; every tooth's total is then scaled to the reference tooth's heat. (A cell
@@ -136,13 +138,14 @@ def friction_flux_function(
     center = np.asarray(gear_mesh.center(body))
     xl, tooth = _tooth_local(xc, center, angles, fields.pitch_angle_rad, fields.tooth_angle_rad)
     _, j = cKDTree(fields.facet_points_m - fields.center_m).query(xl)
-    q = fields.flux_W_m2_per_rad_s[j] * omega1_rad_s
+    q = heat_fraction * fields.generated_flux_W_m2_per_rad_s[j] * omega1_rad_s
     # per-tooth conservation: each tooth carries exactly the reference tooth's heat
     ntooth = len(angles)
     tooth_heat = mesh.comm.allreduce(
         np.bincount(tooth, weights=q * area, minlength=ntooth), op=MPI.SUM
     )
-    target = float(np.sum(fields.flux_W_m2_per_rad_s * fields.facet_area_m2)) * omega1_rad_s
+    generated = float(np.sum(fields.generated_flux_W_m2_per_rad_s * fields.facet_area_m2))
+    target = heat_fraction * generated * omega1_rad_s
     scale = np.where(tooth_heat > 0, target / np.where(tooth_heat > 0, tooth_heat, 1.0), 0.0)
     q = q * scale[tooth]
     Q = fem.functionspace(mesh, ("DG", 0))
@@ -162,14 +165,19 @@ def cycle_heat_sources(
     body: str,
     cycle,
     options: SourceOptions,
-    material: Material,
+    materials: dict[str, Material],
     speed_rpm: float,
 ) -> HeatSources:
-    """:class:`HeatSources` of one gear from a cycle result at pinion speed ``speed_rpm``."""
+    """:class:`HeatSources` of one gear from a cycle result at pinion speed ``speed_rpm``.
+
+    ``materials`` holds both gears' materials: the friction heat generated in the mesh is split
+    between the gears here (:meth:`SourceOptions.heat_fractions`), so the cached cycle does not
+    depend on the split."""
     fields = cycle.fields[body]
-    z1 = gear_mesh.geometry.teeth_pinion
-    z = z1 if body == "pinion" else gear_mesh.geometry.teeth_wheel
-    speed_body = speed_rpm if body == "pinion" else speed_rpm * z1 / z
+    material = materials[body]
+    fraction = options.heat_fractions(materials)[body]
+    z = gear_mesh.geometry.teeth(body)
+    speed_body = gear_mesh.geometry.speed_rpm(body, speed_rpm)
     omega1 = 2.0 * math.pi * speed_rpm / 60.0
     kw = {}
     if options.hysteresis:
@@ -180,7 +188,7 @@ def cycle_heat_sources(
             hysteresis_scale=options.hysteresis_scale,
         )
     if options.friction and cycle.friction_coefficient > 0.0:
-        flux, names = friction_flux_function(domain, gear_mesh, body, fields, omega1)
+        flux, names = friction_flux_function(domain, gear_mesh, body, fields, omega1, fraction)
         kw.update(
             flank_flux_W_m2=flux,
             flux_surfaces=names,

@@ -88,7 +88,11 @@ class SourceOptions:
             flux_scale=self.flux_scale,
         )
 
-    def heat_fraction(self, materials: dict[str, Material]) -> dict[str, float] | None:
-        if self.heat_fraction_pinion is None:
-            return None
-        return {"pinion": self.heat_fraction_pinion, "wheel": 1.0 - self.heat_fraction_pinion}
+    def heat_fractions(self, materials: dict[str, Material]) -> dict[str, float]:
+        """Share of the friction heat generated in the mesh that flows into each gear:
+        ``heat_fraction_pinion`` if set, else by thermal effusivity b = sqrt(k ρ c_p) (½ each for
+        equal materials, thesis 5.2.3). Applied by the coupling, after the (cached) cycle."""
+        if self.heat_fraction_pinion is not None:
+            return {"pinion": self.heat_fraction_pinion, "wheel": 1.0 - self.heat_fraction_pinion}
+        b1, b2 = (materials[b].thermal_effusivity for b in ("pinion", "wheel"))
+        return {"pinion": b1 / (b1 + b2), "wheel": b2 / (b1 + b2)}

@@ -101,7 +101,6 @@ def save(result: CycleResult, directory: str | Path) -> Path:
     np.savez_compressed(tmp / "cycle.npz", **arrays)
     meta: dict[str, Any] = {k: getattr(result, k) for k in _SCALARS}
     meta.update(
-        heat_fraction=result.heat_fraction,
         reference_tooth=result.reference_tooth,
         info=result.info,
         periodicity=jsonable(result.periodicity),
@@ -136,7 +135,6 @@ def load(directory: str | Path) -> CycleResult:
     return CycleResult(
         **{k: meta[k] for k in _SCALARS},
         **{k: arr[k] for k in _ARRAYS},
-        heat_fraction=meta["heat_fraction"],
         root_stress_Pa={
             k.split("__")[1]: v for k, v in arr.items() if k.startswith("root_stress_Pa__")
         },

@@ -206,7 +206,11 @@ def plot_cycle(r: CycleResult, out: Path) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for ax, vals, lab in (
         (axes[0], f.pressure_max_Pa / 1e6, "contact pressure envelope (MPa)"),
-        (axes[1], f.flux_W_m2_per_rad_s / 1e3, "friction flux per unit ω₁ (kW/m² per rad/s)"),
+        (
+            axes[1],
+            f.generated_flux_W_m2_per_rad_s / 1e3,
+            "friction flux generated per unit ω₁ (kW/m² per rad/s)",
+        ),
     ):
         rf = np.linalg.norm((f.facet_points_m - f.center_m)[:, :2], axis=1)
         sc = ax.scatter(

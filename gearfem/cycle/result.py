@@ -25,9 +25,9 @@ class BodyFields:
     facet_points_m: np.ndarray  # (m, 3) contact-surface facet centroids in the sector
     facet_area_m2: np.ndarray
     facet_kind: np.ndarray  # group kind of each facet (drive_flank, tip, root)
-    flux_W_m2_per_rad_s: (
-        np.ndarray
-    )  # revolution-averaged friction heat flux into this gear per unit ω₁
+    # revolution-averaged friction heat flux generated at this gear's flank facets per unit ω₁
+    # (both gears' share: the coupling splits it)
+    generated_flux_W_m2_per_rad_s: np.ndarray
     pressure_max_Pa: np.ndarray  # envelope of the facet-mean contact pressure over the engagement
     u_history_J_m3: (
         np.ndarray
@@ -41,7 +41,6 @@ class CycleResult:
 
     torque_Nm: float
     friction_coefficient: float
-    heat_fraction: dict[str, float]
     pitch_angle_rad: float
     phi_rad: np.ndarray  # pinion angles solved
     te_m: np.ndarray  # transmission error (wheel lag along the line of action)
@@ -114,8 +113,10 @@ class CycleResult:
         return float(np.mean(self.friction_power_W_per_rad_s))
 
     def tooth_heat_W_per_rad_s(self, body: str) -> float:
+        """Friction heat generated at one tooth's flanks of ``body`` per unit ω₁ (before the split
+        between the gears); times the tooth count it is the mean friction power."""
         f = self.fields[body]
-        return float(np.sum(f.flux_W_m2_per_rad_s * f.facet_area_m2))
+        return float(np.sum(f.generated_flux_W_m2_per_rad_s * f.facet_area_m2))
 
 
 # ------------------------------------------------------------------------------------------------

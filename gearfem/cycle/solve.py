@@ -15,6 +15,7 @@ reference tooth of each gear (the one at the pitch point in the mesh as built).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -123,12 +124,130 @@ def _gather(a: np.ndarray, comm: MPI.Comm) -> np.ndarray:
     return np.concatenate(comm.allgather(np.ascontiguousarray(a)))
 
 
+@dataclasses.dataclass(frozen=True)
+class PositionRecord:
+    """What one pinion position of the cycle gives (global values, replicated on all ranks, except
+    the per-facet and per-cell arrays, which are this rank's)."""
+
+    phi_rad: float
+    te_m: float  # transmission error (wheel lag along the line of action)
+    pinion_torque_Nm: float
+    wheel_torque_Nm: float  # contact moment on the wheel
+    friction_power_W_per_rad_s: float  # ∫ μ p v_s dA per unit ω₁
+    p_max_Pa: float
+    p_max_mid_Pa: float  # largest pressure in the middle half of the face width
+    root_stress_Pa: dict[str, float]  # largest principal root stress per gear
+    tooth_load_N: dict[int, float]  # normal load per pinion tooth
+    tooth_S_m: dict[int, float]  # load-weighted contact position on the line of action (NaN: none)
+    newton_iterations: int
+    uzawa_iterations: int
+    wall_time_s: float
+    facet_heat_W_per_rad_s: dict[str, np.ndarray]  # friction heat per local slave facet
+    facet_pressure_Pa: dict[str, np.ndarray]  # mean pressure per local slave facet
+    cell_strain_energy_J_m3: np.ndarray  # per local cell
+
+
+class _PositionProbe:
+    """Solves the model at a pinion angle and measures the position (collective)."""
+
+    def __init__(self, model: GearContactModel, se: _StrainEnergy) -> None:
+        self.model, self.se = model, se
+        self.root_stress = _RootStress(model)
+        gm, pair = model.gm, model.pair
+        self.teeth = sorted({int(k) for k in model.tooth_of_facet["pinion"]["gathered"] if k >= 0})
+        self.z_mid_m = 0.5 * gm.geometry.face_width_mm * 1e-3
+        self.rw1_sin = pair.pinion.operating_pitch_radius_m * math.sin(
+            pair.operating_pressure_angle_rad
+        )
+        self.rb1 = pair.pinion.base_radius_m
+        self.center1 = np.asarray(gm.center("pinion"))
+
+    def solve(self, phi: float) -> PositionRecord:
+        model, comm, teeth = self.model, self.model.comm, self.teeth
+        mu = model.contact.friction_coefficient
+        t0 = time.perf_counter()
+        rep = model.solve_position(phi, f"pinion angle {math.degrees(phi):.3f} deg")
+        points = model.problem.last_points[0]
+        pf = pmax = pmid = 0.0
+        load = dict.fromkeys(teeth, 0.0)
+        load_S = dict.fromkeys(teeth, 0.0)
+        facet_heat, facet_press = {}, {}
+        for ps, pts in zip(model.interface.passes, points):
+            slave = ps.slave.body
+            q = pts.friction_power_density(mu)
+            pf += float(np.sum(pts.dA * q))
+            if pts.num_points:
+                pmax = max(pmax, float(pts.pressure.max()))
+                mid = np.abs(pts.x[:, 2] - self.z_mid_m) <= 0.5 * self.z_mid_m
+                if mid.any():
+                    pmid = max(pmid, float(pts.pressure[mid].max()))
+            nf = ps.slave.local.num_facets
+            # heat and pressure per slave facet from this pass alone (undo the pass weight)
+            dA = pts.dA / ps.weight
+            facet_heat[slave] = np.bincount(pts.facet, weights=dA * q, minlength=nf)
+            area = np.bincount(pts.facet, weights=dA, minlength=nf)
+            pint = np.bincount(pts.facet, weights=dA * pts.pressure, minlength=nf)
+            facet_press[slave] = np.where(area > 0, pint / np.where(area > 0, area, 1.0), 0.0)
+            # normal load per pinion tooth: the pinion is the slave in one pass, the master in the
+            # other
+            if slave == "pinion":
+                tooth = model.tooth_of_facet["pinion"]["local"][pts.facet]
+            else:
+                tooth = model.tooth_of_facet["pinion"]["gathered"][pts.mfacet]
+            fp = pts.dA * pts.pressure
+            # contact position on the pinion along the line of action
+            r = np.linalg.norm((pts.x - self.center1)[:, :2], axis=1)
+            S = np.sqrt(np.maximum(r * r - self.rb1 * self.rb1, 0.0)) - self.rw1_sin
+            for k in teeth:
+                sel = tooth == k
+                load[k] += float(np.sum(fp[sel]))
+                load_S[k] += float(np.sum(fp[sel] * S[sel]))
+        load = {k: comm.allreduce(v, op=MPI.SUM) for k, v in load.items()}
+        load_S = {k: comm.allreduce(v, op=MPI.SUM) for k, v in load_S.items()}
+        te = model.transmission_error_m()
+        pinion_torque = model.pinion_torque_Nm()
+        root = self.root_stress.max_principal()
+        w = self.se.values()
+        return PositionRecord(
+            phi_rad=float(phi),
+            te_m=te,
+            pinion_torque_Nm=pinion_torque,
+            wheel_torque_Nm=model.problem.last_state.moment_Nm,
+            friction_power_W_per_rad_s=comm.allreduce(pf, op=MPI.SUM),
+            p_max_Pa=comm.allreduce(pmax, op=MPI.MAX),
+            p_max_mid_Pa=comm.allreduce(pmid, op=MPI.MAX),
+            root_stress_Pa=dict(root),
+            tooth_load_N=load,
+            tooth_S_m={k: load_S[k] / load[k] if load[k] > 0 else np.nan for k in teeth},
+            newton_iterations=rep.newton_iterations,
+            uzawa_iterations=rep.uzawa_iterations,
+            wall_time_s=time.perf_counter() - t0,
+            facet_heat_W_per_rad_s=facet_heat,
+            facet_pressure_Pa=facet_press,
+            cell_strain_energy_J_m3=w,
+        )
+
+
+def _log_position(i: int, n: int, phi: float, rec: PositionRecord) -> None:
+    log.info(
+        "position %d/%d: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, "
+        "%.1f s",
+        i + 1,
+        n,
+        math.degrees(phi),
+        rec.te_m * 1e6,
+        ", ".join(f"{k}:{v:.0f}" for k, v in rec.tooth_load_N.items() if v > 0),
+        rec.p_max_Pa / 1e6,
+        rec.newton_iterations,
+        rec.wall_time_s,
+    )
+
+
 def solve_cycle(
     model: GearContactModel,
     positions_per_pitch: int | None = None,
     pitches: float | None = None,
     start_angle_deg: float | None = None,
-    heat_fraction: dict[str, float] | None = None,
     check_periodicity: bool | None = None,
     progress=None,
 ) -> CycleResult:
@@ -136,8 +255,6 @@ def solve_cycle(
 
     Args:
         model: The gear contact model (its torque and contact options).
-        heat_fraction: Share of the friction heat going into each gear (default: by thermal
-            effusivity b = sqrt(k ρ c_p), i.e. ½ each for equal materials, thesis 5.2.3).
         progress: Optional callable(i, n, label) called after every position (rank 0 may print).
     """
     o = model.options
@@ -150,172 +267,73 @@ def solve_cycle(
     pitch = 2.0 * math.pi / gm.geometry.teeth_pinion
     n = max(1, round(n_pitch * pitches))
     phis = start + pitch * pitches * np.arange(n) / n
-    if heat_fraction is None:
-        b1, b2 = (model.materials[b].thermal_effusivity for b in BODIES)
-        heat_fraction = {"pinion": b1 / (b1 + b2), "wheel": b2 / (b1 + b2)}
     mu = model.contact.friction_coefficient
-    itf = model.interface
     se = _StrainEnergy(model)
-    rs = _RootStress(model)
-    teeth = sorted({int(k) for k in model.tooth_of_facet["pinion"]["gathered"] if k >= 0})
-    zmid = 0.5 * gm.geometry.face_width_mm * 1e-3
-    hist = {k: [] for k in ("te", "tp", "tw", "pf", "pmax", "pmid", "nit", "uz", "wall")}
-    root = {b: [] for b in BODIES}
-    loads = {k: [] for k in teeth}
-    Ss = {k: [] for k in teeth}
-    w_cells = []  # per position: local cell strain energy
-    facet_heat = {b: [] for b in BODIES}  # per position: heat per local slave facet (W per rad/s)
-    facet_press = {b: [] for b in BODIES}  # per position: mean pressure per local slave facet
-    rw1_sin = pair.pinion.operating_pitch_radius_m * math.sin(pair.operating_pressure_angle_rad)
-    rb1 = pair.pinion.base_radius_m
-    cp = np.asarray(gm.center("pinion"))
-
-    def solve_and_record(i: int, phi: float, record: bool = True):
-        t0 = time.perf_counter()
-        rep = model.solve_position(phi, f"pinion angle {math.degrees(phi):.3f} deg")
-        pts_list = model.problem.last_points[0]
-        st = model.problem.last_state
-        te = model.transmission_error_m()
-        tp = model.pinion_torque_Nm()
-        tw = st.moment_Nm
-        pf = pmax = pmid = 0.0
-        tl = {k: 0.0 for k in teeth}
-        tS = {k: 0.0 for k in teeth}
-        per_facet_heat = {}
-        per_facet_press = {}
-        for ps, pts in zip(itf.passes, pts_list):
-            slave = ps.slave.body
-            q = pts.friction_power_density(mu)
-            pf += float(np.sum(pts.dA * q))
-            if pts.num_points:
-                pmax = max(pmax, float(pts.pressure.max()))
-                mid = np.abs(pts.x[:, 2] - zmid) <= 0.5 * zmid
-                if mid.any():
-                    pmid = max(pmid, float(pts.pressure[mid].max()))
-            nf = ps.slave.local.num_facets
-            # heat and pressure per slave facet from this pass alone (undo the pass weight)
-            per_facet_heat[slave] = np.bincount(
-                pts.facet, weights=pts.dA * q / ps.weight, minlength=nf
-            )
-            area = np.bincount(pts.facet, weights=pts.dA / ps.weight, minlength=nf)
-            pint = np.bincount(pts.facet, weights=pts.dA * pts.pressure / ps.weight, minlength=nf)
-            per_facet_press[slave] = np.where(area > 0, pint / np.where(area > 0, area, 1.0), 0.0)
-            # normal load per pinion tooth: the pinion is the slave in one pass, the master in the
-            # other
-            if slave == "pinion":
-                tooth = model.tooth_of_facet["pinion"]["local"][pts.facet]
-            else:
-                tooth = model.tooth_of_facet["pinion"]["gathered"][pts.mfacet]
-            fp = pts.dA * pts.pressure
-            # contact position on the pinion along the line of action
-            r = np.linalg.norm((pts.x - cp)[:, :2], axis=1)
-            S = np.sqrt(np.maximum(r * r - rb1 * rb1, 0.0)) - rw1_sin
-            for k in teeth:
-                sel = tooth == k
-                tl[k] += float(np.sum(fp[sel]))
-                tS[k] += float(np.sum(fp[sel] * S[sel]))
-        pf = comm.allreduce(pf, op=MPI.SUM)
-        pmax = comm.allreduce(pmax, op=MPI.MAX)
-        pmid = comm.allreduce(pmid, op=MPI.MAX)
-        tl = {k: comm.allreduce(v, op=MPI.SUM) for k, v in tl.items()}
-        tS = {k: comm.allreduce(v, op=MPI.SUM) for k, v in tS.items()}
-        rsv = rs.max_principal()
-        w = se.values()
-        dt = time.perf_counter() - t0
-        if record:
-            for key, val in (
-                ("te", te),
-                ("tp", tp),
-                ("tw", tw),
-                ("pf", pf),
-                ("pmax", pmax),
-                ("pmid", pmid),
-                ("nit", rep.newton_iterations),
-                ("uz", rep.uzawa_iterations),
-                ("wall", dt),
-            ):
-                hist[key].append(val)
-            for b in BODIES:
-                root[b].append(rsv[b])
-                facet_heat[b].append(per_facet_heat[b])
-                facet_press[b].append(per_facet_press[b])
-            for k in teeth:
-                loads[k].append(tl[k])
-                Ss[k].append(tS[k] / tl[k] if tl[k] > 0 else np.nan)
-            w_cells.append(w)
-        log.info(
-            "position %d/%d: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, "
-            "%.1f s",
-            i + 1,
-            n,
-            math.degrees(phi),
-            te * 1e6,
-            ", ".join(f"{k}:{tl[k]:.0f}" for k in teeth if tl[k] > 0),
-            pmax / 1e6,
-            rep.newton_iterations,
-            dt,
-        )
-        return te, tl, pmax, w
-
+    probe = _PositionProbe(model, se)
+    records: list[PositionRecord] = []
     for i, phi in enumerate(phis):
-        solve_and_record(i, phi)
+        records.append(probe.solve(phi))
+        _log_position(i, n, phi, records[-1])
         if progress is not None:
             progress(i + 1, n, f"{math.degrees(phi):.2f} deg")
+    teeth = probe.teeth
 
     periodicity = None
+    shifted_cells = None
     if check:
-        te, tl, pmax, w = solve_and_record(n, start + pitch, record=False)
+        shifted = probe.solve(start + pitch)
+        _log_position(n, n, start + pitch, shifted)
+        first = records[0]
         periodicity = {
-            "te_first_m": hist["te"][0],
-            "te_shifted_m": te,
-            "p_max_first_Pa": hist["pmax"][0],
-            "p_max_shifted_Pa": pmax,
+            "te_first_m": first.te_m,
+            "te_shifted_m": shifted.te_m,
+            "p_max_first_Pa": first.p_max_Pa,
+            "p_max_shifted_Pa": shifted.p_max_Pa,
             # the pinion's tooth k at start+pitch carries what tooth k+1 carried at start
-            "tooth_load_first_N": {k: loads[k][0] for k in teeth},
-            "tooth_load_shifted_N": {k: tl[k] for k in teeth},
-            "_w_shifted": w,
+            "tooth_load_first_N": dict(first.tooth_load_N),
+            "tooth_load_shifted_N": dict(shifted.tooth_load_N),
         }
+        shifted_cells = shifted.cell_strain_energy_J_m3
 
-    fields = _sector_fields(
-        model, se, np.array(w_cells), facet_heat, facet_press, heat_fraction, pitch
-    )
+    w_cells = np.array([r.cell_strain_energy_J_m3 for r in records])
+    facet_heat = {b: [r.facet_heat_W_per_rad_s[b] for r in records] for b in BODIES}
+    facet_press = {b: [r.facet_pressure_Pa[b] for r in records] for b in BODIES}
+    friction_power = np.array([r.friction_power_W_per_rad_s for r in records])
+    fields = _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch)
     # Each gear's flux distribution comes from the pass in which it is the slave; its magnitude is
-    # made to carry exactly its share of the cycle-averaged friction power (the raw mismatch, from
-    # the two passes' slightly different pressures and the periodic mapping, is reported).
-    mean_pf = float(np.mean(hist["pf"]))
+    # made to carry exactly the cycle-averaged friction power generated in the mesh (the raw
+    # mismatch, from the two passes' slightly different pressures and the periodic mapping, is
+    # reported). How that heat is split between the gears is the coupling's business
+    # (gearfem.coupling.options.SourceOptions.heat_fractions), not the cycle's.
+    mean_pf = float(np.mean(friction_power))
     balance = {}
     for b in BODIES:
-        z = gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel
-        raw = z * float(np.sum(fields[b].flux_W_m2_per_rad_s * fields[b].facet_area_m2))
-        target = heat_fraction[b] * mean_pf
+        z = gm.geometry.teeth(b)
+        raw = z * float(np.sum(fields[b].generated_flux_W_m2_per_rad_s * fields[b].facet_area_m2))
+        target = mean_pf
         if raw > 0.0:
-            fields[b].flux_W_m2_per_rad_s *= target / raw
-        balance[f"{b}_flank_heat_raw_over_share"] = raw / target if target > 0 else float("nan")
+            fields[b].generated_flux_W_m2_per_rad_s *= target / raw
+        balance[f"{b}_flank_heat_raw_over_total"] = raw / target if target > 0 else float("nan")
     if periodicity is not None:
-        periodicity.update(
-            _periodicity_of_cells(
-                model, se, np.array(w_cells[0]), periodicity.pop("_w_shifted"), pitch
-            )
-        )
+        periodicity.update(_periodicity_of_cells(model, se, w_cells[0], shifted_cells, pitch))
 
     return CycleResult(
         torque_Nm=model.torque_Nm,
         friction_coefficient=mu,
-        heat_fraction=dict(heat_fraction),
         pitch_angle_rad=pitch,
         phi_rad=np.asarray(phis),
-        te_m=np.array(hist["te"]),
-        pinion_torque_Nm=np.array(hist["tp"]),
-        wheel_torque_Nm=np.array(hist["tw"]),
-        friction_power_W_per_rad_s=np.array(hist["pf"]),
-        p_max_Pa=np.array(hist["pmax"]),
-        p_max_mid_Pa=np.array(hist["pmid"]),
-        root_stress_Pa={b: np.array(v) for b, v in root.items()},
-        tooth_load_N={k: np.array(v) for k, v in loads.items()},
-        tooth_S_m={k: np.array(v) for k, v in Ss.items()},
-        newton_iterations=np.array(hist["nit"]),
-        uzawa_iterations=np.array(hist["uz"]),
-        wall_time_s=np.array(hist["wall"]),
+        te_m=np.array([r.te_m for r in records]),
+        pinion_torque_Nm=np.array([r.pinion_torque_Nm for r in records]),
+        wheel_torque_Nm=np.array([r.wheel_torque_Nm for r in records]),
+        friction_power_W_per_rad_s=friction_power,
+        p_max_Pa=np.array([r.p_max_Pa for r in records]),
+        p_max_mid_Pa=np.array([r.p_max_mid_Pa for r in records]),
+        root_stress_Pa={b: np.array([r.root_stress_Pa[b] for r in records]) for b in BODIES},
+        tooth_load_N={k: np.array([r.tooth_load_N[k] for r in records]) for k in teeth},
+        tooth_S_m={k: np.array([r.tooth_S_m[k] for r in records]) for k in teeth},
+        newton_iterations=np.array([r.newton_iterations for r in records]),
+        uzawa_iterations=np.array([r.uzawa_iterations for r in records]),
+        wall_time_s=np.array([r.wall_time_s for r in records]),
         fields=fields,
         reference_tooth={b: gm.reference_tooth(b) for b in BODIES},
         theoretical_contact_ratio=pair.contact_ratio,
@@ -346,14 +364,12 @@ def _cell_data(model: GearContactModel, se: _StrainEnergy, body: str):
     return cells, _gather(x, comm), _gather(se.volume[cells], comm)
 
 
-def _sector_fields(
-    model, se, w_cells, facet_heat, facet_press, heat_fraction, pitch
-) -> dict[str, BodyFields]:
+def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[str, BodyFields]:
     gm, comm = model.gm, model.comm
     out = {}
     for b in BODIES:
         center = np.asarray(gm.center(b))
-        z = gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel
+        z = gm.geometry.teeth(b)
         pitch_b = 2.0 * math.pi / z
         shift = SHIFT_SIGN[b] * pitch_b
         tooth_angle = float(gm.tooth_angles(b)[gm.reference_tooth(b)])
@@ -391,7 +407,7 @@ def _sector_fields(
         fmap = image_map(fx[fsec], fx, center, shift, ftol)
         dphi = pitch / H.shape[0]
         # revolution average: (1 / 2π) Σ_positions Σ_images (heat density at the image) Δφ
-        flux = heat_fraction[b] * periodic_sum(H / area[None, :], fmap) * dphi / (2.0 * math.pi)
+        flux = periodic_sum(H / area[None, :], fmap) * dphi / (2.0 * math.pi)
         pmax = periodic_max(P, fmap)
         kinds = _facet_kinds(model, b)
         out[b] = BodyFields(
@@ -435,9 +451,7 @@ def _periodicity_of_cells(
     for b in BODIES:
         center = np.asarray(gm.center(b))
         angles = gm.tooth_angles(b)
-        pitch_b = (
-            2.0 * math.pi / (gm.geometry.teeth_pinion if b == "pinion" else gm.geometry.teeth_wheel)
-        )
+        pitch_b = 2.0 * math.pi / gm.geometry.teeth(b)
         cells, xc, vol = _cell_data(model, se, b)
         W0, W1 = _gather(w_first[cells], comm), _gather(w_shifted[cells], comm)
         step = 1 if b == "pinion" else -1

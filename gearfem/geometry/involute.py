@@ -189,6 +189,16 @@ class GearPairGeometry:
             )
         _check_pair(self)  # derived feasibility: raises ParameterError naming the parameter
 
+    def teeth(self, body: str) -> int:
+        """Number of teeth of ``body`` (``"pinion"`` or ``"wheel"``)."""
+        if body not in ("pinion", "wheel"):
+            raise ParameterError("body", body, "'pinion' or 'wheel'")
+        return self.teeth_pinion if body == "pinion" else self.teeth_wheel
+
+    def speed_rpm(self, body: str, pinion_speed_rpm: float) -> float:
+        """Rotational speed of ``body`` [rpm] when the pinion turns at ``pinion_speed_rpm``."""
+        return pinion_speed_rpm * self.teeth_pinion / self.teeth(body)
+
     @property
     def center_distance(self) -> float:
         """Operating centre distance a [mm]."""

@@ -117,7 +117,7 @@ def check_options(
 ) -> None:
     """Checks that need both tables (N <= Z for each meshed body)."""
     for body in check_bodies(bodies):
-        z = geometry.teeth_pinion if body == "pinion" else geometry.teeth_wheel
+        z = geometry.teeth(body)
         if options.teeth_in_model > z:
             raise ParameterError(
                 "mesh.teeth_in_model",
