@@ -23,6 +23,7 @@ import numpy as np
 
 from gearfem.core.io import jsonable
 from gearfem.core.params import to_dict
+from gearfem.geometry.mesh import cache_key as mesh_cache_key
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
 
@@ -73,6 +74,8 @@ def cycle_key(
     data = {
         "geometry": to_dict(geometry),
         "mesh": to_dict(mesh_options),
+        # the mesh's own key: its code, the gmsh version and the meshed bodies (both)
+        "mesh_key": mesh_cache_key(geometry, mesh_options),
         "materials": {b: to_dict(m) for b, m in materials.items()},
         "contact": to_dict(contact),
         "cycle": to_dict(cycle_options),

@@ -1,0 +1,66 @@
+"""Every cache is keyed by every input that changes what it holds, and by nothing else.
+
+For each cache (the pair mesh, the structural cycle per torque), each input that changes the cached
+result must change the key (a recompute), and each input that does not must leave it unchanged (a
+hit). The heat split between the gears is applied after the cycle cache (by the coupling), so it is
+in the second group; the cycle test of the coupling checks that the split then scales the friction
+heat (tests/test_cycle.py::test_stored_cycle_round_trip_and_heat_sources).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from gearfem.config import load_case
+from gearfem.geometry.mesh import cache_key as mesh_key
+from gearfem.pipeline import case_cycle_key
+
+CASE = load_case(None)
+
+
+def _replace(case, table: str, **changes):
+    return dataclasses.replace(case, **{table: dataclasses.replace(getattr(case, table), **changes)})
+
+
+CYCLE_CHANGES = {
+    "torque": CASE.with_operating(torque_Nm=CASE.operating.torque_Nm + 1.0),
+    "friction coefficient": _replace(CASE, "contact", friction_coefficient=0.3),
+    "contact penalty": _replace(CASE, "contact", penalty_factor=2 * CASE.contact.penalty_factor),
+    "flank element size": _replace(CASE, "mesh", size_flank_mm=0.3),
+    "face width": _replace(CASE, "geometry", face_width_mm=10.0),
+    "positions per pitch": _replace(
+        CASE, "cycle", positions_per_pitch=CASE.cycle.positions_per_pitch + 2
+    ),
+    "Young's modulus": _replace(
+        CASE, "material", youngs_modulus_Pa=0.9 * CASE.material.youngs_modulus_Pa
+    ),
+}
+
+CYCLE_SAME = {
+    "speed": CASE.with_operating(speed_rpm=2 * CASE.operating.speed_rpm),
+    "heat split": _replace(CASE, "sources", heat_fraction_pinion=0.8),
+    "hysteresis scale": _replace(CASE, "sources", hysteresis_scale=2.0),
+    "ambient temperature": _replace(CASE, "thermal", ambient_C=40.0),
+    "thermal body": _replace(CASE, "thermal", body="wheel"),
+}
+
+
+@pytest.mark.parametrize("name", list(CYCLE_CHANGES))
+def test_cycle_key_changes_with_what_changes_the_cycle(name):
+    assert case_cycle_key(CYCLE_CHANGES[name]) != case_cycle_key(CASE)
+
+
+@pytest.mark.parametrize("name", list(CYCLE_SAME))
+def test_cycle_key_ignores_what_is_applied_after_the_cycle(name):
+    assert case_cycle_key(CYCLE_SAME[name]) == case_cycle_key(CASE)
+
+
+def test_mesh_key_changes_with_options_geometry_and_bodies():
+    base = mesh_key(CASE.geometry, CASE.mesh)
+    assert mesh_key(CASE.geometry, dataclasses.replace(CASE.mesh, layers=4)) != base
+    assert mesh_key(dataclasses.replace(CASE.geometry, bore_radius_mm=12.0), CASE.mesh) != base
+    assert mesh_key(CASE.geometry, CASE.mesh, bodies=("pinion",)) != base
+    # the same bodies in another order are the same mesh
+    assert mesh_key(CASE.geometry, CASE.mesh, bodies=("wheel", "pinion")) == base
