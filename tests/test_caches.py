@@ -21,7 +21,9 @@ CASE = load_case(None)
 
 
 def _replace(case, table: str, **changes):
-    return dataclasses.replace(case, **{table: dataclasses.replace(getattr(case, table), **changes)})
+    return dataclasses.replace(
+        case, **{table: dataclasses.replace(getattr(case, table), **changes)}
+    )
 
 
 CYCLE_CHANGES = {

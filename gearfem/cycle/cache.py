@@ -23,9 +23,9 @@ import numpy as np
 
 from gearfem.core.io import jsonable
 from gearfem.core.params import to_dict
-from gearfem.geometry.mesh import cache_key as mesh_cache_key
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
+from gearfem.geometry.mesh import cache_key as mesh_cache_key
 
 log = logging.getLogger(__name__)
 
