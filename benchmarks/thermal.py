@@ -42,7 +42,7 @@ def build(case, comm, **thermal_overrides):
     options = dataclasses.replace(case.thermal, **thermal_overrides)
     prescribed = case.sources.prescribed()
     material = case.material
-    gm = build_gear_mesh(case.geometry, case.mesh, comm, bodies=(options.body,))
+    gm = build_gear_mesh(case.geometry, case.thermal_mesh_options, comm, bodies=(options.body,))
     domain = ThermalDomain.from_gear_mesh(gm, options.body, flux_flanks=prescribed.flanks)
     profile = gm.pair.profile(options.body)
     boundary = ThermalBoundary.from_options(

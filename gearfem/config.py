@@ -3,16 +3,17 @@
 A case file has one table per stage, each a frozen dataclass of the module that owns it::
 
     name = "thesis bench 1000 rpm 8 Nm"
-    [geometry]   # gearfem.geometry.involute.GearPairGeometry (mm, degrees)
-    [mesh]       # gearfem.geometry.gmsh_pair.MeshOptions
-    [material]   # gearfem.core.materials.Material (both gears; [material_wheel] overrides the
-    wheel)
-    [contact]    # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5: thesis 5.1.2)
-    [cycle]      # gearfem.cycle.model.CycleOptions
-    [operating]  # OperatingPoint: speed_rpm (pinion), torque_Nm (resisting torque on the wheel)
-    [sources]    # gearfem.coupling.heat_sources.SourceOptions
-    [thermal]    # gearfem.thermal.options.ThermalOptions (duration_s, convection, ...)
-    [baselines]  # gearfem.baselines.BaselineOptions
+    [geometry]       # gearfem.geometry.involute.GearPairGeometry (mm, degrees)
+    [mesh]           # gearfem.geometry.options.MeshOptions: the structural (contact) mesh
+    [thermal_mesh]   # MeshOptions of the thermal model's own mesh (absent: the [mesh] table)
+    [material]       # gearfem.core.materials.Material (both gears; [material_wheel] overrides
+                     # the wheel)
+    [contact]        # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5)
+    [cycle]          # gearfem.cycle.options.CycleOptions
+    [operating]      # OperatingPoint: speed_rpm (pinion), torque_Nm (resisting torque, wheel)
+    [sources]        # gearfem.coupling.options.SourceOptions
+    [thermal]        # gearfem.thermal.options.ThermalOptions (duration_s, convection, ...)
+    [baselines]      # gearfem.baselines.BaselineOptions
 
 Every table and key is optional; missing ones take the defaults, which are the thesis case
 (Doll 2015: PEEK 450G 30/30 teeth, m = 2 mm, 30°, bench point 1000 rpm / 8 N·m). Unknown keys and
@@ -64,6 +65,7 @@ class Case:
     name: str = "thesis"
     geometry: GearPairGeometry = dataclasses.field(default_factory=GearPairGeometry)
     mesh: MeshOptions = dataclasses.field(default_factory=MeshOptions)
+    thermal_mesh: MeshOptions | None = None
     material: Material = dataclasses.field(default_factory=Material)
     material_wheel: Material | None = None
     contact: ContactOptions = dataclasses.field(default_factory=_thesis_contact)
@@ -72,6 +74,12 @@ class Case:
     sources: SourceOptions = dataclasses.field(default_factory=SourceOptions)
     thermal: ThermalOptions = dataclasses.field(default_factory=ThermalOptions)
     baselines: BaselineOptions = dataclasses.field(default_factory=BaselineOptions)
+
+    @property
+    def thermal_mesh_options(self) -> MeshOptions:
+        """The thermal model's mesh: ``[thermal_mesh]`` if given, else the structural ``[mesh]``.
+        The heat sources are carried from the structural mesh conservatively whatever the pair."""
+        return self.thermal_mesh if self.thermal_mesh is not None else self.mesh
 
     @property
     def materials(self) -> dict[str, Material]:

@@ -104,7 +104,9 @@ def thermal(
     if body not in ("pinion", "wheel"):
         raise ParameterError("thermal.body", body, "'pinion' or 'wheel'")
     # the thermal model meshes only its body: balanced over the ranks
-    gm = build_gear_mesh(case.geometry, case.mesh, comm, cache_dir=mesh_cache, bodies=(body,))
+    gm = build_gear_mesh(
+        case.geometry, case.thermal_mesh_options, comm, cache_dir=mesh_cache, bodies=(body,)
+    )
     src = case.sources
     domain = ThermalDomain.from_gear_mesh(
         gm, body, flux_flanks=src.flanks if src.mode == "prescribed" else "drive"

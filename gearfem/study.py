@@ -226,7 +226,7 @@ def run_study(
             if c0.sources.mode == "cycle":
                 pipeline.pair_mesh(c0, comm)
 
-            build_gear_mesh(c0.geometry, c0.mesh, comm, bodies=(c0.thermal.body,))
+            build_gear_mesh(c0.geometry, c0.thermal_mesh_options, comm, bodies=(c0.thermal.body,))
             # 2. one cycle per torque
             if c0.sources.mode == "cycle":
                 torques = sorted({c.operating.torque_Nm for _, c in todo})

@@ -4,7 +4,7 @@ For each cache (the pair mesh, the structural cycle per torque), each input that
 result must change the key (a recompute), and each input that does not must leave it unchanged (a
 hit). The heat split between the gears is applied after the cycle cache (by the coupling), so it is
 in the second group; the cycle test of the coupling checks that the split then scales the friction
-heat (tests/test_cycle.py::test_stored_cycle_round_trip_and_heat_sources).
+heat (tests/test_cycle.py::test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model).
 """
 
 from __future__ import annotations
@@ -14,7 +14,9 @@ import dataclasses
 import pytest
 
 from gearfem.config import load_case
+from gearfem.core.errors import ParameterError
 from gearfem.geometry.mesh import cache_key as mesh_key
+from gearfem.geometry.options import MeshOptions
 from gearfem.pipeline import case_cycle_key
 
 CASE = load_case(None)
@@ -66,3 +68,26 @@ def test_mesh_key_changes_with_options_geometry_and_bodies():
     assert mesh_key(CASE.geometry, CASE.mesh, bodies=("pinion",)) != base
     # the same bodies in another order are the same mesh
     assert mesh_key(CASE.geometry, CASE.mesh, bodies=("wheel", "pinion")) == base
+
+
+def test_thermal_mesh_table_is_the_thermal_models_own(tmp_path):
+    """``[thermal_mesh]`` gives the thermal model its own mesh; absent, it is the ``[mesh]`` table.
+    It does not touch the structural cycle's key (the cycle never sees the thermal mesh)."""
+    from gearfem.config import write_case
+
+    assert CASE.thermal_mesh is None and CASE.thermal_mesh_options == CASE.mesh
+    case = tmp_path / "case.toml"
+    case.write_text(
+        "[mesh]\nsize_flank_mm = 0.3\n\n[thermal_mesh]\nsize_flank_mm = 0.1\nlayers = 6\n"
+    )
+    c = load_case(case)
+    assert c.mesh.size_flank_mm == 0.3 and c.mesh.layers == MeshOptions().layers
+    assert c.thermal_mesh_options.size_flank_mm == 0.1 and c.thermal_mesh_options.layers == 6
+    assert case_cycle_key(c) == case_cycle_key(dataclasses.replace(c, thermal_mesh=None))
+    # a written case reads back the same
+    again = load_case(write_case(c, tmp_path / "again.toml"))
+    assert again == c
+    with pytest.raises(ParameterError) as err:
+        case.write_text("[thermal_mesh]\nlayers = 0\n")
+        load_case(case)
+    assert err.value.name == "thermal_mesh.layers"

@@ -211,6 +211,20 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     )
     u = src.u_max.x.array
     assert np.max(u) == pytest.approx(np.max(back.fields["pinion"].u_max_J_m3), rel=0.2)
+    # a thermal mesh of its own (finer flanks, other layers): the heat put in is conserved
+    finer = dataclasses.replace(TINY, size_flank_mm=0.2, size_tip_mm=0.25, layers=3)
+    gt = build_gear_mesh(case.geometry, finer, comm, bodies=("pinion",))
+    dt = ThermalDomain.from_gear_mesh(gt, "pinion")
+    st = cycle_heat_sources(dt, gt, "pinion", back, SourceOptions(), case.materials, speed)
+    dst = ufl.Measure(
+        "ds",
+        domain=dt.mesh,
+        subdomain_data=dt.facet_tags,
+        metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE},
+    )(dt.tags(st.flux_surfaces))
+    heat_t = comm.allreduce(fem.assemble_scalar(fem.form(st.flank_flux_W_m2 * dst)), op=MPI.SUM)
+    assert dt.mesh.topology.index_map(3).size_global != dom.mesh.topology.index_map(3).size_global
+    assert heat_t == pytest.approx(heat, rel=1e-10)
 
 
 @pytest.mark.mpi

@@ -162,7 +162,15 @@ def from_dict[T](cls: type[T], data: Mapping[str, Any], prefix: str = "") -> T:
     for key, value in data.items():
         dotted = f"{prefix}.{key}" if prefix else key
         kwargs[key] = _convert(hints[key], value, dotted)
-    return cls(**kwargs)
+    try:
+        return cls(**kwargs)
+    except ParameterError as err:
+        # a table reused under another name ([thermal_mesh] is a MeshOptions, which names its
+        # keys "mesh.*"): name the key as the user wrote it
+        table, _, key = err.name.partition(".")
+        if prefix and key and table != prefix.rsplit(".", 1)[-1]:
+            raise ParameterError(f"{prefix}.{key}", err.value, err.allowed, err.reason) from err
+        raise
 
 
 def to_dict(obj: Any) -> Any:
