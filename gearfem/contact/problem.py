@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import time
 from collections.abc import Sequence
 
@@ -25,10 +26,10 @@ from gearfem.contact.interface import ContactInterface, ContactPoints
 from gearfem.contact.options import ContactOptions
 from gearfem.contact.rigid import RigidMotion
 from gearfem.core.errors import ConvergenceError
+from gearfem.core.newton import NewtonSettings, newton_solve
+from gearfem.core.petsc import ksp_reason, set_options
 
 log = logging.getLogger(__name__)
-
-_KSP_REASONS = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
 
 
 def elastic_stress(u, mu, lmbda):
@@ -142,7 +143,6 @@ class ContactProblem:
         # those of an earlier Jacobian of the same problem (see ContactOptions.reuse_factorization).
         self.ksp = PETSc.KSP().create(self.comm)
         self.ksp.setOptionsPrefix(petsc_options_prefix)
-        opts = PETSc.Options()
         defaults = {
             "ksp_type": "gmres",  # Krylov wrapper around the (possibly lagged) direct solve
             "ksp_gmres_restart": 100,
@@ -153,9 +153,8 @@ class ContactProblem:
             # detect null pivots: report singular systems instead of garbage
             "mat_mumps_icntl_24": 1,
         }
-        for k, val in defaults.items():
-            if not opts.hasName(petsc_options_prefix + k):
-                opts[petsc_options_prefix + k] = val
+        # gearfem's defaults under whatever the user set for this prefix (core.petsc)
+        self._options = set_options(petsc_options_prefix, defaults)
         self.ksp.setFromOptions()
         self.ksp.setTolerances(rtol=options.krylov_rtol, atol=0.0, max_it=options.max_krylov_its)
         self.ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
@@ -287,7 +286,7 @@ class ContactProblem:
             reuse = False  # the old factors no longer precondition well enough: refactor
         raise ConvergenceError(
             "contact linear solve (GMRES + MUMPS LU)",
-            f"{_KSP_REASONS.get(reason, '?')} ({reason})",
+            ksp_reason(reason),
             step=label,
             iteration=it,
         )
@@ -324,113 +323,29 @@ class ContactProblem:
         """
         o = self.options
         rtol = o.newton_rtol if rtol is None else rtol
-        ctl = self.controlled
         self._apply_bc_values()
-        u_vec = self.u.x.petsc_vec
         for itf in self.interfaces:
             itf.update_segmentation(self.u.x.array, self.motions)
-        st = self.residual(u_vec, matrix=True)
-        rnorm = self._norm(st)
-        du = u_vec.duplicate()
-        db = u_vec.duplicate() if ctl is not None else None
-        for it in range(1, o.newton_max_it + 1):
-            scale = self._force_scale(u_vec)
-            tol = max(rtol * scale, o.newton_atol_N)
-            log.debug(
-                "%s Newton %d: |R| = %.3e (tol %.3e)%s",
-                label,
-                it - 1,
-                rnorm,
-                tol,
-                f", R_psi = {st.R_psi:.3e} N m" if ctl is not None else "",
-            )
-            if rnorm <= tol and it > 1:
-                self.last_points, self.last_state = st.pts, st
-                return it - 1, rnorm
-            A = self._jacobian(st.coos)
-            st.R.scale(-1.0)
-            try:
-                self._linear_solve(A, st.R, du, label, it)
-                dpsi = 0.0
-                if ctl is not None:
-                    st.k_up.scale(-1.0)
-                    self._linear_solve(A, st.k_up, db, label, it)
-                    D = st.k_pp + st.k_pu.dot(db)
-                    if not (D > 0.0 and np.isfinite(D)):
-                        raise ConvergenceError(
-                            "contact Newton (torque control)",
-                            f"no rotational contact stiffness of {ctl.body!r} (k = {D:.3e} N "
-                            f"m/rad): the body "
-                            "is not in contact; close the gap first (prescribe its angle)",
-                            step=label,
-                            iteration=it,
-                        )
-                    dpsi = -(st.R_psi + st.k_pu.dot(du)) / D
-                    du.axpy(dpsi, db)
-            finally:
-                A.destroy()
-            # backtracking line search on the residual norm (the last trial is kept if none
-            # decreases it)
-            u0 = u_vec.copy()
-            psi0 = self.controlled_angle if ctl is not None else 0.0
-            alpha, tries = 1.0, (12 if o.line_search else 1)
-            for k in range(tries):
-                u_vec.waxpy(alpha, du, u0)
-                self.u.x.scatter_forward()
-                if ctl is not None:
-                    self._set_controlled_angle(psi0 + alpha * dpsi)
-                st_new = self.residual(u_vec, matrix=True)
-                r_new = self._norm(st_new)
-                if r_new <= (1.0 - 1e-4 * alpha) * rnorm or r_new <= tol or k == tries - 1:
-                    break
-                st_new.destroy()
-                alpha *= 0.5
-            if r_new > (1.0 - 1e-4 * alpha) * rnorm and r_new > tol:
-                if rnorm <= o.newton_stall_rtol * scale:
-                    # stalled below the stall tolerance: keep the best state and accept it
-                    u0.copy(u_vec)
-                    self.u.x.scatter_forward()
-                    if ctl is not None:
-                        self._set_controlled_angle(psi0)
-                    st_new.destroy()
-                    u0.destroy()
-                    self.stalled += 1
-                    log.warning(
-                        "%s: Newton stalled at |R| = %.3e N (%.1e of the force scale; tolerance "
-                        "%.3e N, "
-                        "stall tolerance %.1e): accepted",
-                        label,
-                        rnorm,
-                        rnorm / scale,
-                        tol,
-                        o.newton_stall_rtol,
-                    )
-                    self.last_points, self.last_state = st.pts, st
-                    return it, rnorm
-                log.debug(
-                    "%s Newton %d: line search did not decrease |R| (alpha=%g)", label, it, alpha
-                )
-            elif alpha < 1.0:
-                log.debug("%s Newton %d: line search step %g", label, it, alpha)
-            u0.destroy()
-            st.destroy()
-            st, rnorm = st_new, r_new
-            if not np.isfinite(rnorm):
-                raise ConvergenceError(
-                    "contact Newton", "residual is not finite", step=label, iteration=it
-                )
-        scale = self._force_scale(u_vec)
-        tol = max(rtol * scale, o.newton_atol_N)
-        if rnorm <= tol:
-            self.last_points, self.last_state = st.pts, st
-            return o.newton_max_it, rnorm
-        raise ConvergenceError(
-            "contact Newton",
-            f"DIVERGED_MAX_IT (residual {rnorm:.3e} > tolerance {tol:.3e})",
-            step=label,
-            iteration=o.newton_max_it,
-            residual=rnorm,
+        system = _ContactSystem(self, rtol, label)
+        settings = NewtonSettings(
+            max_it=o.newton_max_it,
+            line_search="backtracking",
+            max_halvings=11 if o.line_search else 0,
+            armijo=1e-4,
+            accept_below_tolerance=True,
+            on_line_search_failure="keep_last",
+            min_iterations=1,
         )
+        try:
+            report = newton_solve(system, settings, "contact Newton", label)
+        except ConvergenceError:
+            system.free()
+            raise
+        if report.stalled:
+            self.stalled += 1
+        self.last_points, self.last_state = system.state.pts, system.state
+        system.free(keep_state=True)
+        return report.iterations, report.residual_norm
 
     def solve(self, label: str = "") -> SolveReport:
         """Solve the contact problem at the current BC values and rigid motions (collective)."""
@@ -566,3 +481,109 @@ def fixed_mask(V: fem.FunctionSpace, bcs: Sequence[fem.DirichletBC]) -> np.ndarr
         dofs, _ = bc.dof_indices()
         mask[dofs] = True
     return mask
+
+
+class _ContactSystem:
+    """One contact Newton solve as a :class:`gearfem.core.newton.NewtonSystem`.
+
+    Unknowns (u, ψ) with a torque-controlled body: each direction solves the bordered system
+    [[J, k_uψ], [k_ψuᵀ, k_ψψ]] by two solves with the same factors. Tolerance max(rtol · force
+    scale, atol) at every iterate; a residual the line search cannot decrease is accepted as a
+    stall below ``newton_stall_rtol`` · force scale.
+    """
+
+    def __init__(self, problem: ContactProblem, rtol: float, label: str) -> None:
+        self.p, self.rtol, self.label = problem, rtol, label
+        self.u_vec = problem.u.x.petsc_vec
+        self.state = problem.residual(self.u_vec, matrix=True)
+        self.norm = problem._norm(self.state)
+        self.trial: _State | None = None
+        self.trial_norm = math.nan
+        self.du = self.u_vec.duplicate()
+        self.db = self.u_vec.duplicate() if problem.controlled is not None else None
+        self.u0: PETSc.Vec | None = None
+        self.psi0 = 0.0
+        self.dpsi = 0.0
+        self.scale = 0.0
+        self.iteration = 0
+
+    def residual_norm(self) -> float:
+        return self.norm
+
+    def tolerance(self) -> float:
+        self.scale = self.p._force_scale(self.u_vec)
+        return max(self.rtol * self.scale, self.p.options.newton_atol_N)
+
+    def compute_direction(self, iteration: int) -> None:
+        p, st, ctl = self.p, self.state, self.p.controlled
+        self.iteration = iteration
+        A = p._jacobian(st.coos)
+        st.R.scale(-1.0)
+        try:
+            p._linear_solve(A, st.R, self.du, self.label, iteration)
+            self.dpsi = 0.0
+            if ctl is not None:
+                st.k_up.scale(-1.0)
+                p._linear_solve(A, st.k_up, self.db, self.label, iteration)
+                D = st.k_pp + st.k_pu.dot(self.db)
+                if not (D > 0.0 and np.isfinite(D)):
+                    raise ConvergenceError(
+                        "contact Newton (torque control)",
+                        f"no rotational contact stiffness of {ctl.body!r} (k = {D:.3e} N "
+                        "m/rad): the body is not in contact; close the gap first (prescribe its "
+                        "angle)",
+                        step=self.label,
+                        iteration=iteration,
+                    )
+                self.dpsi = -(st.R_psi + st.k_pu.dot(self.du)) / D
+                self.du.axpy(self.dpsi, self.db)
+        finally:
+            A.destroy()
+        if self.u0 is not None:
+            self.u0.destroy()
+        self.u0 = self.u_vec.copy()
+        self.psi0 = p.controlled_angle if ctl is not None else 0.0
+
+    def try_step(self, alpha: float) -> float:
+        p = self.p
+        if self.trial is not None:
+            self.trial.destroy()
+        self.u_vec.waxpy(alpha, self.du, self.u0)
+        p.u.x.scatter_forward()
+        if p.controlled is not None:
+            p._set_controlled_angle(self.psi0 + alpha * self.dpsi)
+        self.trial = p.residual(self.u_vec, matrix=True)
+        self.trial_norm = p._norm(self.trial)
+        return self.trial_norm
+
+    def accept(self) -> None:
+        self.state.destroy()
+        self.state, self.trial = self.trial, None
+        self.norm = self.trial_norm
+
+    def revert(self) -> None:
+        p = self.p
+        self.u0.copy(self.u_vec)
+        p.u.x.scatter_forward()
+        if p.controlled is not None:
+            p._set_controlled_angle(self.psi0)
+        if self.trial is not None:
+            self.trial.destroy()
+            self.trial = None
+
+    def accepts_stall(self, norm: float) -> bool:
+        return norm <= self.p.options.newton_stall_rtol * self.scale
+
+    def step_negligible(self, alpha: float) -> bool:
+        return False
+
+    def free(self, keep_state: bool = False) -> None:
+        """Free the work vectors (and the states unless ``keep_state``: the problem keeps the
+        converged one as ``last_state``)."""
+        for v in (self.du, self.db, self.u0):
+            if v is not None:
+                v.destroy()
+        if self.trial is not None:
+            self.trial.destroy()
+        if not keep_state:
+            self.state.destroy()

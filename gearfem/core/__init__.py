@@ -1,2 +1,3 @@
-"""The bottom layer: errors, parameter checks, materials, logging, provenance, facet geometry and
-MPI-safe file I/O. Imports nothing else from gearfem."""
+"""The bottom layer: errors, parameter checks, materials, logging, provenance, facet geometry,
+MPI-safe file I/O, the Newton driver shared by every nonlinear solve (``newton``) and the one way
+PETSc options are set (``petsc``). Imports nothing else from gearfem."""

@@ -10,7 +10,8 @@ radiation, and the storage/conduction terms when c_p(T) or k(T) vary), assembled
 iteration with its exact Jacobian J_nl. The Jacobian is J = alpha M + K + J_nl(T). For the usual
 case (constant k and c_p) only boundary integrals and the sources are assembled per iteration.
 
-Newton: x <- x - lambda J^{-1} F with full steps (lambda = 1, transient: the extrapolated
+Newton (the iteration is :func:`gearfem.core.newton.newton_solve`, shared with the contact solve):
+x <- x - lambda J^{-1} F with full steps (lambda = 1, transient: the extrapolated
 predictor starts close) or backtracking (halving lambda until ||F|| decreases by the Armijo
 factor, steady state). Converged when ||F||_2 <= max(atol, rtol ||F_0||_2) (W; the residual is a
 heat flow per test function) or when the update is below 1e-14 ||x||. Failures raise
@@ -33,14 +34,12 @@ from typing import Any
 import numpy as np
 
 from gearfem.core.errors import ConvergenceError
+from gearfem.core.newton import NewtonSettings, newton_solve
+from gearfem.core.petsc import ksp_reason, set_options
 
 REBUILD_RATIO = 1.25
 ARMIJO = 1e-4
 MAX_HALVINGS = 12
-
-
-def _names(enum) -> dict[int, str]:
-    return {v: k for k, v in vars(enum).items() if isinstance(v, int)}
 
 
 class NewtonSolver:
@@ -111,21 +110,12 @@ class NewtonSolver:
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(prefix)
         ksp.setOperators(self.A)
-        opts = PETSc.Options()
-        self._option_keys = [f"{prefix}{k}" for k in options]
-        for k, v in options.items():
-            opts[f"{prefix}{k}"] = v
+        self._options = set_options(prefix, {}, options)
         ksp.setFromOptions()
         self.ksp = ksp
 
     def _forget_options(self) -> None:
-        from petsc4py import PETSc
-
-        opts = PETSc.Options()
-        for k in self._option_keys:
-            if opts.hasName(k):
-                opts.delValue(k)
-        self._option_keys = []
+        self._options.clear()
 
     def destroy(self) -> None:
         """Free the PETSc objects. Collective: call it at the same point on every rank (the MUMPS
@@ -201,7 +191,8 @@ class NewtonSolver:
 
     # ------------------------------------------------------------------------------------------
     def solve(self, where: str, linesearch: str = "basic", chord: bool = False) -> int:
-        """Newton from the current T (``linesearch``: "basic" full steps or "bt" backtracking).
+        """Newton from the current T (``linesearch``: "basic" full steps or "bt" backtracking),
+        driven by :func:`gearfem.core.newton.newton_solve`.
 
         ``chord``: keep the Jacobian of the first iteration while each iteration reduces the
         residual at least tenfold (a modified Newton method; the converged result is the same,
@@ -209,73 +200,95 @@ class NewtonSolver:
         nonlinearity is weak (radiation from a good predictor). Returns the number of
         iterations; raises ConvergenceError on failure.
         """
-        from petsc4py import PETSc
+        settings = NewtonSettings(
+            max_it=self.max_it,
+            line_search="full" if linesearch == "basic" else "backtracking",
+            max_halvings=MAX_HALVINGS,
+            armijo=ARMIJO,
+            accept_below_tolerance=False,
+            on_line_search_failure="raise",
+        )
+        system = _ThermalSystem(self, chord, where)
+        report = newton_solve(system, settings, "thermal Newton", where)
+        it, norm = report.iterations, report.residual_norm
+        if not np.all(np.isfinite(self.T.x.array)):
+            self._fail("DIVERGED_FNORM_NAN", where, it, norm)
+        return it
 
-        x = self.T.x.petsc_vec
-        pc = self.ksp.getPC()
-        if self.reuse:
-            a, a_pc = self.alpha, self._alpha_pc
-            rebuild = (
+
+class _ThermalSystem:
+    """The thermal Newton step as a :class:`gearfem.core.newton.NewtonSystem`: x ← x − α J⁻¹F,
+    the Jacobian reassembled when fresh (every iteration, or with ``chord`` only when the last
+    step reduced the residual less than tenfold) and the preconditioner rebuilt as
+    ``reuse_preconditioner`` says."""
+
+    def __init__(self, solver: NewtonSolver, chord: bool, where: str) -> None:
+        self.s, self.chord, self.where = solver, chord, where
+        if solver.reuse:
+            a, a_pc = solver.alpha, solver._alpha_pc
+            self.rebuild = (
                 a_pc is None
                 or (a == 0.0) != (a_pc == 0.0)
                 or (a != 0.0 and max(a / a_pc, a_pc / a) > REBUILD_RATIO)
             )
         else:
-            rebuild = True
-        norm0 = norm = self._residual()
-        if not math.isfinite(norm):
-            self._fail("DIVERGED_FNORM_NAN", where, 0, norm)
-        it = 0
-        fresh = True
-        while norm > max(self.atol, self.rtol * norm0):
-            if it >= self.max_it:
-                self._fail(f"DIVERGED_MAX_IT ({self.max_it} iterations)", where, it, norm)
-            if fresh:
-                self._jacobian()
-                pc.setReusePreconditioner(
-                    not rebuild
-                )  # rebuild (if at all) at the first iteration only
-                if rebuild:
-                    self._alpha_pc = self.alpha
-                    self.pc_builds += 1
-                    rebuild = False
-                self.ksp.setOperators(self.A)
-            self.ksp.solve(self.b, self.dx)
-            self.linear_iterations += self.ksp.getIterationNumber()
-            kr = self.ksp.getConvergedReason()
-            if kr < 0:
-                if self.reuse and self._alpha_pc is not None:
-                    self._alpha_pc = (
-                        None  # a stale preconditioner may be the cause: rebuild next time
-                    )
-                self._fail(
-                    f"DIVERGED_LINEAR_SOLVE; KSP "
-                    f"{_names(PETSc.KSP.ConvergedReason).get(kr, '?')} ({kr})",
-                    where,
-                    it,
-                    norm,
-                )
-            it += 1
-            x.copy(self._x0)
-            lam = 1.0
-            for _ in range(MAX_HALVINGS + 1):
-                x.waxpy(-lam, self.dx, self._x0)  # x = x0 - lam dx
-                self.T.x.scatter_forward()
-                new = self._residual()
-                if linesearch == "basic" or (
-                    math.isfinite(new) and new <= (1.0 - ARMIJO * lam) * norm
-                ):
-                    break
-                lam *= 0.5
-            else:
-                self._fail("DIVERGED_LINE_SEARCH", where, it, norm)
-            if not math.isfinite(new):
-                self._fail("DIVERGED_FNORM_NAN", where, it, new)
-            step = lam * self.dx.norm()
-            fresh = not chord or new > 0.1 * norm
-            norm = new
-            if step <= 1e-14 * x.norm():
-                break
-        if not np.all(np.isfinite(self.T.x.array)):
-            self._fail("DIVERGED_FNORM_NAN", where, it, norm)
-        return it
+            self.rebuild = True
+        self.norm = self.norm0 = solver._residual()
+        self.fresh = True
+        self.trial_norm = math.nan
+
+    def residual_norm(self) -> float:
+        return self.norm
+
+    def tolerance(self) -> float:
+        return max(self.s.atol, self.s.rtol * self.norm0)
+
+    def compute_direction(self, iteration: int) -> None:
+        s = self.s
+        pc = s.ksp.getPC()
+        if self.fresh:
+            s._jacobian()
+            pc.setReusePreconditioner(not self.rebuild)  # rebuild (if at all) at the first only
+            if self.rebuild:
+                s._alpha_pc = s.alpha
+                s.pc_builds += 1
+                self.rebuild = False
+            s.ksp.setOperators(s.A)
+        s.ksp.solve(s.b, s.dx)
+        s.linear_iterations += s.ksp.getIterationNumber()
+        kr = s.ksp.getConvergedReason()
+        if kr < 0:
+            if s.reuse and s._alpha_pc is not None:
+                s._alpha_pc = None  # a stale preconditioner may be the cause: rebuild next time
+            raise ConvergenceError(
+                "thermal Newton",
+                f"DIVERGED_LINEAR_SOLVE; KSP {ksp_reason(kr)}",
+                step=self.where,
+                iteration=iteration - 1,
+                residual=self.norm,
+            )
+        s.T.x.petsc_vec.copy(s._x0)
+
+    def try_step(self, alpha: float) -> float:
+        s = self.s
+        s.T.x.petsc_vec.waxpy(-alpha, s.dx, s._x0)  # x = x0 - alpha dx
+        s.T.x.scatter_forward()
+        self.trial_norm = s._residual()
+        self.alpha = alpha
+        return self.trial_norm
+
+    def accept(self) -> None:
+        self.fresh = not self.chord or self.trial_norm > 0.1 * self.norm
+        self.norm = self.trial_norm
+
+    def revert(self) -> None:  # never asked: the thermal solve accepts no stall
+        s = self.s
+        s._x0.copy(s.T.x.petsc_vec)
+        s.T.x.scatter_forward()
+
+    def accepts_stall(self, norm: float) -> bool:
+        return False
+
+    def step_negligible(self, alpha: float) -> bool:
+        s = self.s
+        return alpha * s.dx.norm() <= 1e-14 * s.T.x.petsc_vec.norm()
