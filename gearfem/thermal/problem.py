@@ -24,6 +24,11 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import assemble_vector
+from mpi4py import MPI
+from petsc4py import PETSc
 
 from gearfem.core.errors import ConvergenceError
 from gearfem.core.materials import ZERO_CELSIUS_K, Material, STEFAN_BOLTZMANN_W_m2K4
@@ -108,9 +113,6 @@ class ThermalProblem:
         *,
         petsc_options_prefix: str = "gearfem_thermal_",
     ) -> None:
-        import ufl
-        from dolfinx import fem
-
         self.domain, self.material, self.sources, self.boundary, self.options = (
             domain,
             material,
@@ -158,30 +160,59 @@ class ThermalProblem:
             self._a[0] * e(T) + self._a[1] * e(self._T_n) + self._a[2] * e(self._T_nm1)
         ) / self._dt
 
-        # balance terms: name -> integrand * measure with v = 1; the residual uses the same with v
+        vol = self._volume_sources(T, x)
+        surf = self._surface_terms(T, x, ds)
+        self._cp_const, self._k_const = cp.is_constant, kT.is_constant
+        self._split = self._residual_split(T, v, vol, surf, stored)
+
+        self._content = fem.form(e(T) * dx)
+        self._w_vol = self._weights(v * dx)
+        self._fast_stored = self._cp_const
+        self._rho_cp = rho * float(cp.values[0])
+        self._balance_forms, self._fast_conv = self._balance_forms_of(v, vol, surf, stored)
+
+        self._symmetric = kT.is_constant
+        self._hist = fem.Function(self.V)  # (a1 T^n + a2 T^{n-1}) / dt
+        self._transient_solver: NewtonSolver | None = None  # built on first use
+        self._steady_solver: NewtonSolver | None = None
+
+        self._probes(v)
+        self._controller = StepController(options.time_error_K, options.dt_min_s, options.dt_max_s)
+
+    # --- the forms, one builder per part ----------------------------------------------------------
+    def _volume_sources(self, T, x) -> dict[str, Any]:
+        """Volumetric sources (W/m³): hysteresis s_h f H(T) U_max and a prescribed q_v."""
+        src = self.sources
         vol: dict[str, Any] = {}
+        if src.u_max is not None:
+            vol["hysteresis"] = (
+                src.hysteresis_scale
+                * src.loading_frequency_Hz
+                * table_ufl(src.hysteresis, T)
+                * src.u_max
+            )
+        if src.volumetric_W_m3 is not None:
+            vol["volumetric"] = field_ufl(src.volumetric_W_m3, x, self._t)
+        return vol
+
+    def _surface_terms(self, T, x, ds) -> dict[str, list[tuple[Any, Any]]]:
+        """Surface heat flows (W/m², outward positive except the friction input) with their
+        measures: friction q_f (times μ(T)/μ_ref if given), convection h(T)(T − T_f), radiation
+        ε σ (T⁴ − T_r⁴), and the bore's heat path."""
+        src, domain = self.sources, self.domain
         surf: dict[str, list[tuple[Any, Any]]] = {
             "friction": [],
             "convected": [],
             "radiated": [],
             "bore": [],
         }
-        if sources.u_max is not None:
-            vol["hysteresis"] = (
-                sources.hysteresis_scale
-                * sources.loading_frequency_Hz
-                * table_ufl(sources.hysteresis, T)
-                * sources.u_max
-            )
-        if sources.volumetric_W_m3 is not None:
-            vol["volumetric"] = field_ufl(sources.volumetric_W_m3, x, self._t)
-        if sources.flank_flux_W_m2 is not None:
-            qf = sources.flux_scale * field_ufl(sources.flank_flux_W_m2, x, self._t)
-            if sources.flux_temperature_factor is not None:
-                qf = qf * sources.flux_temperature_factor(T)
-            surf["friction"].append((qf, ds(domain.tags(sources.flux_surfaces))))
+        if src.flank_flux_W_m2 is not None:
+            qf = src.flux_scale * field_ufl(src.flank_flux_W_m2, x, self._t)
+            if src.flux_temperature_factor is not None:
+                qf = qf * src.flux_temperature_factor(T)
+            surf["friction"].append((qf, ds(domain.tags(src.flux_surfaces))))
         sigma = STEFAN_BOLTZMANN_W_m2K4
-        for role, ex in boundary.exchanges().items():
+        for role, ex in self.boundary.exchanges().items():
             names = getattr(domain, role)
             if not names:
                 continue
@@ -196,11 +227,15 @@ class ThermalProblem:
                 surf["convected"].append((conv_term, dsr))
                 if rad_term is not None:
                     surf["radiated"].append((rad_term, dsr))
+        return surf
 
-        # Residual split for the Newton solver (gearfem.thermal.newton): constant c_p and k give
-        # matrices assembled once; everything else is in F_nl.
+    def _residual_split(self, T, v, vol, surf, stored) -> dict[str, Any]:
+        """The residual split for the Newton solver (:mod:`gearfem.thermal.newton`): constant c_p
+        and k give matrices assembled once (``mass``, ``stiffness``); everything else is in
+        ``F_nl`` (``F_nl_transient`` adds the storage term when c_p(T) varies)."""
+        dx = self._dx
         u = ufl.TrialFunction(self.V)
-        self._cp_const, self._k_const = cp.is_constant, kT.is_constant
+        cp, kT = self.material.specific_heat(), self.material.conductivity()
         F_nl = 0
         if not self._k_const:
             F_nl += table_ufl(kT, T) * ufl.inner(ufl.grad(T), ufl.grad(v)) * dx
@@ -210,42 +245,37 @@ class ThermalProblem:
             sign = -1.0 if name == "friction" else 1.0
             for q, m in terms:
                 F_nl += sign * q * v * m
-        F_nl_transient = F_nl if self._cp_const else F_nl + stored * v * dx
-        mass = rho * float(cp.values[0]) * u * v * dx if self._cp_const else None
-        stiffness = (
-            float(kT.values[0]) * ufl.inner(ufl.grad(u), ufl.grad(v)) * dx
-            if self._k_const
-            else None
-        )
-        self._split = {
+        rho = self.material.density_kg_m3
+        return {
             "F_nl": F_nl,
-            "F_nl_transient": F_nl_transient,
-            "mass": mass,
-            "stiffness": stiffness,
+            "F_nl_transient": F_nl if self._cp_const else F_nl + stored * v * dx,
+            "mass": rho * float(cp.values[0]) * u * v * dx if self._cp_const else None,
+            "stiffness": (
+                float(kT.values[0]) * ufl.inner(ufl.grad(u), ufl.grad(v)) * dx
+                if self._k_const
+                else None
+            ),
             "pattern": u * v * dx,
         }
 
-        # Balance: the residual's terms tested with v = 1. Terms linear in T with constant
-        # coefficients (storage with constant c_p, convection with constant h) are evaluated as
-        # dot products with the weight vectors int phi_i (exactly the same sums); the rest as forms.
-        self._content = fem.form(e(T) * dx)
-        self._w_vol = self._weights(v * dx)
-        self._fast_stored = self._cp_const
-        self._rho_cp = rho * float(cp.values[0])
-        self._balance_forms: dict[str, Any] = (
-            {} if self._fast_stored else {"stored_W": fem.form(stored * dx)}
-        )
+    def _balance_forms_of(self, v, vol, surf, stored):
+        """The heat balance: the residual's terms tested with v = 1. Terms linear in T with
+        constant coefficients (storage with constant c_p, convection with constant h) are
+        evaluated as dot products with the weight vectors ∫φ_i (exactly the same sums); the rest
+        as forms. Returns (forms by balance name, fast convection terms)."""
+        dx, ds, domain = self._dx, self._ds, self.domain
+        forms: dict[str, Any] = {} if self._fast_stored else {"stored_W": fem.form(stored * dx)}
         names = {"hysteresis": "hysteresis_W", "volumetric": "volumetric_W"}
         for name, q in vol.items():
-            self._balance_forms[names[name]] = fem.form(q * dx)
-        self._fast_conv = []  # (h, T_fluid, weights, area) per role with constant h
-        exchanges = boundary.exchanges()
+            forms[names[name]] = fem.form(q * dx)
+        fast_conv = []  # (h, T_fluid, weights, area) per role with constant h
+        exchanges = self.boundary.exchanges()
         if all(not callable(exchanges[r].h_W_m2K) for r in ("teeth", "sides")):
             for role in ("teeth", "sides"):
                 if getattr(domain, role):
                     ex = exchanges[role]
                     tags = domain.role_tags(role)
-                    self._fast_conv.append(
+                    fast_conv.append(
                         (
                             float(ex.h_W_m2K),
                             ex.fluid_K,
@@ -254,17 +284,15 @@ class ThermalProblem:
                         )
                     )
         for name, terms in surf.items():
-            if terms and not (name == "convected" and self._fast_conv):
-                self._balance_forms[f"{name}_W"] = fem.form(sum(q * m for q, m in terms))
+            if terms and not (name == "convected" and fast_conv):
+                forms[f"{name}_W"] = fem.form(sum(q * m for q, m in terms))
+        return forms, fast_conv
 
-        self._symmetric = kT.is_constant
-        self._hist = fem.Function(self.V)  # (a1 T^n + a2 T^{n-1}) / dt
-        self._transient_solver: NewtonSolver | None = None  # built on first use
-        self._steady_solver: NewtonSolver | None = None
-
-        # probes
-        fdim = mesh.topology.dim - 1
-        self._volume = self._integrate(1.0 * dx)
+    def _probes(self, v) -> None:
+        """Volume, role areas, surface dofs and the monitors (weights ∫_S φ_i, area, dofs on S)."""
+        domain, ds = self.domain, self._ds
+        fdim = domain.mesh.topology.dim - 1
+        self._volume = self._integrate(1.0 * self._dx)
         self.volume_m3 = self._volume
         self._role_areas = {
             role: self._integrate(1.0 * ds(domain.role_tags(role)))
@@ -272,7 +300,7 @@ class ThermalProblem:
             if getattr(domain, role)
         }
         self._surface_dofs = self._dofs(fdim, domain.teeth + domain.sides + domain.bore)
-        self._monitors = {}  # name -> (weights int_S phi_i, area, dofs on S)
+        self._monitors = {}
         for mon, groups in domain.monitors.items():
             area = self._integrate(1.0 * ds(domain.tags(groups)))
             self._monitors[mon] = (
@@ -280,7 +308,6 @@ class ThermalProblem:
                 area,
                 self._dofs(fdim, groups),
             )
-        self._controller = StepController(options.time_error_K, options.dt_min_s, options.dt_max_s)
 
     # ------------------------------------------------------------------------------------------
     def close(self) -> None:
@@ -306,17 +333,12 @@ class ThermalProblem:
     # set-up helpers
     # ------------------------------------------------------------------------------------------
     def _integrate(self, expr) -> float:
-        from dolfinx import fem
-        from mpi4py import MPI
 
         return self.comm.allreduce(fem.assemble_scalar(fem.form(expr)), op=MPI.SUM)
 
     def _weights(self, linear_form):
         """The vector int phi_i (assembled once): w . T is the integral of T (exact, same
         quadrature)."""
-        from dolfinx import fem
-        from dolfinx.fem.petsc import assemble_vector
-        from petsc4py import PETSc
 
         w = assemble_vector(fem.form(linear_form))
         w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -326,7 +348,6 @@ class ThermalProblem:
         return w.dot(f.x.petsc_vec)
 
     def _dofs(self, fdim: int, groups: tuple[str, ...]) -> np.ndarray:
-        from dolfinx import fem
 
         facets = self.domain.facets(groups)
         dofs = fem.locate_dofs_topological(self.V, fdim, facets)
@@ -382,8 +403,6 @@ class ThermalProblem:
         return opts
 
     def _make_solver(self, transient: bool) -> NewtonSolver:
-        import ufl
-        from dolfinx import fem
 
         sp = self._split
         F = sp["F_nl_transient"] if transient else sp["F_nl"]
@@ -412,8 +431,6 @@ class ThermalProblem:
     # ------------------------------------------------------------------------------------------
     def heat_balance(self) -> HeatBalance:
         """Heat flows of the current step (as last solved), W."""
-        from dolfinx import fem
-        from mpi4py import MPI
 
         vals = {
             k: self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
@@ -440,7 +457,6 @@ class ThermalProblem:
 
     def temperatures_K(self) -> dict[str, float]:
         """max_surface, mean_bulk and monitor mean/max of the current T, kelvin (collective)."""
-        from mpi4py import MPI
 
         arr = self.T.x.array
 
@@ -459,8 +475,6 @@ class ThermalProblem:
 
     def heat_content_J(self) -> float:
         """int e(T) dV of the current T relative to the initial temperature, J (collective)."""
-        from dolfinx import fem
-        from mpi4py import MPI
 
         return self.comm.allreduce(fem.assemble_scalar(self._content), op=MPI.SUM)
 
@@ -527,7 +541,6 @@ class ThermalProblem:
 
         Returns (Newton iterations, local error estimate in K or nan when not available).
         """
-        from mpi4py import MPI
 
         ts = self._history_times
         dt_prev = ts[0] - ts[1] if len(ts) >= 2 else None
