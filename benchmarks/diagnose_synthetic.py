@@ -58,22 +58,21 @@ def main() -> None:
             t = time.perf_counter()
             r = diagnose(sur.predict, data)
             t_an.append(time.perf_counter() - t)
-            kind = r["verdict"]["kind"]
+            kind = r.verdict.kind
             if kind == "baseline adequate":
                 col = "baseline"
             elif kind in ("not identifiable", "unexplained"):
                 col = kind
-            elif len(r["chosen"]) == 1:
-                col = r["chosen"][0]
+            elif len(r.chosen) == 1:
+                col = r.chosen[0]
             else:
                 col = "pair"
             matrix[hidden][col] += 1
-            if hidden != "null" and r["chosen"] == [hidden]:
-                m = next(m for m in r["models"] if m["candidates"] == [hidden])
-                lo, hi = m["intervals"][hidden]
+            if hidden != "null" and r.chosen == (hidden,):
+                lo, hi = r.fit_of((hidden,)).intervals[hidden]
                 inside[hidden] += int(lo <= truth[hidden] <= hi)
-                ref = refine(full.predict, sur.predict, data, r, final_check=False)
-                lo, hi = ref["intervals"][hidden]
+                ref = refine(full.predict, sur.predict, data, r, final_check=False).refined
+                lo, hi = ref.intervals[hidden]
                 inside_refined[hidden] += int(lo <= truth[hidden] <= hi)
     print("hidden \\ verdict".ljust(28) + " ".join(c[:10].rjust(10) for c in cols))
     for h, row in matrix.items():

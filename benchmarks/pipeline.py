@@ -74,7 +74,7 @@ def main(argv=None) -> int:
             f"{'mem max MB':>10} {'mem sum MB':>10} {'T_max C':>8}"
         )
         for label, s, wall, mx, tot in rows:
-            w = s["wall_time_s"]
+            w = s.wall_time_s
             print(
                 f"{label:32} {w.get('cycle_s', 0.0):8.1f} {w['thermal_s']:9.1f} {wall:8.1f} "
                 f"{wall / 60:9.2f} "

@@ -87,17 +87,17 @@ def main(argv=None) -> int:
             f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T_max end C':>11} "
             f"{'VDI flank C':>11}"
         )
-        for r in res["results"]:
+        for r in res.results:
             print(
-                f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} "
-                f"{r['max_surface_end_C']:11.1f} "
-                f"{r['vdi2736_flank_C']:11.1f}"
+                f"{r.speed_rpm:10g} {r.torque_Nm:10g} {r.friction_W:10.1f} "
+                f"{r.max_surface_end_C:11.1f} "
+                f"{r.vdi2736_flank_C:11.1f}"
             )
         print(
             f"wrote {out / 'results.csv'}, {out / 'steady_temperature.png'}, "
             f"{out / 'temperature_histories.png'}, {out / 'study.json'}"
         )
-    return 0 if res["complete"] else 1
+    return 0 if res.complete else 1
 
 
 if __name__ == "__main__":

@@ -49,7 +49,8 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
 from gearfem.geometry.options import MeshOptions
-from gearfem.study import _mode, dispatch, is_done
+from gearfem.pipeline import RunSummary
+from gearfem.study import dispatch, is_done, parallel_mode
 
 COARSE = MeshOptions(
     teeth_in_model=6,
@@ -229,14 +230,14 @@ def main(argv=None) -> int:
         reps.setdefault(c.operating.torque_Nm, c)
     dispatch(
         comm,
-        _mode("auto", len(reps), comm.size),
+        parallel_mode("auto", len(reps), comm.size),
         list(reps.values()),
         lambda c, sub: pipeline.cycle(c, sub),
     )
     pending = [(lab, c) for lab, c, _ in todo if not is_done(c, out / "cases" / lab)]
     dispatch(
         comm,
-        _mode("auto", len(pending), comm.size),
+        parallel_mode("auto", len(pending), comm.size),
         pending,
         lambda item, sub: pipeline.run(
             item[1], out / "cases" / item[0], sub, progress=False, write_fields=False
@@ -245,8 +246,8 @@ def main(argv=None) -> int:
     if comm.rank == 0:
         rows = []
         for lab, c, meta in todo:
-            s = json.loads((out / "cases" / lab / "summary.json").read_text())
-            th = s["thermal"]
+            s = RunSummary.read(out / "cases" / lab / "summary.json")
+            th = s.thermal
             frac = th["model_fraction"]
             rows.append(
                 dict(
@@ -259,8 +260,8 @@ def main(argv=None) -> int:
                     at_900_C=th.get("at_times_C", {}).get("900", {}).get("max_surface"),
                     friction_W=th["final_balance_W"]["friction_W"] / frac,
                     hysteresis_W=th["final_balance_W"]["hysteresis_W"] / frac,
-                    vdi2736_flank_C=s["baselines"]["vdi2736_flank1_C"],
-                    effective_contact_ratio=s["cycle"]["effective_contact_ratio"],
+                    vdi2736_flank_C=s.baselines["vdi2736_flank1_C"],
+                    effective_contact_ratio=s.cycle.effective_contact_ratio,
                     **meta,
                 )
             )

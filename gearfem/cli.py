@@ -160,14 +160,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
             case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s)
         )
     summary = pipeline.run(case, args.out, MPI.COMM_WORLD, progress=not args.no_progress)
-    h = summary["headline"]
+    h = summary.headline
+    nan = float("nan")
     _say(
         f"{case.name}: {case.operating.speed_rpm:g} rpm, {case.operating.torque_Nm:g} N m, "
-        f"t = {h['time_s']:g} s: max surface {h['max_surface_temperature_C']:.1f} C "
-        f"(steady {h.get('steady_max_surface_temperature_C') or float('nan'):.1f} C), "
-        f"mean bulk {h['mean_bulk_temperature_C']:.1f} C; VDI 2736 flank "
-        f"{h.get('vdi2736_flank1_C', float('nan')):.1f} C, "
-        f"root {h.get('vdi2736_root1_C', float('nan')):.1f} C"
+        f"t = {h.time_s:g} s: max surface {h.max_surface_temperature_C:.1f} C "
+        f"(steady {h.steady_max_surface_temperature_C or nan:.1f} C), "
+        f"mean bulk {h.mean_bulk_temperature_C:.1f} C; VDI 2736 flank "
+        f"{h.vdi2736_flank1_C or nan:.1f} C, root {h.vdi2736_root1_C or nan:.1f} C"
     )
     _say(f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/")
     return 0
@@ -186,37 +186,37 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if args.index is not None:
         _say(
             f"study {study.name}: task {args.index} "
-            f"{'ran' if res['ran'] else 'was already finished'}; "
+            f"{'ran' if res.ran else 'was already finished'}; "
             f"collect with: gearfem study {args.study} --out {args.out} --collect"
         )
         return 0
     _say(
-        f"study {study.name}: {len(res['results'])} operating points, {len(res['ran'])} computed "
+        f"study {study.name}: {len(res.results)} operating points, {len(res.ran)} computed "
         f"now, "
-        f"{len(res['missing'])} missing"
+        f"{len(res.missing)} missing"
     )
     _say(
         f"{'speed rpm':>10} {'torque Nm':>10} {'friction W':>10} {'T max end C':>11} "
         f"{'T max steady C':>14} "
         f"{'VDI flank C':>11}"
     )
-    for r in res["results"]:
-        if r["status"] != "done":
-            _say(f"{r['speed_rpm']:10g} {r['torque_Nm']:10g}  (missing)")
+    for r in res.results:
+        if r.status != "done":
+            _say(f"{r.speed_rpm:10g} {r.torque_Nm:10g}  (missing)")
             continue
-        steady = r.get("max_surface_steady_C")
+        steady = r.max_surface_steady_C
         _say(
-            f"{r['speed_rpm']:10g} {r['torque_Nm']:10g} {r['friction_W']:10.1f} "
-            f"{r['max_surface_end_C']:11.1f} "
+            f"{r.speed_rpm:10g} {r.torque_Nm:10g} {r.friction_W:10.1f} "
+            f"{r.max_surface_end_C:11.1f} "
             f"{steady if steady is not None else float('nan'):14.1f} "
-            f"{r.get('vdi2736_flank_C') or float('nan'):11.1f}"
+            f"{r.vdi2736_flank_C or float('nan'):11.1f}"
         )
     _say(
         f"results in {args.out}: results.csv, study.json, temperature_histories.png, "
         f"steady_temperature.png, "
         "cases/<label>/"
     )
-    return 0 if res["complete"] else 1
+    return 0 if res.complete else 1
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
@@ -233,18 +233,18 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         max_size=1 if args.singles else 2,
         u_model_K=args.u_model_K,
     )
-    for row in r["vv20"]["rows"]:
+    for row in r.vv20["rows"]:
         _say(
             f"  {row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = "
             f"{row['E_K']:+.1f} K, "
             f"u_val = {row['u_val_K']:.1f} K{' (resolved)' if row['resolved'] else ''}"
         )
-    g = r["gain"]
-    _say(f"verdict: {r['verdict']['text']}")
-    if g["loo_rmse_before_K"] is not None and g["loo_rmse_after_K"] is not None:
+    g = r.diagnosis.gain
+    _say(f"verdict: {r.diagnosis.verdict.text}")
+    if g.loo_rmse_before_K is not None and g.loo_rmse_after_K is not None:
         _say(
-            f"held-out RMS error: {g['loo_rmse_before_K']:.1f} K before, "
-            f"{g['loo_rmse_after_K']:.1f} K after"
+            f"held-out RMS error: {g.loo_rmse_before_K:.1f} K before, "
+            f"{g.loo_rmse_after_K:.1f} K after"
         )
     _say(f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, ranking.png")
     return 0

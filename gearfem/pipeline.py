@@ -17,15 +17,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from mpi4py import MPI
 
 from gearfem.baselines import baseline_summary, max_rack_fillet_coef
 from gearfem.config import Case, load_case, write_case
 from gearfem.core.errors import ParameterError
-from gearfem.core.io import prepare_output, write_json
+from gearfem.core.io import prepare_output, read_json, write_json
 from gearfem.core.log import ProgressBar
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.core.provenance import versions
+from gearfem.core.results import JsonRecord
 from gearfem.coupling.heat_sources import cycle_heat_sources
 from gearfem.cycle.cache import cache_root, cached_cycle, cycle_key
 from gearfem.cycle.cache import load as load_cycle
@@ -42,6 +44,100 @@ from gearfem.thermal.problem import ThermalProblem
 from gearfem.thermal.source_terms import prescribed_heat_sources
 
 log = logging.getLogger(__name__)
+
+
+# ------------------------------------------------------------------------------------------------
+# results
+# ------------------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class CycleCache(JsonRecord):
+    """Where the run's structural cycle is stored and whether it came from there."""
+
+    directory: str
+    from_cache: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class CycleAtSpeed(JsonRecord):
+    """The structural cycle of a run at its operating speed (``summary.json`` "cycle")."""
+
+    effective_contact_ratio: float
+    theoretical_contact_ratio: float
+    max_contact_pressure_MPa: float
+    pitch_point_pressure_MPa: float
+    max_root_stress_MPa: dict[str, float]
+    transmission_error_um: dict[str, float]  # mean, peak_to_peak
+    friction_power_W: float
+    pinion_torque_mean_Nm: float
+    positions: int
+    newton_iterations: int
+    cycle_wall_time_s: float
+    info: dict[str, Any]
+    cache: CycleCache | None = None
+
+    @classmethod
+    def of(cls, cyc, speed_rpm: float, cache: CycleCache | None = None) -> CycleAtSpeed:
+        omega = 2.0 * math.pi * speed_rpm / 60.0
+        return cls(
+            effective_contact_ratio=cyc.effective_contact_ratio(),
+            theoretical_contact_ratio=cyc.theoretical_contact_ratio,
+            max_contact_pressure_MPa=float(np.max(cyc.p_max_Pa)) / 1e6,
+            pitch_point_pressure_MPa=float(cyc.p_max_mid_Pa[0]) / 1e6,
+            max_root_stress_MPa={b: float(np.max(v)) / 1e6 for b, v in cyc.root_stress_Pa.items()},
+            transmission_error_um={
+                "mean": float(np.mean(cyc.te_m)) * 1e6,
+                "peak_to_peak": float(np.ptp(cyc.te_m)) * 1e6,
+            },
+            friction_power_W=cyc.mean_friction_power_W_per_rad_s() * omega,
+            pinion_torque_mean_Nm=float(np.mean(cyc.pinion_torque_Nm)),
+            positions=len(cyc.phi_rad),
+            newton_iterations=int(np.sum(cyc.newton_iterations)),
+            cycle_wall_time_s=float(np.sum(cyc.wall_time_s)),
+            info=dict(cyc.info),
+            cache=cache,
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class Headline(JsonRecord):
+    """The numbers a person reads first (``summary.json`` "headline"); None where not computed."""
+
+    time_s: float | None
+    max_surface_temperature_C: float | None
+    mean_bulk_temperature_C: float | None
+    steady_max_surface_temperature_C: float | None
+    at_times_max_surface_C: dict[str, float | None]
+    friction_power_W: float | None = None
+    effective_contact_ratio: float | None = None
+    vdi2736_flank1_C: float | None = None
+    vdi2736_root1_C: float | None = None
+    mao_bulk1_C: float | None = None
+    flash_max_K: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSummary(JsonRecord):
+    """What ``gearfem run`` computes for one operating point (``summary.json``, written last).
+
+    ``thermal`` is the thermal stage's summary (``thermal/thermal_summary.json``) and
+    ``baselines`` the analytic estimates (:func:`gearfem.baselines.baseline_summary`).
+    """
+
+    case: str
+    speed_rpm: float
+    torque_Nm: float
+    thermal: dict[str, Any]
+    baselines: dict[str, Any]
+    wall_time_s: dict[str, float]
+    mpi_size: int
+    cycle: CycleAtSpeed | None
+    headline: Headline
+
+    @classmethod
+    def read(cls, path: str | Path) -> RunSummary:
+        return cls.from_json(read_json(Path(path)))
 
 
 def pair_mesh(case: Case, comm: MPI.Comm, cache_dir: Path | None = None):
@@ -215,7 +311,7 @@ def run(
     cache_dir: Path | None = None,
     progress: bool = True,
     write_fields: bool = True,
-) -> dict[str, Any]:
+) -> RunSummary:
     """The whole chain for one operating point; returns the summary (collective).
 
     ``write_fields``: write the VTX temperature fields (studies switch them off)."""
@@ -238,71 +334,49 @@ def run(
     times["thermal_s"] = time.perf_counter() - t1
     base = baselines(case)
     times["total_s"] = time.perf_counter() - t0
-    summary: dict[str, Any] = {
-        "case": case.name,
-        "speed_rpm": case.operating.speed_rpm,
-        "torque_Nm": case.operating.torque_Nm,
-        "thermal": th,
-        "baselines": base,
-        "wall_time_s": times,
-        "mpi_size": comm.size,
-    }
+    at_speed = None
     if cyc is not None:
-        summary["cycle"] = cycle_summary(cyc, case.operating.speed_rpm)
-        summary["cycle"]["cache"] = {"directory": str(cdir), "from_cache": cached}
-    summary["headline"] = headline(summary)
+        at_speed = CycleAtSpeed.of(cyc, case.operating.speed_rpm, CycleCache(str(cdir), cached))
+    summary = RunSummary(
+        case=case.name,
+        speed_rpm=case.operating.speed_rpm,
+        torque_Nm=case.operating.torque_Nm,
+        thermal=th,
+        baselines=base,
+        wall_time_s=times,
+        mpi_size=comm.size,
+        cycle=at_speed,
+        headline=headline(th, base, at_speed),
+    )
     vers = versions(comm)
     if comm.rank == 0:
         write_case(case, out / "case.toml")
         write_json(out / "versions.json", vers)
-        write_json(out / "summary.json", summary)  # last: marks a complete run
+        write_json(out / "summary.json", summary.to_json())  # last: marks a complete run
     comm.barrier()
     return summary
 
 
-def cycle_summary(cyc, speed_rpm: float) -> dict[str, Any]:
-    import numpy as np
-
-    omega = 2.0 * math.pi * speed_rpm / 60.0
-    return {
-        "effective_contact_ratio": cyc.effective_contact_ratio(),
-        "theoretical_contact_ratio": cyc.theoretical_contact_ratio,
-        "max_contact_pressure_MPa": float(np.max(cyc.p_max_Pa)) / 1e6,
-        "pitch_point_pressure_MPa": float(cyc.p_max_mid_Pa[0]) / 1e6,
-        "max_root_stress_MPa": {b: float(np.max(v)) / 1e6 for b, v in cyc.root_stress_Pa.items()},
-        "transmission_error_um": {
-            "mean": float(np.mean(cyc.te_m)) * 1e6,
-            "peak_to_peak": float(np.ptp(cyc.te_m)) * 1e6,
+def headline(
+    thermal: dict[str, Any], baselines: dict[str, Any], cycle: CycleAtSpeed | None
+) -> Headline:
+    """The headline numbers of a run from its stage summaries."""
+    final = thermal.get("final_temperatures_C", {})
+    return Headline(
+        time_s=thermal.get("time_s"),
+        max_surface_temperature_C=final.get("max_surface"),
+        mean_bulk_temperature_C=final.get("mean_bulk"),
+        steady_max_surface_temperature_C=thermal.get("steady_state_C", {}).get("max_surface"),
+        at_times_max_surface_C={
+            t: v.get("max_surface") for t, v in thermal.get("at_times_C", {}).items()
         },
-        "friction_power_W": cyc.mean_friction_power_W_per_rad_s() * omega,
-        "pinion_torque_mean_Nm": float(np.mean(cyc.pinion_torque_Nm)),
-        "positions": len(cyc.phi_rad),
-        "newton_iterations": int(np.sum(cyc.newton_iterations)),
-        "cycle_wall_time_s": float(np.sum(cyc.wall_time_s)),
-        "info": cyc.info,
-    }
-
-
-def headline(summary: dict[str, Any]) -> dict[str, Any]:
-    th = summary["thermal"]
-    final = th.get("final_temperatures_C", {})
-    h = {
-        "time_s": th.get("time_s"),
-        "max_surface_temperature_C": final.get("max_surface"),
-        "mean_bulk_temperature_C": final.get("mean_bulk"),
-        "steady_max_surface_temperature_C": th.get("steady_state_C", {}).get("max_surface"),
-        "at_times_max_surface_C": {
-            t: v.get("max_surface") for t, v in th.get("at_times_C", {}).items()
-        },
-    }
-    if "cycle" in summary:
-        h["friction_power_W"] = summary["cycle"]["friction_power_W"]
-        h["effective_contact_ratio"] = summary["cycle"]["effective_contact_ratio"]
-    b = summary["baselines"]
-    for k in ("vdi2736_flank1_C", "vdi2736_root1_C", "mao_bulk1_C", "flash_max_K"):
-        if k in b:
-            h[k] = b[k]
-    return h
+        friction_power_W=cycle.friction_power_W if cycle is not None else None,
+        effective_contact_ratio=cycle.effective_contact_ratio if cycle is not None else None,
+        vdi2736_flank1_C=baselines.get("vdi2736_flank1_C"),
+        vdi2736_root1_C=baselines.get("vdi2736_root1_C"),
+        mao_bulk1_C=baselines.get("mao_bulk1_C"),
+        flash_max_K=baselines.get("flash_max_K"),
+    )
 
 
 def read_case(path: str | Path | None):

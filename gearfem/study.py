@@ -59,7 +59,9 @@ from gearfem.core.params import (
     require_positive,
     to_dict,
 )
+from gearfem.core.results import JsonRecord
 from gearfem.geometry.mesh import build_gear_mesh
+from gearfem.pipeline import RunSummary
 
 log = logging.getLogger(__name__)
 
@@ -157,7 +159,10 @@ def load_study(path: str | Path) -> Study:
 
 
 # ------------------------------------------------------------------------------------------------
-def _mode(option: str, n_tasks: int, size: int) -> str:
+def parallel_mode(option: str, n_tasks: int, size: int) -> str:
+    """How to spread ``n_tasks`` over ``size`` ranks: ``"cases"`` (one task per rank, each on
+    COMM_SELF) or ``"mpi"`` (each task on all ranks); ``"auto"`` picks cases when there are at
+    least as many tasks as ranks."""
     if option != "auto":
         return option
     return "cases" if size > 1 and n_tasks >= size else "mpi"
@@ -231,13 +236,13 @@ def run_study(
             if c0.sources.mode == "cycle":
                 torques = sorted({c.operating.torque_Nm for _, c in todo})
                 reps = {t: next(c for _, c in todo if c.operating.torque_Nm == t) for t in torques}
-                mode = _mode(study.options.parallel, len(torques), comm.size)
+                mode = parallel_mode(study.options.parallel, len(torques), comm.size)
                 t1 = time.perf_counter()
                 dispatch(comm, mode, list(reps.values()), lambda c, sub: pipeline.cycle(c, sub))
                 timing["cycles_s"] = time.perf_counter() - t1
                 timing["cycles_parallel"] = mode  # type: ignore[assignment]
             # 3. thermal + baselines per operating point
-            mode = _mode(study.options.parallel, len(todo), comm.size)
+            mode = parallel_mode(study.options.parallel, len(todo), comm.size)
             t2 = time.perf_counter()
 
             def one(item, sub):
@@ -256,18 +261,16 @@ def run_study(
             ran = [lab for lab, _ in todo]
     if index is not None:
         comm.barrier()
-        return {"ran": ran}
-    results = collect(study, out, comm)
-    results.update(
-        {
-            "ran": ran,
-            "wall_time_s": time.perf_counter() - t0,
-            "timing": timing,
-            "mpi_size": comm.size,
-        }
+        return StudyResult(study.name, to_dict(study.options), (), (), False, ran=tuple(ran))
+    results = dataclasses.replace(
+        collect(study, out, comm),
+        ran=tuple(ran),
+        wall_time_s=time.perf_counter() - t0,
+        timing=timing,
+        mpi_size=comm.size,
     )
     if comm.rank == 0:
-        write_json(out / "study.json", results)  # last: marks a complete study
+        write_json(out / "study.json", results.to_json())  # last: marks a complete study
     comm.barrier()
     return results
 
@@ -319,35 +322,75 @@ COLUMNS = (
 )
 
 
-def _row(label: str, speed: float, torque: float, directory: Path) -> dict[str, Any]:
-    row: dict[str, Any] = {"label": label, "speed_rpm": speed, "torque_Nm": torque}
-    f = directory / "summary.json"
-    if not f.exists():
-        row["status"] = "missing"
-        return row
-    s = json.loads(f.read_text())
-    th, b = s["thermal"], s["baselines"]
-    bal = th.get("final_balance_W", {})
-    frac = th.get("model_fraction") or 1.0
-    final = th.get("final_temperatures_C", {})
-    row.update(
-        status="done",
-        power_W=b.get("power_W"),
-        friction_W=(bal.get("friction_W") or 0.0) / frac,
-        hysteresis_W=(bal.get("hysteresis_W") or 0.0) / frac,
-        t_end_s=th.get("time_s"),
-        max_surface_end_C=final.get("max_surface"),
-        max_surface_steady_C=th.get("steady_state_C", {}).get("max_surface"),
-        mean_bulk_end_C=final.get("mean_bulk"),
-        flank_max_end_C=final.get("flank_max"),
-        effective_contact_ratio=s.get("cycle", {}).get("effective_contact_ratio"),
-        max_contact_pressure_MPa=s.get("cycle", {}).get("max_contact_pressure_MPa"),
-        vdi2736_flank_C=b.get("vdi2736_flank1_C"),
-        vdi2736_root_C=b.get("vdi2736_root1_C"),
-        mao_bulk_C=b.get("mao_bulk1_C"),
-        wall_time_s=s.get("wall_time_s", {}).get("total_s"),
-    )
-    return row
+@dataclasses.dataclass(frozen=True)
+class StudyRow(JsonRecord):
+    """One operating point of a study (a row of ``results.csv``); None where not computed."""
+
+    label: str
+    speed_rpm: float
+    torque_Nm: float
+    status: str  # "done" or "missing"
+    power_W: float | None = None
+    friction_W: float | None = None  # friction heat into the whole gear
+    hysteresis_W: float | None = None
+    t_end_s: float | None = None
+    max_surface_end_C: float | None = None
+    max_surface_steady_C: float | None = None
+    mean_bulk_end_C: float | None = None
+    flank_max_end_C: float | None = None
+    effective_contact_ratio: float | None = None
+    max_contact_pressure_MPa: float | None = None
+    vdi2736_flank_C: float | None = None
+    vdi2736_root_C: float | None = None
+    mao_bulk_C: float | None = None
+    wall_time_s: float | None = None
+
+    @classmethod
+    def of(cls, label: str, speed: float, torque: float, directory: Path) -> StudyRow:
+        """The row of the run in ``directory`` (status "missing" without its summary.json)."""
+        f = directory / "summary.json"
+        if not f.exists():
+            return cls(label, speed, torque, "missing")
+        s = RunSummary.read(f)
+        th, b = s.thermal, s.baselines
+        bal = th.get("final_balance_W", {})
+        frac = th.get("model_fraction") or 1.0
+        final = th.get("final_temperatures_C", {})
+        return cls(
+            label,
+            speed,
+            torque,
+            "done",
+            power_W=b.get("power_W"),
+            friction_W=(bal.get("friction_W") or 0.0) / frac,
+            hysteresis_W=(bal.get("hysteresis_W") or 0.0) / frac,
+            t_end_s=th.get("time_s"),
+            max_surface_end_C=final.get("max_surface"),
+            max_surface_steady_C=th.get("steady_state_C", {}).get("max_surface"),
+            mean_bulk_end_C=final.get("mean_bulk"),
+            flank_max_end_C=final.get("flank_max"),
+            effective_contact_ratio=s.cycle.effective_contact_ratio if s.cycle else None,
+            max_contact_pressure_MPa=s.cycle.max_contact_pressure_MPa if s.cycle else None,
+            vdi2736_flank_C=b.get("vdi2736_flank1_C"),
+            vdi2736_root_C=b.get("vdi2736_root1_C"),
+            mao_bulk_C=b.get("mao_bulk1_C"),
+            wall_time_s=s.wall_time_s.get("total_s"),
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyResult(JsonRecord):
+    """A collected study (``study.json``, written last)."""
+
+    name: str
+    study: dict[str, Any]
+    results: tuple[StudyRow, ...]
+    missing: tuple[str, ...]
+    complete: bool
+    ran: tuple[str, ...] = ()
+    wall_time_s: float | None = None
+    timing: dict[str, Any] | None = None
+    mpi_size: int | None = None
 
 
 def collect(study: Study, out: Path, comm: MPI.Comm) -> dict[str, Any]:
@@ -355,7 +398,7 @@ def collect(study: Study, out: Path, comm: MPI.Comm) -> dict[str, Any]:
     rows = None
     if comm.rank == 0:
         rows = [
-            _row(lab, c.operating.speed_rpm, c.operating.torque_Nm, out / "cases" / lab)
+            StudyRow.of(lab, c.operating.speed_rpm, c.operating.torque_Nm, out / "cases" / lab)
             for lab, c in study.cases()
         ]
         tmp = out / f".results.csv.tmp{os.getpid()}"
@@ -363,43 +406,44 @@ def collect(study: Study, out: Path, comm: MPI.Comm) -> dict[str, Any]:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
             for r in rows:
-                w.writerow({k: r.get(k, "") for k in COLUMNS})
+                row = r.to_json()
+                w.writerow({k: "" if row[k] is None else row[k] for k in COLUMNS})
         os.replace(tmp, out / "results.csv")
         try:
             plot_study(rows, out)
         except Exception as err:
             log.warning("study plots failed: %s", err)
     rows = comm.bcast(rows, root=0)
-    missing = [r["label"] for r in rows if r["status"] != "done"]
-    return {
-        "name": study.name,
-        "study": to_dict(study.options),
-        "results": rows,
-        "missing": missing,
-        "complete": not missing,
-    }
+    missing = tuple(r.label for r in rows if r.status != "done")
+    return StudyResult(
+        name=study.name,
+        study=to_dict(study.options),
+        results=tuple(rows),
+        missing=missing,
+        complete=not missing,
+    )
 
 
-def plot_study(rows: list[dict[str, Any]], out: Path) -> None:
+def plot_study(rows: list[StudyRow], out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 
-    done = [r for r in rows if r["status"] == "done"]
+    done = [r for r in rows if r.status == "done"]
     if not done:
         return
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     for r in done:
-        hist = out / "cases" / r["label"] / "thermal" / "thermal_history.csv"
+        hist = out / "cases" / r.label / "thermal" / "thermal_history.csv"
         if not hist.exists():
             continue
         data = np.genfromtxt(hist, delimiter=",", names=True)
         ax.plot(
             data["time_s"] / 60.0,
             data["T_max_surface_C"],
-            label=f"{r['speed_rpm']:g} rpm, {r['torque_Nm']:g} N m",
+            label=f"{r.speed_rpm:g} rpm, {r.torque_Nm:g} N m",
         )
     ax.set_xlabel("time (min)")
     ax.set_ylabel("maximum surface temperature (°C)")
@@ -413,16 +457,21 @@ def plot_study(rows: list[dict[str, Any]], out: Path) -> None:
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     key = (
         "max_surface_steady_C"
-        if all(r.get("max_surface_steady_C") is not None for r in done)
+        if all(r.max_surface_steady_C is not None for r in done)
         else "max_surface_end_C"
     )
-    for t in sorted({r["torque_Nm"] for r in done}):
-        sel = sorted((r for r in done if r["torque_Nm"] == t), key=lambda r: r["speed_rpm"])
-        ax.plot([r["speed_rpm"] for r in sel], [r[key] for r in sel], "o-", label=f"{t:g} N m (FE)")
-        vdi = [r.get("vdi2736_flank_C") for r in sel]
+    for t in sorted({r.torque_Nm for r in done}):
+        sel = sorted((r for r in done if r.torque_Nm == t), key=lambda r: r.speed_rpm)
+        ax.plot(
+            [r.speed_rpm for r in sel],
+            [getattr(r, key) for r in sel],
+            "o-",
+            label=f"{t:g} N m (FE)",
+        )
+        vdi = [r.vdi2736_flank_C for r in sel]
         if all(v is not None for v in vdi):
             ax.plot(
-                [r["speed_rpm"] for r in sel],
+                [r.speed_rpm for r in sel],
                 vdi,
                 "x--",
                 color=ax.lines[-1].get_color(),

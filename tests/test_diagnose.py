@@ -138,7 +138,7 @@ def _diagnose(sur, data, full=None, final_check=False):
 
     r = diagnose(sur.predict, data)
     if full is not None:
-        refine(full.predict, sur.predict, data, r, final_check=final_check)
+        r = refine(full.predict, sur.predict, data, r, final_check=final_check)
     return r
 
 
@@ -151,11 +151,11 @@ def test_hidden_effect_found(models, name):
     truth = G.draw(name, rng)
     data = G.synthetic(full, {name: truth}, rng)
     r = _diagnose(sur, data, full)
-    assert r["verdict"]["kind"] == "identified", r["verdict"]["text"]
-    assert r["chosen"] == [name]
-    lo, hi = r["refined"]["intervals"][name]
+    assert r.verdict.kind == "identified", r.verdict.text
+    assert r.chosen == (name,)
+    lo, hi = r.refined.intervals[name]
     assert lo <= truth <= hi, (truth, lo, hi)
-    assert r["gain"]["loo_rmse_after_K"] < r["gain"]["loo_rmse_before_K"]
+    assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
 
 
 @pytest.mark.slow
@@ -163,7 +163,7 @@ def test_null_case_baseline_adequate(models):
     full, sur = models
     rng = np.random.default_rng(7)
     r = _diagnose(sur, G.synthetic(full, {}, rng))
-    assert r["verdict"]["kind"] == "baseline adequate", r["verdict"]["text"]
+    assert r.verdict.kind == "baseline adequate", r.verdict.text
 
 
 @pytest.mark.slow
@@ -177,8 +177,8 @@ def test_confuser_not_identifiable(models):
         full, {"friction_scale": 0.6}, rng, quantities=("max_surface",), end_only=True, noise_K=2.0
     )
     r = _diagnose(sur, data)
-    assert r["verdict"]["kind"] == "not identifiable", r["verdict"]["text"]
-    named = {n for c in [r["chosen"], *r["verdict"]["competitors"]] for n in c}
+    assert r.verdict.kind == "not identifiable", r.verdict.text
+    named = {n for c in [r.chosen, *r.verdict.competitors] for n in c}
     assert {"friction_scale", "convection_scale"} <= named
 
 
@@ -189,15 +189,15 @@ def test_pair_found_and_confirmed_on_full_model(models):
     truth = {"convection_speed_exponent": -0.5, "hysteresis_scale": 40.0}
     data = G.synthetic(full, truth, rng)
     r = _diagnose(sur, data, full, final_check=True)
-    assert sorted(r["chosen"]) == sorted(truth), r["verdict"]["text"]
+    assert sorted(r.chosen) == sorted(truth), r.verdict.text
     for name, value in truth.items():
-        lo, hi = r["refined"]["intervals"][name]
+        lo, hi = r.refined.intervals[name]
         assert lo <= value <= hi, (name, value, lo, hi)
     # the full model at the refined parameters reproduces the data to the noise: the RMS of N(0, 1
     # K)
     # noise over n samples lies below 1 + 3/sqrt(2n) K with probability > 99.8 %
     n = len(data)
-    assert r["refined"]["full_rmse_K"] < 1.0 + 3.0 / math.sqrt(2 * n)
+    assert r.refined.full_rmse_K < 1.0 + 3.0 / math.sqrt(2 * n)
 
 
 # ---------------------------------------------------------------- mu(T) on the friction flux

@@ -102,40 +102,40 @@ def test_study_runs_collects_and_resumes(parallel, tmp_out, comm):
     study = study_from_dict(_study(parallel=parallel))
     res = run_study(study, out, comm)
     labels = [lab for lab, _ in study.cases()]
-    assert res["complete"] and sorted(res["ran"]) == sorted(labels)
-    rows = {r["label"]: r for r in res["results"]}
+    assert res.complete and sorted(res.ran) == sorted(labels)
+    rows = {r.label: r for r in res.results}
     for lab, c in study.cases():
         r = rows[lab]
-        assert r["status"] == "done"
+        assert r.status == "done"
         # the prescribed heat reaches the model: per gear, the flank heat given in the file
-        assert r["friction_W"] == pytest.approx(2.0, rel=1e-6)
-        assert r["max_surface_end_C"] > c.thermal.ambient_C
-        assert r["power_W"] == pytest.approx(
+        assert r.friction_W == pytest.approx(2.0, rel=1e-6)
+        assert r.max_surface_end_C > c.thermal.ambient_C
+        assert r.power_W == pytest.approx(
             c.operating.torque_Nm * c.operating.speed_rpm * 3.141592653589793 / 30
         )
     assert (out / "study.json").exists() and (out / "temperature_histories.png").exists()
     with (out / "results.csv").open() as fh:
         assert [r["label"] for r in csv.DictReader(fh)] == labels
     # faster at 2000 rpm: more convection, same heat -> cooler
-    assert rows[labels[1]]["max_surface_end_C"] < rows[labels[0]]["max_surface_end_C"]
+    assert rows[labels[1]].max_surface_end_C < rows[labels[0]].max_surface_end_C
 
     # resume: nothing to do
     again = run_study(study, out, comm)
-    assert again["ran"] == [] and again["complete"]
+    assert again.ran == () and again.complete
     # a case whose output was lost is recomputed, and only that one
     if comm.rank == 0:
         (out / "cases" / labels[1] / "summary.json").unlink()
     comm.barrier()
     third = run_study(study, out, comm)
-    assert third["ran"] == [labels[1]]
+    assert third.ran == (labels[1],)
     # a changed case (more heat) is recomputed in full, and its result changes accordingly
     hotter = study_from_dict(_study(parallel=parallel, heat=4.0))
     fourth = run_study(hotter, out, comm)
-    assert sorted(fourth["ran"]) == sorted(labels)
-    new = {r["label"]: r for r in fourth["results"]}
+    assert sorted(fourth.ran) == sorted(labels)
+    new = {r.label: r for r in fourth.results}
     for lab in labels:
-        assert new[lab]["friction_W"] == pytest.approx(4.0, rel=1e-6)
-        assert new[lab]["max_surface_end_C"] > rows[lab]["max_surface_end_C"]
+        assert new[lab].friction_W == pytest.approx(4.0, rel=1e-6)
+        assert new[lab].max_surface_end_C > rows[lab].max_surface_end_C
     summary = json.loads((out / "study.json").read_text())
     assert summary["complete"] and summary["mpi_size"] == comm.size
 
@@ -150,11 +150,11 @@ def test_single_task_and_collect(tmp_out, comm):
     study = study_from_dict(_study())
     with pytest.raises(ParameterError, match="--index"):
         run_study(study, out, comm, index=2)
-    assert run_study(study, out, comm, index=1)["ran"] == [study.cases()[1][0]]
+    assert run_study(study, out, comm, index=1).ran == (study.cases()[1][0],)
     assert not (out / "study.json").exists()
     partial = run_study(study, out, comm, collect_only=True)
-    assert not partial["complete"] and partial["missing"] == [study.cases()[0][0]]
-    assert run_study(study, out, comm, index=0)["ran"] == [study.cases()[0][0]]
-    assert run_study(study, out, comm, collect_only=True)["complete"]
+    assert not partial.complete and partial.missing == (study.cases()[0][0],)
+    assert run_study(study, out, comm, index=0).ran == (study.cases()[0][0],)
+    assert run_study(study, out, comm, collect_only=True).complete
     comm.barrier()
     assert MPI.COMM_WORLD.allreduce(1) == comm.size

@@ -42,6 +42,11 @@ def write_json(path: Path, data: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+def read_json(path: Path) -> Any:
+    """The JSON data of ``path``."""
+    return json.loads(Path(path).read_text())
+
+
 def _default(obj):
     if isinstance(obj, np.ndarray):
         return obj.tolist()

@@ -15,11 +15,12 @@ from mpi4py import MPI
 
 from gearfem.config import Case
 from gearfem.core.io import prepare_output
+from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY
 from gearfem.diagnose.data import QUANTITIES, Dataset, Measurement
 from gearfem.diagnose.forward import FullModel, Surrogate
-from gearfem.diagnose.select import diagnose, refine
+from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
 
 
@@ -41,7 +42,7 @@ def run_diagnosis(
     max_size: int = 2,
     cache_dir: str | Path | None = None,
     u_model_K: float = 1.0,
-) -> dict[str, Any]:
+) -> DiagnosisReport:
     """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns
     the result."""
 
@@ -85,45 +86,44 @@ def run_diagnosis(
     probes = _probes(sur, data)
     result = diagnose(sur.predict, data, max_size=max_size, probes=probes, u_model_K=u_model_K)
     # confirmation of the chosen model on the full model (and removal of the surrogate's bias there)
-    refine(full.predict, sur.predict, data, result, iterations=1, final_check=True)
+    result = refine(full.predict, sur.predict, data, result, iterations=1, final_check=True)
     base_sur = sur.predict(data, {})
-    result.update(
-        {
-            "data": {
-                "source": data.source,
-                "measurements": [dataclasses.asdict(m) for m in data.measurements],
-            },
-            "case": case.name,
-            "vv20": {
-                "rows": comp.rows([m.label() for m in data.measurements]),
-                "k": comp.k,
-                "u_num_method": num_note,
-                "u_input_parts_K": {k: v.tolist() for k, v in parts.items()},
-            },
-            "surrogate": {
-                "full_model_solves": full.solves,
-                "baseline_max_abs_difference_K": float(np.max(np.abs(base_sur - S))),
-            },
-            "candidates": {
-                c.name: {
-                    "parameter": c.parameter.name,
-                    "unit": c.parameter.unit,
-                    "null": c.parameter.null,
-                    "prior": [c.parameter.lo, c.parameter.hi],
-                    "doc": " ".join((c.__doc__ or "").split()),
-                }
-                for c in LIBRARY
-            },
-        }
+    report = DiagnosisReport(
+        diagnosis=result,
+        data={
+            "source": data.source,
+            "measurements": [dataclasses.asdict(m) for m in data.measurements],
+        },
+        case=case.name,
+        vv20={
+            "rows": comp.rows([m.label() for m in data.measurements]),
+            "k": comp.k,
+            "u_num_method": num_note,
+            "u_input_parts_K": {k: v.tolist() for k, v in parts.items()},
+        },
+        surrogate={
+            "full_model_solves": full.solves,
+            "baseline_max_abs_difference_K": float(np.max(np.abs(base_sur - S))),
+        },
+        candidates={
+            c.name: {
+                "parameter": c.parameter.name,
+                "unit": c.parameter.unit,
+                "null": c.parameter.null,
+                "prior": [c.parameter.lo, c.parameter.hi],
+                "doc": " ".join((c.__doc__ or "").split()),
+            }
+            for c in LIBRARY
+        },
     )
     if comm.rank == 0:
         _plots(result, data, out)
-        (out / "report.md").write_text(markdown(result, data))
+        (out / "report.md").write_text(markdown(report, data))
         tmp = out / f".diagnosis.json.tmp{os.getpid()}"
-        tmp.write_text(json.dumps(result, indent=2, default=_default))
+        tmp.write_text(json.dumps(report.to_json(), indent=2, default=_default))
         os.replace(tmp, out / "diagnosis.json")  # last: marks a complete diagnosis
     comm.barrier()
-    return result
+    return report
 
 
 def _default(o):
@@ -152,7 +152,7 @@ def _probes(sur: Surrogate, data: Dataset) -> Dataset:
     return Dataset(tuple(rows), "probes")
 
 
-def _plots(result: dict, data: Dataset, out: Path) -> None:
+def _plots(result: Diagnosis, data: Dataset, out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -161,22 +161,21 @@ def _plots(result: dict, data: Dataset, out: Path) -> None:
     D = np.array([m.value_C for m in data.measurements])
     u = np.array([m.uncertainty_K for m in data.measurements])
     labels = [m.label() for m in data.measurements]
-    base = next(m for m in result["models"] if not m["candidates"])
-    chosen = next(m for m in result["models"] if m["candidates"] == result["chosen"])
+    base, chosen = result.baseline_fit, result.chosen_fit
     x = np.arange(len(D))
     fig, ax = plt.subplots(1, 2, figsize=(13, 5))
     ax[0].errorbar(x, D, yerr=2 * u, fmt="ko", label="measured (±2u)")
-    ax[0].plot(x, base["predictions_C"], "rs", label="baseline")
+    ax[0].plot(x, base.predictions_C, "rs", label="baseline")
     if chosen is not base:
-        ax[0].plot(x, chosen["predictions_C"], "b^", label="+".join(chosen["candidates"]))
+        ax[0].plot(x, chosen.predictions_C, "b^", label=chosen.label)
     ax[0].set_xticks(x, labels, rotation=80, fontsize=6)
     ax[0].set_ylabel("temperature (C)")
     ax[0].legend()
     ax[0].set_title("prediction vs data, before and after")
     ax[1].axhline(0.0, color="k", lw=0.5)
-    ax[1].plot(x, (np.array(base["predictions_C"]) - D) / u, "rs", label="baseline")
+    ax[1].plot(x, (np.array(base.predictions_C) - D) / u, "rs", label="baseline")
     if chosen is not base:
-        ax[1].plot(x, (np.array(chosen["predictions_C"]) - D) / u, "b^", label="chosen")
+        ax[1].plot(x, (np.array(chosen.predictions_C) - D) / u, "b^", label="chosen")
     ax[1].set_xticks(x, labels, rotation=80, fontsize=6)
     ax[1].set_ylabel("(S - D) / u_D")
     ax[1].set_title("residual signature")
@@ -184,36 +183,35 @@ def _plots(result: dict, data: Dataset, out: Path) -> None:
     fig.tight_layout()
     fig.savefig(out / "prediction_vs_data.png", dpi=110)
     plt.close(fig)
-    top = result["models"][:12]
+    top = result.models[:12]
     fig, ax = plt.subplots(figsize=(8, 5))
-    ax.barh(range(len(top)), [m["delta"] for m in top], color="tab:blue")
-    ax.set_yticks(
-        range(len(top)), ["+".join(m["candidates"]) or "baseline" for m in top], fontsize=7
-    )
+    ax.barh(range(len(top)), [m.delta for m in top], color="tab:blue")
+    ax.set_yticks(range(len(top)), [m.label for m in top], fontsize=7)
     ax.invert_yaxis()
-    ax.set_xlabel(f"Δ{result['criterion']} to the best")
+    ax.set_xlabel(f"Δ{result.criterion} to the best")
     ax.set_title("ranking")
     fig.tight_layout()
     fig.savefig(out / "ranking.png", dpi=110)
     plt.close(fig)
 
 
-def markdown(result: dict, data: Dataset) -> str:
-    v = result["verdict"]
+def markdown(report: DiagnosisReport, data: Dataset) -> str:
+    result = report.diagnosis
+    v = result.verdict
     lines = [
-        f"# Diagnosis of {data.source or 'data'} against case {result.get('case', '')!r}",
+        f"# Diagnosis of {data.source or 'data'} against case {report.case!r}",
         "",
-        f"**Verdict: {v['text']}**",
+        f"**Verdict: {v.text}**",
         "",
-        f"{result['n_measurements']} measurements, {result['n_effective']} independent "
-        f"(a curve counts as at most two), ranked by {result['criterion']}.",
+        f"{result.n_measurements} measurements, {result.n_effective} independent "
+        f"(a curve counts as at most two), ranked by {result.criterion}.",
         "",
         "## V&V 20 comparison of the baseline (full model)",
         "",
         "| measurement | S (C) | D (C) | E (K) | u_num | u_input | u_D | u_val | |E| > 2 u_val |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    for r in result["vv20"]["rows"]:
+    for r in report.vv20["rows"]:
         lines.append(
             f"| {r['measurement']} | {r['S_C']:.1f} | {r['D_C']:.1f} | {r['E_K']:+.1f} | "
             f"{r['u_num_K']:.2f} "
@@ -222,57 +220,50 @@ def markdown(result: dict, data: Dataset) -> str:
         )
     lines += [
         "",
-        f"u_num: {result['vv20']['u_num_method']}.",
+        f"u_num: {report.vv20['u_num_method']}.",
         "",
         "## Ranking (surrogate)",
         "",
         "| model | parameters (95 % profile interval) | chi2 | Δ | held-out RMS (K) |",
         "|---|---|---|---|---|",
     ]
-    for m in result["models"][:15]:
+    for m in result.models[:15]:
         ps = ", ".join(
-            f"{n} = {m['params'][n]:.4g}"
-            + (
-                f" [{m['intervals'][n][0]:.3g}, {m['intervals'][n][1]:.3g}]"
-                if n in m["intervals"]
-                else ""
-            )
-            for n in m["candidates"]
+            f"{n} = {m.params[n]:.4g}"
+            + (f" [{m.intervals[n][0]:.3g}, {m.intervals[n][1]:.3g}]" if n in m.intervals else "")
+            for n in m.candidates
         )
-        loo = "" if m["loo_rmse_K"] is None else f"{m['loo_rmse_K']:.1f}"
-        name = "+".join(m["candidates"]) or "baseline"
-        lines.append(f"| {name} | {ps} | {m['chi2']:.1f} | {m['delta']:.1f} | {loo} |")
-    g = result["gain"]
+        loo = "" if m.loo_rmse_K is None else f"{m.loo_rmse_K:.1f}"
+        lines.append(f"| {m.label} | {ps} | {m.chi2:.1f} | {m.delta:.1f} | {loo} |")
+    g = result.gain
     fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"
     lines += [
         "",
         "## Gain",
         "",
-        f"Held-out (leave one operating point out) RMS error: {fmt(g['loo_rmse_before_K'])} "
-        f"before, {fmt(g['loo_rmse_after_K'])} after; in-sample RMS {fmt(g['rmse_before_K'])} "
-        f"before, "
-        f"{fmt(g['rmse_after_K'])} after.",
+        f"Held-out (leave one operating point out) RMS error: {fmt(g.loo_rmse_before_K)} "
+        f"before, {fmt(g.loo_rmse_after_K)} after; in-sample RMS {fmt(g.rmse_before_K)} "
+        f"before, {fmt(g.rmse_after_K)} after.",
     ]
-    if result.get("refined"):
-        c = result["refined"]
+    if result.refined is not None:
+        c = result.refined
         ps = ", ".join(
-            f"{n} = {c['params'][n]:.4g} [{c['intervals'][n][0]:.4g}, {c['intervals'][n][1]:.4g}]"
-            for n in c["params"]
+            f"{n} = {c.params[n]:.4g} [{c.intervals[n][0]:.4g}, {c.intervals[n][1]:.4g}]"
+            for n in c.params
         )
         lines += [
             "",
             f"Full-model confirmation of the chosen model (surrogate corrected by the full model "
             f"at the "
-            f"optimum, refitted): {ps}; full-model RMS error {c['full_rmse_K']:.2f} K; "
-            f"correction applied "
-            f"{c['max_correction_K'][0]:.2f} K, remaining full-vs-corrected difference "
-            f"{c['full_vs_corrected_max_K']:.2f} K.",
+            f"optimum, refitted): {ps}; full-model RMS error {c.full_rmse_K:.2f} K; "
+            f"correction applied {c.max_correction_K[0]:.2f} K, remaining full-vs-corrected "
+            f"difference {c.full_vs_corrected_max_K:.2f} K.",
         ]
-    if v.get("separate_by"):
+    if v.separate_by:
         lines += ["", "## Measurements that would separate the rivals (predicted differences)", ""]
         lines += [
-            f"- {s['measurement']}: {'+'.join(s['rival'])} differs by {s['difference_K']:.1f} K"
-            for s in v["separate_by"]
+            f"- {s.measurement}: {'+'.join(s.rival)} differs by {s.difference_K:.1f} K"
+            for s in v.separate_by
         ]
     lines += [
         "",
@@ -284,4 +275,28 @@ def markdown(result: dict, data: Dataset) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["markdown", "run_diagnosis"]
+@dataclasses.dataclass(frozen=True)
+class DiagnosisReport(JsonRecord):
+    """A diagnosis with what it was made of (``diagnosis.json``: the diagnosis' fields, then the
+    data, the case name, the V&V 20 table, the surrogate check and the candidate library)."""
+
+    diagnosis: Diagnosis
+    data: dict[str, Any]
+    case: str
+    vv20: dict[str, Any]
+    surrogate: dict[str, Any]
+    candidates: dict[str, Any]
+
+    def to_json(self) -> dict[str, Any]:
+        out = self.diagnosis.to_json()
+        out.update({k: v for k, v in super().to_json().items() if k != "diagnosis"})
+        return out
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> DiagnosisReport:
+        own = ("data", "case", "vv20", "surrogate", "candidates")
+        rest = {k: v for k, v in data.items() if k not in own}
+        return cls(Diagnosis.from_json(rest), *(data[k] for k in own))
+
+
+__all__ = ["DiagnosisReport", "markdown", "run_diagnosis"]

@@ -24,6 +24,7 @@ Held-out error: leave one operating point out, refit, predict it (RMS over its m
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Callable
 
@@ -31,11 +32,107 @@ import numpy as np
 from scipy import optimize, stats
 
 from gearfem.core.params import require_nonnegative
+from gearfem.core.results import JsonRecord
 from gearfem.diagnose.candidates import LIBRARY, Candidate, by_name
 from gearfem.diagnose.data import Dataset, Measurement
 
 Predict = Callable[[Dataset, dict[str, float]], np.ndarray]
 CHI2_95 = 3.841
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelFit(JsonRecord):
+    """One fitted model: a set of candidates with their parameters and its evidence."""
+
+    candidates: tuple[str, ...]
+    params: dict[str, float]
+    chi2: float
+    k: int
+    criterion: float
+    delta: float  # criterion minus the best model's
+    intervals: dict[str, list[float]]  # 95 % profile interval per parameter (top models)
+    spans_prior: tuple[str, ...]  # parameters whose interval is the whole prior
+    loo_rmse_K: float | None  # leave one operating point out RMS error (top models)
+    predictions_C: list[float] | None
+
+    @property
+    def label(self) -> str:
+        return "+".join(self.candidates) or "baseline"
+
+
+@dataclasses.dataclass(frozen=True)
+class Separation(JsonRecord):
+    """A measurement that would separate the chosen model from a rival."""
+
+    rival: tuple[str, ...]
+    measurement: str
+    difference_K: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Verdict(JsonRecord):
+    """What the data say: ``kind`` is "identified", "partial", "not identifiable", "baseline
+    adequate" or "unexplained"."""
+
+    kind: str
+    chosen: tuple[str, ...]
+    competitors: tuple[tuple[str, ...], ...]
+    chi2_p_value: float
+    text: str = ""
+    unconstrained: tuple[str, ...] = ()
+    separate_by: tuple[Separation, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class Gain(JsonRecord):
+    """Errors before (baseline) and after (chosen model)."""
+
+    loo_rmse_before_K: float | None
+    loo_rmse_after_K: float | None
+    rmse_before_K: float | None
+    rmse_after_K: float | None
+
+
+@dataclasses.dataclass(frozen=True)
+class Refinement(JsonRecord):
+    """The chosen model confirmed on the full model (surrogate corrected at the optimum)."""
+
+    params: dict[str, float]
+    intervals: dict[str, list[float]]
+    chi2: float
+    max_correction_K: list[float]
+    full_rmse_K: float | None = None
+    full_vs_corrected_max_K: float | None = None
+    full_C: list[float] | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Diagnosis(JsonRecord):
+    """The ranked models, the verdict and the gain of one diagnosis."""
+
+    n_measurements: int
+    n_effective: float
+    criterion: str  # "AICc" or "AIC"
+    u_model_K: float
+    thresholds: dict[str, float]
+    models: tuple[ModelFit, ...]
+    verdict: Verdict
+    chosen: tuple[str, ...]
+    gain: Gain
+    refined: Refinement | None = None
+
+    def fit_of(self, candidates) -> ModelFit:
+        """The fitted model of exactly these candidates."""
+        want = tuple(candidates)
+        return next(m for m in self.models if m.candidates == want)
+
+    @property
+    def chosen_fit(self) -> ModelFit:
+        return self.fit_of(self.chosen)
+
+    @property
+    def baseline_fit(self) -> ModelFit:
+        return self.fit_of(())
 
 
 def _sigma(data: Dataset, u_model_K: float) -> np.ndarray:
@@ -172,10 +269,10 @@ def diagnose(
     tie: float = 2.0,
     probes: Dataset | None = None,
     intervals: bool = True,
-) -> dict:
+) -> Diagnosis:
     """Fit, rank and judge every model of up to ``max_size`` candidates (see the module docstring).
 
-    Returns a JSON-able dict: ``models`` (ranked), ``verdict``, ``gain``, counts.
+    Returns the :class:`Diagnosis`: ``models`` (ranked), ``verdict``, ``gain``, counts.
     """
     require_nonnegative("diagnose.u_model_K", u_model_K)
     n = data.n_effective()
@@ -283,22 +380,48 @@ def diagnose(
             [r for r in results if r["candidates"] in verdict["competitors"]],
         )
     verdict["text"] = verdict_text(verdict, chosen, library)
-    return {
-        "n_measurements": len(data),
-        "n_effective": n,
-        "criterion": kind,
-        "u_model_K": u_model_K,
-        "thresholds": {"detect": detect, "tie": tie},
-        "models": results,
-        "verdict": verdict,
-        "chosen": chosen["candidates"],
-        "gain": {
-            "loo_rmse_before_K": base["loo_rmse_K"],
-            "loo_rmse_after_K": chosen["loo_rmse_K"],
-            "rmse_before_K": _rmse(base, data),
-            "rmse_after_K": _rmse(chosen, data),
-        },
-    }
+    return Diagnosis(
+        n_measurements=len(data),
+        n_effective=n,
+        criterion=kind,
+        u_model_K=u_model_K,
+        thresholds={"detect": detect, "tie": tie},
+        models=tuple(_model_fit(r) for r in results),
+        verdict=Verdict(
+            kind=verdict["kind"],
+            chosen=tuple(verdict["chosen"]),
+            competitors=tuple(tuple(c) for c in verdict["competitors"]),
+            chi2_p_value=verdict["chi2_p_value"],
+            text=verdict["text"],
+            unconstrained=tuple(verdict.get("unconstrained", ())),
+            separate_by=tuple(
+                Separation(tuple(x["rival"]), x["measurement"], x["difference_K"])
+                for x in verdict.get("separate_by", ())
+            ),
+        ),
+        chosen=tuple(chosen["candidates"]),
+        gain=Gain(
+            loo_rmse_before_K=base["loo_rmse_K"],
+            loo_rmse_after_K=chosen["loo_rmse_K"],
+            rmse_before_K=_rmse(base, data),
+            rmse_after_K=_rmse(chosen, data),
+        ),
+    )
+
+
+def _model_fit(r: dict) -> ModelFit:
+    return ModelFit(
+        candidates=tuple(r["candidates"]),
+        params=dict(r["params"]),
+        chi2=r["chi2"],
+        k=r["k"],
+        criterion=r["criterion"],
+        delta=r["delta"],
+        intervals=dict(r["intervals"]),
+        spans_prior=tuple(r["spans_prior"]),
+        loo_rmse_K=r["loo_rmse_K"],
+        predictions_C=r["predictions_C"],
+    )
 
 
 def _rmse(r: dict, data: Dataset) -> float | None:
@@ -370,33 +493,46 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
     return text
 
 
-__all__ = ["chi2", "diagnose", "fit", "leave_one_point_out", "profile_interval", "refine"]
+__all__ = [
+    "Diagnosis",
+    "Gain",
+    "ModelFit",
+    "Refinement",
+    "Separation",
+    "Verdict",
+    "chi2",
+    "diagnose",
+    "fit",
+    "leave_one_point_out",
+    "profile_interval",
+    "refine",
+]
 
 
 def refine(
     full_predict: Predict,
     surrogate_predict: Predict,
     data: Dataset,
-    result: dict,
+    result: Diagnosis,
     iterations: int = 1,
     final_check: bool = True,
     u_model_K: float | None = None,
     library: tuple[Candidate, ...] = LIBRARY,
-) -> dict | None:
+) -> Diagnosis:
     """Confirm the chosen model on the full model and remove the surrogate's bias at the optimum.
 
     Output space mapping: with delta = S_full(p*) - S_surrogate(p*) per measurement, the corrected
     surrogate S_surrogate(p) + delta equals the full model at p* and keeps the surrogate's
     derivatives; it is refitted (``iterations`` times, each costing one full-model run per
     operating point) and its profile intervals replace the surrogate's. ``final_check`` runs the
-    full model once more at the refined parameters. Adds ``result["refined"]`` and returns it.
+    full model once more at the refined parameters. Returns ``result`` with ``refined`` set
+    (unchanged when no candidate was chosen).
     """
-    if not result["chosen"]:
-        return None
-    u_model_K = result["u_model_K"] if u_model_K is None else u_model_K
-    names = tuple(result["chosen"])
-    chosen = next(m for m in result["models"] if m["candidates"] == list(names))
-    params = dict(chosen["params"])
+    if not result.chosen:
+        return result
+    u_model_K = result.u_model_K if u_model_K is None else u_model_K
+    names = result.chosen
+    params = dict(result.chosen_fit.params)
     corrections = []
     corrected = surrogate_predict
     for _ in range(iterations):
@@ -411,12 +547,16 @@ def refine(
     for name in names:
         lo, hi, _ = profile_interval(corrected, data, names, name, c2, u_model_K, library)
         ivs[name] = [lo, hi]
-    out = {"params": params, "intervals": ivs, "chi2": c2, "max_correction_K": corrections}
+    check = {}
     D = np.array([m.value_C for m in data.measurements])
     if final_check:
         F = full_predict(data, params)
-        out["full_rmse_K"] = float(np.sqrt(np.mean((F - D) ** 2)))
-        out["full_vs_corrected_max_K"] = float(np.max(np.abs(F - corrected(data, params))))
-        out["full_C"] = F.tolist()
-    result["refined"] = out
-    return out
+        check = {
+            "full_rmse_K": float(np.sqrt(np.mean((F - D) ** 2))),
+            "full_vs_corrected_max_K": float(np.max(np.abs(F - corrected(data, params)))),
+            "full_C": F.tolist(),
+        }
+    refined = Refinement(
+        params=params, intervals=ivs, chi2=c2, max_correction_K=corrections, **check
+    )
+    return dataclasses.replace(result, refined=refined)
