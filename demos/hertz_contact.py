@@ -45,10 +45,33 @@ Run:
     mpirun -n 2 python demos/hertz_contact.py --out results/demos/hertz_contact_np2
 """
 
+# %% [markdown]
+# # Hertz line contact, step by step
+#
+# This demo shows the contact API of gearfem on the classic verification problem: two elastic
+# half-cylinders of radius R pressed together in plane strain. The steps are those of any
+# two-body contact problem in gearfem:
+#
+# 1. a mesh with named volumes and facets (gmsh through ``gearfem.contact.verification``),
+# 2. a quadratic vector function space and Dirichlet conditions (plain DOLFINx),
+# 3. one :class:`~gearfem.contact.ContactSurface` per body (the facets that may touch),
+# 4. a :class:`~gearfem.contact.ContactInterface` between them (penalty or augmented Lagrangian,
+#    Coulomb friction),
+# 5. a :class:`~gearfem.contact.ContactProblem` (elasticity + contact, Newton), solved,
+# 6. the result compared with Hertz (Johnson, *Contact Mechanics*, §4.2):
+#
+# $$ a = \sqrt{\frac{4 P' R^*}{\pi E^*}}, \qquad p_0 = \frac{2 P'}{\pi a}, \qquad
+#    p(x) = p_0 \sqrt{1 - x^2/a^2}, \qquad \frac{1}{R^*} = \frac{2}{R},\quad
+#    \frac{1}{E^*} = \frac{2 (1 - \nu^2)}{E}. $$
+#
+# The contact traction on the slave surface is $t = p\,(n_m - \mu \hat s)$ with
+# $p = \langle \lambda - \varepsilon g \rangle$ (gap $g$, penalty $\varepsilon$, multiplier
+# $\lambda$ updated by Uzawa steps in the augmented Lagrangian method).
+
+# %%
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
 import json
 import os
@@ -57,17 +80,27 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py with the PyPI wheel)
+
+# isort: split
+import dolfinx
+from dolfinx import fem
 from mpi4py import MPI
 
-import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-from gearfem.contact import ContactOptions, RigidMotion
+from gearfem.contact import (
+    ContactInterface,
+    ContactOptions,
+    ContactProblem,
+    ContactSurface,
+    RigidMotion,
+    fixed_mask,
+)
 from gearfem.contact.output import gather_points, summary, write_vtx
-from gearfem.contact.verification import compare_hertz, hertz_case, hertz_pressure
+from gearfem.contact.plots import plot_hertz_pressure, write_hertz_csv
+from gearfem.contact.verification import ContactCase, compare_hertz, hertz_cylinders
 from gearfem.core.provenance import versions
 
-RADIUS_M = 1.0  # both cylinders (hertz_case geometry)
-_METHOD_NAMES = {"penalty": "penalty", "augmented_lagrangian": "augmented Lagrangian"}
+RADIUS_M = 1.0  # both cylinders
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -96,155 +129,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-def plot_pressure(path: Path, table, cmp, info: dict) -> None:
-    """FE pressure at the integration points against Hertz (rank 0 only: no MPI in here)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    a, p0 = cmp.a_analytic_m, cmp.p0_analytic_Pa
-    xa = table.x_reference[:, 0] / a  # Hertz's theory is small-strain: positions before deformation
-    view = np.abs(xa) <= 1.5
-    fig, (ax, ax_err) = plt.subplots(
-        2, 1, figsize=(7.2, 6.6), sharex=True, height_ratios=(3, 1.25), constrained_layout=True
-    )
-    s = np.linspace(-1.5, 1.5, 1201)
-    ax.plot(
-        s,
-        hertz_pressure(s, 1.0, 1.0),
-        color="black",
-        lw=1.6,
-        label=r"Hertz $p_0\sqrt{1-x^2/a^2}$",
-        zorder=3,
-    )
-    styles = [dict(marker="o", color="tab:blue"), dict(marker="^", color="tab:orange")]
-    for k, name in enumerate(table.slaves):
-        sel = view & (table.pass_index == k)
-        ax.scatter(
-            xa[sel],
-            table.pressure[sel] / p0,
-            s=11,
-            alpha=0.55,
-            lw=0,
-            label=f"FE, slave: {name}",
-            zorder=2,
-            **styles[k],
-        )
-        err = (table.pressure[sel] - hertz_pressure(table.x_reference[sel, 0], a, p0)) / p0
-        ax_err.scatter(xa[sel], 100.0 * err, s=9, alpha=0.55, lw=0, **styles[k])
-    mu = info["friction_coefficient"]
-    if mu > 0.0:
-        q = np.linalg.norm(table.shear, axis=1)
-        ax.scatter(
-            xa[view], q[view] / p0, s=6, color="tab:green", alpha=0.5, lw=0, label=r"FE shear $|q|$"
-        )
-        ax.plot(
-            s,
-            mu * hertz_pressure(s, 1.0, 1.0),
-            color="tab:green",
-            lw=1.2,
-            ls="--",
-            label=r"$\mu\,p$ (Hertz)",
-        )
-    ax.axhline(0.0, color="0.6", lw=0.6)
-    for v in (-1.0, 1.0):
-        ax.axvline(v, color="0.6", lw=0.6, ls=":")
-        ax_err.axvline(v, color="0.6", lw=0.6, ls=":")
-    ax_err.axhline(0.0, color="0.6", lw=0.6)
-    ax.set_xlim(-1.5, 1.5)
-    ax.set_ylim(-0.05, 1.2)
-    ax.set_ylabel(r"contact pressure $p / p_0$")
-    ax_err.set_xlabel(r"position across the contact (undeformed) $x / a$")
-    ax_err.set_ylabel(r"$(p - p_{\rm Hertz}) / p_0$  [%]")
-    top = ax.secondary_xaxis("top", functions=(lambda u: u * a * 1e3, lambda v: v / (a * 1e3)))
-    top.set_xlabel("x [mm]")
-    right = ax.secondary_yaxis("right", functions=(lambda u: u * p0, lambda v: v / p0))
-    right.set_ylabel("p [Pa]")
-    ranks = f"{info['ranks']} rank{'s' if info['ranks'] > 1 else ''}"
-    ax.set_title(
-        f"Hertz line contact, {info['dofs']:,} DOFs on {ranks}: "
-        f"$p_0$ {100 * cmp.p0_error:+.2f} %, $a$ {100 * cmp.a_error:+.2f} %",
-        fontsize=10.5,
-    )
-    txt = (
-        f"R = {RADIUS_M:g} m (both), E = {info['youngs_modulus_Pa']:g} Pa, ν = "
-        f"{info['poissons_ratio']:g}\n"
-        f"P' = {cmp.force_per_length_N_m:.4g} N/m → a = {a * 1e3:.3f} mm, $p_0$ = {p0:.4g} Pa\n"
-        f"h = {info['contact_size_m'] * 1e3:g} mm = a/{a / info['contact_size_m']:.1f}, "
-        f"{_METHOD_NAMES[info['method']]}, μ = {mu:g}\n"
-        f"a from pressure moments; ellipse fit: {100 * (cmp.a_fit_m / a - 1):+.2f} %\n"
-        f"x: undeformed position of the integration points"
-    )
-    ax.text(
-        0.015,
-        0.975,
-        txt,
-        transform=ax.transAxes,
-        va="top",
-        ha="left",
-        fontsize=8,
-        bbox=dict(boxstyle="round", fc="white", ec="0.8", alpha=0.9),
-    )
-    ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
-    fig.savefig(tmp, dpi=150)
-    plt.close(fig)
-    os.replace(tmp, path)
-
-
-def write_csv(path: Path, table, cmp) -> None:
-    """The integration points with the Hertz pressure at the same (undeformed) x (rank 0 only)."""
-    a, p0 = cmp.a_analytic_m, cmp.p0_analytic_Pa
-    ph = hertz_pressure(table.x_reference[:, 0], a, p0)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with open(tmp, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(
-            [
-                "pass",
-                "slave_surface",
-                "x_ref_m",
-                "y_ref_m",
-                "z_ref_m",
-                "x_m",
-                "y_m",
-                "z_m",
-                "x_ref_over_a",
-                "gap_m",
-                "pressure_Pa",
-                "p_over_p0",
-                "p_hertz_Pa",
-                "traction_x_Pa",
-                "traction_y_Pa",
-                "traction_z_Pa",
-                "normal_x",
-                "normal_y",
-                "normal_z",
-                "weight_m2",
-            ]
-        )
-        for i in range(table.num_points):
-            k = int(table.pass_index[i])
-            w.writerow(
-                [
-                    k,
-                    table.slaves[k],
-                    *(f"{v:.10e}" for v in table.x_reference[i]),
-                    *(f"{v:.10e}" for v in table.x[i]),
-                    f"{table.x_reference[i, 0] / a:.6f}",
-                    f"{table.gap[i]:.6e}",
-                    f"{table.pressure[i]:.10e}",
-                    f"{table.pressure[i] / p0:.6f}",
-                    f"{ph[i]:.10e}",
-                    *(f"{v:.10e}" for v in table.traction[i]),
-                    *(f"{v:.8f}" for v in table.normal[i]),
-                    f"{table.weight[i]:.10e}",
-                ]
-            )
-    os.replace(tmp, path)
-
-
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     comm = MPI.COMM_WORLD
@@ -252,40 +136,108 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out
     if rank == 0:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "summary.json").unlink(
-            missing_ok=True
-        )  # a stale marker must not survive a failed run
+        (out / "summary.json").unlink(missing_ok=True)  # a stale marker must not survive a failure
     comm.barrier()
-
-    # --- problem: mesh, spaces, contact interface (all collective) -------------------------------
     t0 = time.perf_counter()
+
+    # %% [markdown]
+    # ## 1. Mesh
+    # Two half-discs of radius R extruded over the slab thickness, meshed separately (curved P2
+    # tetrahedra, non-matching at the contact), graded to ``contact_size`` near the contact line.
+    # Named groups: volumes ``upper``/``lower``; facets ``{body}_flat``, ``{body}_curved``,
+    # ``{body}_front``, ``{body}_back``.
+
+    # %%
+    thickness = args.thickness if args.thickness is not None else 2.0 * args.contact_size
+    md = hertz_cylinders(
+        comm,
+        radius=RADIUS_M,
+        thickness=thickness,
+        contact_size=args.contact_size,
+        far_size=0.2,
+        refine_half_width=0.12 * RADIUS_M,
+        layers=args.layers,
+    )
+    t_mesh = time.perf_counter() - t0
+
+    # %% [markdown]
+    # ## 2. Function space and supports
+    # Quadratic Lagrange displacements. Plane strain: $u_z = 0$ on the front and back faces; the
+    # lower flat face is clamped in the plane, the upper one moves down by the compression.
+
+    # %%
+    V = fem.functionspace(md.mesh, ("Lagrange", 2, (3,)))
+
+    def component_bc(group: str, component: int, value: float):
+        facets = md.facet_tags.find(md.physical_groups[group].tag)
+        dofs = fem.locate_dofs_topological(V.sub(component), 2, facets)
+        return fem.dirichletbc(dolfinx.default_scalar_type(value), dofs, V.sub(component))
+
+    bcs = []
+    for body in ("upper", "lower"):
+        bcs += [component_bc(f"{body}_front", 2, 0.0), component_bc(f"{body}_back", 2, 0.0)]
+    bcs += [component_bc("lower_flat", c, 0.0) for c in range(2)]
+    bcs += [component_bc("upper_flat", 0, 0.0), component_bc("upper_flat", 1, -args.compression)]
+    mask = fixed_mask(V, bcs)  # contact never acts on Dirichlet dofs
+
+    # %% [markdown]
+    # ## 3. Contact surfaces and interface
+    # Each body's candidate contact facets; the interface pairs them (two-pass: each surface is
+    # slave once), with the penalty $\varepsilon = F\,E/h$ per slave facet.
+
+    # %%
     options = ContactOptions(
         method=args.method,
         penalty_factor=args.penalty_factor,
         friction_coefficient=args.friction,
-        search_distance_rel=2.0,
-    )  # curved surfaces: search two facet sizes deep
-    case = hertz_case(
-        comm,
-        options,
-        contact_size=args.contact_size,
-        compression_m=args.compression,
-        radius=RADIUS_M,
-        youngs_modulus_Pa=args.youngs_modulus,
-        poissons_ratio=args.poissons_ratio,
-        layers=args.layers,
-        thickness_m=args.thickness,
+        search_distance_rel=2.0,  # curved surfaces: search two facet sizes deep
     )
-    problem = case.problem
-    if args.friction > 0.0:  # gross slip: the upper body slides in +x (kinematic slip direction)
-        problem.set_motion("upper", RigidMotion(velocity_m_s=(args.sliding_speed, 0.0, 0.0)))
-    t_build = time.perf_counter() - t0
 
-    # --- solve --------------------------------------------------------------------------------
+    def surface(group: str, body: str) -> ContactSurface:
+        facets = md.facet_tags.find(md.physical_groups[group].tag)
+        return ContactSurface(V, facets, body, mask, name=group)
+
+    E, nu = args.youngs_modulus, args.poissons_ratio
+    interface = ContactInterface(
+        surface("lower_curved", "lower"),
+        surface("upper_curved", "upper"),
+        options,
+        {"lower": E, "upper": E},
+    )
+
+    # %% [markdown]
+    # ## 4. Contact problem
+    # Linear elasticity (Lamé μ, λ) plus the contact residual, solved by Newton (and Uzawa passes
+    # for the augmented Lagrangian). With friction the upper body slides in +x (gross slip): the
+    # slip direction comes from the bodies' rigid velocities.
+
+    # %%
+    lame_mu, lame_lambda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
+    motions = {"lower": RigidMotion(), "upper": RigidMotion()}
+    if args.friction > 0.0:
+        motions["upper"] = RigidMotion(velocity_m_s=(args.sliding_speed, 0.0, 0.0))
+    problem = ContactProblem(
+        V,
+        lame_mu,
+        lame_lambda,
+        bcs,
+        [interface],
+        motions,
+        options,
+        petsc_options_prefix="gearfem_hertz_",
+    )
+    case = ContactCase(problem, md, E, nu, thickness_m=thickness)
+    t_build = time.perf_counter() - t0
     report = problem.solve("hertz")
     t_solve = report.wall_time_s
 
-    # --- compare with Hertz, gather the points (collective) ---------------------------------------
+    # %% [markdown]
+    # ## 5. Compare with Hertz
+    # The force per length $P'$ the FE model carries sets Hertz's $a$ and $p_0$; the FE half-width
+    # comes from the pressure moments $a = 2\sqrt{\int x^2 p\,dA / \int p\,dA}$ (exact for the
+    # ellipse), positions taken in the undeformed configuration as in Hertz's theory.
+
+    # %%
     cmp = compare_hertz(case, radius=RADIUS_M)
     table = gather_points(problem)
     totals = summary(problem)
@@ -299,7 +251,12 @@ def main(argv: list[str] | None = None) -> int:
     ver = versions(comm)
     comm.barrier()
 
-    # --- files (rank 0) -----------------------------------------------------------------------
+    # %% [markdown]
+    # ## 6. Files
+    # The picture and the table come from library helpers (:mod:`gearfem.contact.plots`);
+    # ``summary.json`` is written last.
+
+    # %%
     info = dict(
         dofs=case.num_dofs(),
         ranks=comm.size,
@@ -308,6 +265,7 @@ def main(argv: list[str] | None = None) -> int:
         poissons_ratio=args.poissons_ratio,
         method=args.method,
         friction_coefficient=args.friction,
+        radius_m=RADIUS_M,
     )
     if rank == 0:
         vtx = out / "hertz_contact.bp"
@@ -315,8 +273,8 @@ def main(argv: list[str] | None = None) -> int:
             shutil.rmtree(vtx)
         os.replace(vtx_tmp, vtx)
         png, csv_path = out / "hertz_pressure.png", out / "hertz_pressure.csv"
-        plot_pressure(png, table, cmp, info)
-        write_csv(csv_path, table, cmp)
+        plot_hertz_pressure(png, table, cmp, info)
+        write_hertz_csv(csv_path, table, cmp)
         result = {
             "case": {
                 "radius_m": RADIUS_M,
@@ -356,7 +314,12 @@ def main(argv: list[str] | None = None) -> int:
                 "penetration_tolerance_m": pen_tol,
             },
             "contact": dataclasses.asdict(totals),
-            "wall_time_s": {"build": t_build, "solve": t_solve, "total": time.perf_counter() - t0},
+            "wall_time_s": {
+                "mesh": t_mesh,
+                "build": t_build,
+                "solve": t_solve,
+                "total": time.perf_counter() - t0,
+            },
             "versions": ver,
         }
         tmp = out / f".summary.json.tmp{os.getpid()}"

@@ -26,6 +26,18 @@ Run:
     mpirun -n 2 python demos/study.py        # two operating points at a time
 """
 
+# %% [markdown]
+# # A speed × torque study, step by step
+#
+# A study is a case file plus a ``[study]`` table of operating points. For each torque the
+# structural cycle is solved once (quasi-static: it does not depend on speed) and cached; for each
+# speed the thermal model takes the cycle's sources at that speed — the friction flux
+# $q = \mu p v_s$ scales with the speed, the hysteresis heat $H(T) U_{max} f$ with $f = n/60$ —
+# and the thesis convection at that speed. Steps: write the study file → :func:`load_study`
+# (validated) → :func:`run_study` (resumable; ``parallel`` says whether ranks share one point or
+# take one point each) → the typed :class:`~gearfem.study.StudyResult` and its table and plots.
+
+# %%
 from __future__ import annotations
 
 import argparse
@@ -61,6 +73,11 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     out = Path(args.out)
+
+    # %% [markdown]
+    # ## 1. The study file: the case tables plus [study]
+
+    # %%
     study = {
         "name": "thesis gears: speed x torque (coarse mesh)",
         "mesh": COARSE_MESH,
@@ -81,6 +98,11 @@ def main(argv=None) -> int:
         out.mkdir(parents=True, exist_ok=True)
         (out / "study.toml").write_text(tomli_w.dumps(study))
     comm.barrier()
+
+    # %% [markdown]
+    # ## 2. Run (or resume) and read the typed result
+
+    # %%
     res = run_study(load_study(out / "study.toml"), out, comm)
     if comm.rank == 0:
         print(

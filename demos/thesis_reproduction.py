@@ -34,6 +34,18 @@ Run:
     mpirun -n 2 python demos/thesis_reproduction.py
 """
 
+# %% [markdown]
+# # Reproducing the thesis, step by step
+#
+# Each operating point is a :class:`~gearfem.config.Case` (the thesis model choices, the point's
+# speed, torque and duration). The chain of one point is :func:`gearfem.pipeline.run`: the pair
+# mesh → the structural cycle at the torque (cached) → heat sources at the speed (hysteresis
+# $H(T)U_{max}f$, friction $\mu p v_s$ averaged over a revolution and split between the gears)
+# → the transient temperature of the pinion → a typed :class:`~gearfem.pipeline.RunSummary`.
+# Here: build the meshes once, solve one cycle per torque, then every thermal run, the work
+# dealt to the ranks with :func:`gearfem.study.dispatch`.
+
+# %%
 from __future__ import annotations
 
 import argparse
@@ -48,6 +60,7 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
+from gearfem.geometry.mesh import build_gear_mesh
 from gearfem.geometry.options import MeshOptions
 from gearfem.pipeline import RunSummary
 from gearfem.study import dispatch, is_done, parallel_mode
@@ -220,11 +233,19 @@ def main(argv=None) -> int:
         (out / "cases").mkdir(parents=True, exist_ok=True)
         (out / "summary.json").unlink(missing_ok=True)
     comm.barrier()
+
+    # %% [markdown]
+    # ## 1. Meshes (the pair for the cycle, one gear for the thermal model), built once
+
+    # %%
     c0 = todo[0][1]
     pipeline.pair_mesh(c0, comm)
-    from gearfem.geometry.mesh import build_gear_mesh
+    build_gear_mesh(c0.geometry, c0.thermal_mesh_options, comm, bodies=("pinion",))
 
-    build_gear_mesh(c0.geometry, c0.mesh, comm, bodies=("pinion",))
+    # %% [markdown]
+    # ## 2. One structural cycle per torque (cached), then every operating point
+
+    # %%
     reps = {}
     for _, c, _ in todo:
         reps.setdefault(c.operating.torque_Nm, c)
@@ -243,6 +264,11 @@ def main(argv=None) -> int:
             item[1], out / "cases" / item[0], sub, progress=False, write_fields=False
         ),
     )
+
+    # %% [markdown]
+    # ## 3. Ours vs the thesis vs the bench, from the typed summaries
+
+    # %%
     if comm.rank == 0:
         rows = []
         for lab, c, meta in todo:

@@ -74,3 +74,52 @@ def test_hertz_contact_demo(tmp_path):
     np.testing.assert_allclose(
         col("p_hertz_Pa"), expected, rtol=1e-8, atol=1e-12 * s["hertz"]["p0_Pa"]
     )
+
+
+def _load_demo(name: str):
+    """The demo module (its ``main(argv)``), imported from demos/ by path."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"demo_{name}", ROOT / "demos" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_thermal_gear_demo(tmp_path):
+    """Serial run: files complete, heat balance closed, the gear heats above ambient."""
+    out = tmp_path / "thermal"
+    proc = _run_demo("thermal_gear.py", ["--duration-s", "300", "--out", str(out)], tmp_path)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [
+        "temperature.bp",
+        "thermal_history.csv",
+        "thermal_history.png",
+        "thermal_summary.json",
+    ]
+    s = json.loads((out / "thermal_summary.json").read_text())
+    assert s["time_s"] == pytest.approx(300.0)
+    assert s["max_relative_imbalance"] < 1e-9
+    assert s["final_temperatures_C"]["max_surface"] > s["final_temperatures_C"]["mean_bulk"] > 23.0
+
+
+@pytest.mark.mpi
+def test_demos_on_all_ranks(tmp_out):
+    """The literate demos run in-process on every rank of the communicator (under
+    ``mpirun -n 2`` in CI) and give the serial results' physics: Hertz within 3 %, the thermal
+    balance closed."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    out = Path(comm.bcast(str(tmp_out / "demos_all_ranks"), root=0))
+    assert (
+        _load_demo("hertz_contact").main(["--contact-size", "0.014", "--out", str(out / "h")]) == 0
+    )
+    assert _load_demo("thermal_gear").main(["--duration-s", "300", "--out", str(out / "t")]) == 0
+    comm.barrier()
+    s = json.loads((out / "h" / "summary.json").read_text())
+    assert s["ranks"] == comm.size
+    assert abs(s["errors"]["p0"]) < 0.03 and abs(s["errors"]["a_moments"]) < 0.03
+    t = json.loads((out / "t" / "thermal_summary.json").read_text())
+    assert t["max_relative_imbalance"] < 1e-9
