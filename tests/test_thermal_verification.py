@@ -20,6 +20,7 @@ from mpi4py import MPI
 from scipy.optimize import brentq
 from thermal_meshes import box_domain, sector_domain, square_domain
 
+from gearfem.core.gci import grid_convergence
 from gearfem.core.materials import ZERO_CELSIUS_K, Material, TemperatureTable
 from gearfem.core.materials import STEFAN_BOLTZMANN_W_m2K4 as SIGMA
 from gearfem.thermal import (
@@ -79,10 +80,8 @@ def _mms_options(**kw):
     )
 
 
-@pytest.mark.parametrize("degree, sizes, order", [(1, (8, 16, 32), 2.0), (2, (4, 8, 16), 3.0)])
-@pytest.mark.parametrize("k_of_T", [False, True])
-def test_mms_spatial_order(degree, sizes, order, k_of_T):
-    """Steady manufactured solution: L2 error falls as h^(p+1) (rates from three meshes)."""
+def _mms_steady_errors(degree: int, sizes, k_of_T: bool) -> list[float]:
+    """L2 errors of the steady manufactured solution on n x n meshes of the unit square."""
     mat = Material(
         density_kg_m3=1.0,
         specific_heat_J_kgK=1.0,
@@ -108,9 +107,30 @@ def test_mms_spatial_order(degree, sizes, order, k_of_T):
         rec = prob.solve_steady()
         assert rec.balance.relative_imbalance < 1e-9
         errors.append(_l2(dom.comm, prob.T - T_exact(ufl.SpatialCoordinate(dom.mesh), 0.0)))
+    return errors
+
+
+@pytest.mark.parametrize("degree, sizes, order", [(1, (8, 16, 32), 2.0), (2, (4, 8, 16), 3.0)])
+@pytest.mark.parametrize("k_of_T", [False, True])
+def test_mms_spatial_order(degree, sizes, order, k_of_T):
+    """Steady manufactured solution: L2 error falls as h^(p+1) (rates from three meshes)."""
+    errors = _mms_steady_errors(degree, sizes, k_of_T)
     rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert rates[-1] == pytest.approx(order, abs=0.1), (errors, rates)
     assert rates[0] > order - 0.3
+
+
+@pytest.mark.parametrize("degree, sizes", [(1, (8, 12, 18)), (2, (4, 6, 9))])
+def test_gci_recovers_the_mms_order_and_brackets_the_error(degree, sizes):
+    """The refinement tool (gearfem.core.gci) on a quantity with a known exact value: the L2
+    error (exact value 0) on three meshes with r = 1.5. It recovers the order p + 1 and its
+    uncertainty of the finest value brackets the true error of that value."""
+    errors = _mms_steady_errors(degree, sizes, k_of_T=False)
+    conv = grid_convergence(errors, [1.0 / n for n in sizes], formal_order=degree + 1)
+    assert conv.observed_order == pytest.approx(degree + 1, abs=0.15), conv
+    assert conv.asymptotic
+    assert conv.gci >= abs(errors[-1] - 0.0)  # the exact value of an error norm is 0
+    assert abs(conv.extrapolated) < 0.2 * errors[-1]
 
 
 @pytest.mark.parametrize("cp_of_T", [False, True])

@@ -1,0 +1,49 @@
+"""Grid convergence index (gearfem.core.gci) against exact power laws."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from gearfem.core.errors import ParameterError
+from gearfem.core.gci import grid_convergence, representative_size
+
+
+@pytest.mark.parametrize("order", [1.0, 2.0, 3.0])
+def test_exact_power_law_with_unequal_ratios(order):
+    """φ_h = 3 + 2 h^p on h = 0.1, 0.13, 0.2 (r21 ≠ r32): p, φ_ext exact; GCI = 1.25 |φ1 − φ|."""
+    sizes = (0.2, 0.1, 0.13)  # any order
+    values = [3.0 + 2.0 * h**order for h in sizes]
+    c = grid_convergence(values, sizes, formal_order=3.0)
+    assert c.observed_order == pytest.approx(order, rel=1e-9)
+    assert c.extrapolated == pytest.approx(3.0, abs=1e-10)
+    err = abs(c.values[0] - 3.0)
+    assert c.gci == pytest.approx(1.25 * err, rel=1e-8) and c.asymptotic
+    assert c.u_num == pytest.approx(c.gci / 1.15)
+
+
+def test_order_above_the_formal_one_is_not_trusted():
+    sizes = (0.1, 0.2, 0.4)
+    values = [1.0 + h**4 for h in sizes]
+    c = grid_convergence(values, sizes, formal_order=2.0)
+    assert c.observed_order == pytest.approx(4.0) and not c.asymptotic
+    assert c.order_used == 2.0 and c.gci > 1.25 * abs(values[0] - 1.0)
+
+
+def test_oscillatory_convergence_is_flagged_and_bounded_by_the_spread():
+    c = grid_convergence([1.0, 1.1, 0.95], [0.1, 0.2, 0.4])
+    assert not c.asymptotic
+    assert c.gci >= 3.0 * (1.1 - 0.95)
+
+
+def test_converged_and_bad_input():
+    c = grid_convergence([2.0, 2.0, 2.0], [0.1, 0.2, 0.4])
+    assert c.gci == 0.0 and c.extrapolated == 2.0 and math.isnan(c.observed_order)
+    with pytest.raises(ParameterError) as err:
+        grid_convergence([1.0, 2.0], [0.1, 0.2])
+    assert err.value.name == "refinement levels"
+    with pytest.raises(ParameterError) as err:
+        grid_convergence([1.0, 2.0, 3.0], [0.1, 0.1, 0.2])
+    assert err.value.name == "mesh sizes"
+    assert representative_size(1000, 1.0) == pytest.approx(0.1)
