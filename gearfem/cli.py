@@ -7,6 +7,7 @@ prints the versions a bug report needs.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import os
@@ -24,6 +25,7 @@ from gearfem.diagnose.data import read_csv
 from gearfem.diagnose.report import run_diagnosis
 from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair
 from gearfem.pipeline import read_case, run_thermal_case
+from gearfem.refinement import thermal_refinement
 from gearfem.study import load_study, run_study
 
 log = logging.getLogger("gearfem.cli")
@@ -219,6 +221,27 @@ def _cmd_study(args: argparse.Namespace) -> int:
     return 0 if res.complete else 1
 
 
+def _cmd_converge(args: argparse.Namespace) -> int:
+    """Thermal refinement study of a case (gearfem.refinement)."""
+    from mpi4py import MPI
+
+    case = load_case(args.case)
+    if args.duration_s is not None:
+        case = dataclasses.replace(
+            case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s)
+        )
+    study = thermal_refinement(case, args.out, MPI.COMM_WORLD, factor=args.factor)
+    _say(f"thermal refinement of {case.name}: DOFs {', '.join(str(n) for n in study.dofs)}")
+    for r in study.rows:
+        _say(
+            f"  {r.quantity:18s} {r.values[0]:8.2f} C, order {r.observed_order:5.2f}, "
+            f"extrapolated {r.extrapolated:8.2f} C, u_num {r.u_num:6.2f} K"
+            f"{'' if r.asymptotic else ' (not asymptotic)'}"
+        )
+    _say(f"results in {args.out}: refinement.md, refinement.csv, refinement.png, refinement.json")
+    return 0
+
+
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     """Confront a case with measured data: V&V 20, candidate extensions ranked, verdict, gain."""
     from mpi4py import MPI
@@ -367,6 +390,19 @@ def build_parser() -> argparse.ArgumentParser:
         "--list", action="store_true", help="list the operating points with their indices"
     )
     s.set_defaults(func=_cmd_study)
+
+    s = sub.add_parser(
+        "converge",
+        help="thermal mesh refinement study: observed order, extrapolation, GCI and u_num per "
+        "reported temperature",
+    )
+    s.add_argument("case", nargs="?", default=None, help="case TOML (default: built-in thesis)")
+    s.add_argument("--out", required=True, help="output directory")
+    s.add_argument(
+        "--factor", type=float, default=1.5, help="refinement factor between levels, [1.2, 3]"
+    )
+    s.add_argument("--duration-s", type=float, default=None, help="override [thermal] duration_s")
+    s.set_defaults(func=_cmd_converge)
 
     s = sub.add_parser(
         "diagnose", help="confront the model with measured data, name the cause, measure the gain"

@@ -45,6 +45,10 @@ log = logging.getLogger(__name__)
 Request = tuple[str, float | None]  # (quantity, time_s or None = end value)
 
 
+# the packages whose code determines a surrogate table (its cache key hashes their sources)
+_SOURCE_PACKAGES = ("core", "geometry", "contact", "cycle", "coupling", "thermal")
+
+
 class FullModel:
     """The real gearfem forward model (collective over ``comm``).
 
@@ -229,18 +233,19 @@ class Surrogate:
             os.replace(tmp, path)
 
     def _key(self, points) -> str:
-        """Hash of everything the tables depend on: case, points, times, candidates' nodes, code."""
-
+        """Hash of everything the tables depend on: case, points, times, candidates' nodes, and
+        the code of every layer a table value comes through (core, geometry, contact, cycle,
+        coupling, thermal, config, pipeline, this module and the candidates)."""
         root = Path(__file__).resolve().parent.parent
         h = hashlib.sha256()
-        for f in sorted(
-            [
-                *root.glob("thermal/*.py"),
-                root / "sources.py",
-                root / "diagnose" / "forward.py",
-                root / "diagnose" / "candidates.py",
-            ]
-        ):
+        files = [
+            *(f for sub in _SOURCE_PACKAGES for f in (root / sub).glob("*.py")),
+            root / "config.py",
+            root / "pipeline.py",
+            root / "diagnose" / "forward.py",
+            root / "diagnose" / "candidates.py",
+        ]
+        for f in sorted(files):
             h.update(f.read_bytes())
         meta = {
             "case": case_to_dict(self.full.case),

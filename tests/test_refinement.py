@@ -1,0 +1,63 @@
+"""``gearfem converge``: the thermal refinement study of a case (gearfem.refinement)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from gearfem.config import load_case
+from gearfem.core.errors import ParameterError
+from gearfem.geometry.options import MeshOptions
+from gearfem.refinement import RefinementStudy, refined_mesh, thermal_refinement
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _small_case():
+    c = load_case(ROOT / "tests" / "cases" / "coarse.toml")
+    mesh = MeshOptions(
+        teeth_in_model=2,
+        refined_teeth=2,
+        layers=1,
+        size_flank_mm=0.8,
+        size_tip_mm=0.8,
+        size_root_mm=0.8,
+        size_tooth_mm=1.6,
+        size_body_mm=4.0,
+    )
+    return dataclasses.replace(
+        c,
+        thermal_mesh=mesh,
+        sources=dataclasses.replace(c.sources, mode="prescribed", flank_heat_per_gear_W=40.0),
+        thermal=dataclasses.replace(c.thermal, duration_s=120.0, degree=1, output_times_s=()),
+    )
+
+
+def test_refined_mesh_scales_sizes_and_layers():
+    m = refined_mesh(MeshOptions(layers=2, size_flank_mm=0.3), 1.5)
+    assert m.size_flank_mm == pytest.approx(0.2) and m.layers == 3
+    with pytest.raises(ParameterError):
+        refined_mesh(MeshOptions(), 0.5)
+
+
+@pytest.mark.mpi
+def test_thermal_refinement_study(tmp_out, comm):
+    out = tmp_out / "converge"
+    study = thermal_refinement(_small_case(), out, comm, factor=1.5)
+    assert study.dofs[0] < study.dofs[1] < study.dofs[2]
+    assert {r.quantity for r in study.rows} >= {"max_surface", "mean_bulk", "flank_max"}
+    for r in study.rows:
+        assert math.isfinite(r.gci) and r.gci >= 0.0 and r.u_num == pytest.approx(r.gci / 1.15)
+        if r.asymptotic:  # the fine value lies within its GCI of the extrapolation
+            assert abs(r.values[0] - r.extrapolated) <= r.gci * (1 + 1e-9)
+    bulk = study.row("mean_bulk")
+    assert bulk.u_num < 2.0  # the bulk is smooth: well resolved even on these meshes
+    comm.barrier()
+    data = json.loads((out / "refinement.json").read_text())
+    assert RefinementStudy.from_json(data) == study
+    for name in ("refinement.csv", "refinement.md", "refinement.png"):
+        assert (out / name).stat().st_size > 0
