@@ -46,7 +46,7 @@ def synthetic(
     rows = []
     for sp in speeds:
         amb = float(np.round(rng.uniform(*ambient_C), 1))
-        res = full.run(sp, torque_Nm, amb, effects)
+        res = full.evaluate(sp, torque_Nm, amb, effects)
         for q in quantities:
             for t in (None,) if end_only else (*full.times_s, None):
                 rows.append(

@@ -111,7 +111,7 @@ class FullModel:
         case = dataclasses.replace(case, thermal=th)
         return apply_all(case, model, self.library)
 
-    def run(
+    def evaluate(
         self,
         speed_rpm: float,
         torque_Nm: float,
@@ -164,7 +164,7 @@ class FullModel:
         out = []
         for m in data.measurements:
             if m.point not in cache:
-                cache[m.point] = self.run(*m.point, model, transform)
+                cache[m.point] = self.evaluate(*m.point, model, transform)
             out.append(cache[m.point][(m.quantity, m.time_s)])
         return np.array(out)
 
@@ -205,7 +205,7 @@ class Surrogate:
                 self.tables = pickle.loads(path.read_bytes())
                 return
         for sp, tq in points:
-            base = full.run(sp, tq, amb, {})
+            base = full.evaluate(sp, tq, amb, {})
             theta0 = {k: v - amb for k, v in base.items()}
             nodes = {}
             axes = [c for c in self.candidates if c.name != _AMBIENT.name] + [_AMBIENT]
@@ -217,7 +217,9 @@ class Surrogate:
                     r = (
                         theta0
                         if v == p.null
-                        else {k: t - amb for k, t in full.run(sp, tq, amb, {c.name: v}).items()}
+                        else {
+                            k: t - amb for k, t in full.evaluate(sp, tq, amb, {c.name: v}).items()
+                        }
                     )
                     for k in thetas:
                         thetas[k].append(r[k])
