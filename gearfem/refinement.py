@@ -1,9 +1,9 @@
 """Refinement studies: the numerical uncertainty of every reported thermal quantity.
 
 ``gearfem converge CASE.toml --out DIR`` runs the thermal model of a case on three systematically
-refined thermal meshes (every element size divided by ``factor`` and the layer count multiplied by
-it, level by level; the structural cycle is the case's, computed once and cached) and estimates,
-for each reported temperature, the observed order, the extrapolated value and the grid convergence
+refined thermal meshes (every element size and the size gradient divided by ``factor`` and the
+layer count multiplied by it, level by level; the structural cycle is the case's, computed once
+and cached) and estimates, for each reported temperature, the observed order, the extrapolated value and the grid convergence
 index with the numerical standard uncertainty u_num of the finest value
 (:mod:`gearfem.core.gci`). The representative size of a level is h = N^(-1/3) for its N
 temperature DOFs (the volume is the same on every level, so only the ratios matter).
@@ -69,7 +69,9 @@ class RefinementStudy(JsonRecord):
 
 
 def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
-    """``options`` with every element size divided by ``factor`` and the layers multiplied."""
+    """``options`` refined geometrically similarly: every element size and the size gradient
+    divided by ``factor`` (the size grows linearly with the distance from the fine curves, so the
+    gradient must shrink too for the whole mesh to refine by ``factor``), the layers multiplied."""
     if not factor >= 1.0:
         raise ParameterError("refinement factor", factor, ">= 1")
     return dataclasses.replace(
@@ -79,6 +81,7 @@ def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
         size_root_mm=options.size_root_mm / factor,
         size_tooth_mm=options.size_tooth_mm / factor,
         size_body_mm=options.size_body_mm / factor,
+        size_growth=options.size_growth / factor,
         layers=max(1, math.ceil(options.layers * factor - 1e-9)),
     )
 

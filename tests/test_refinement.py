@@ -38,8 +38,9 @@ def _small_case():
 
 
 def test_refined_mesh_scales_sizes_and_layers():
-    m = refined_mesh(MeshOptions(layers=2, size_flank_mm=0.3), 1.5)
+    m = refined_mesh(MeshOptions(layers=2, size_flank_mm=0.3, size_growth=0.6), 1.5)
     assert m.size_flank_mm == pytest.approx(0.2) and m.layers == 3
+    assert m.size_growth == pytest.approx(0.4)  # geometrically similar refinement
     with pytest.raises(ParameterError):
         refined_mesh(MeshOptions(), 0.5)
 
