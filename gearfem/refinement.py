@@ -3,9 +3,9 @@
 ``gearfem converge CASE.toml --out DIR`` runs the thermal model of a case on three systematically
 refined thermal meshes (every element size and the size gradient divided by ``factor`` and the
 layer count multiplied by it, level by level; the structural cycle is the case's, computed once
-and cached) and estimates, for each reported temperature, the observed order, the extrapolated value and the grid convergence
-index with the numerical standard uncertainty u_num of the finest value
-(:mod:`gearfem.core.gci`). The representative size of a level is h = N^(-1/3) for its N
+and cached) and estimates, for each reported temperature, the observed order, the extrapolated
+value and the grid convergence index with the numerical standard uncertainty u_num of the finest
+value (:mod:`gearfem.core.gci`). The representative size of a level is h = N^(-1/3) for its N
 temperature DOFs (the volume is the same on every level, so only the ratios matter).
 
 Outputs (DIR): ``level<i>/`` (each level's thermal outputs), ``refinement.csv`` and
