@@ -13,8 +13,9 @@ h = (V/N)^(1/3) for N unknowns in a volume V), with r21 = h2/h1, r32 = h3/h2,
 
 with the safety factor Fs = 1.25 for three meshes in the asymptotic range. The numerical standard
 uncertainty of φ1 reported with it is u_num = GCI21/1.15 (the conversion ASME V&V 20-2009 uses
-with Fs = 1.25). When the convergence is oscillatory (s < 0), or the observed order is below 0.5,
-or above ``formal_order`` (when given), the estimate is not in the asymptotic range: the order
+with Fs = 1.25). When the convergence is oscillatory (s < 0), or the differences do not shrink
+under refinement (faster than order 0.5 would make them), or the observed order is below 0.5 or
+above ``formal_order`` (when given), the estimate is not in the asymptotic range: the order
 used is clipped to [0.5, formal_order], Fs = 3, and the result says ``asymptotic = False``.
 """
 
@@ -97,10 +98,14 @@ def grid_convergence(
         return Convergence(f, h, math.nan, math.nan, f[0], 0.0, 0.0, True)
     p, s = observed_order(f, h)
     lo, hi = 0.5, formal_order if formal_order is not None else math.inf
-    asymptotic = s > 0 and math.isfinite(p) and lo <= p <= hi
+    # converging: the change between the fine pair is smaller than between the coarse pair
+    # (scaled by the ratios as for an exact power law of order lo); otherwise the differences grow
+    # under refinement and no order is observed, whatever the formula gives
+    r21, r32 = h[1] / h[0], h[2] / h[1]
+    shrinking = abs(f[1] - f[0]) * (r32**lo - 1.0) < abs(f[2] - f[1]) * (r21**lo - 1.0) * r21**lo
+    asymptotic = s > 0 and shrinking and math.isfinite(p) and lo <= p <= hi
     p_used = p if asymptotic else min(max(p if math.isfinite(p) else lo, lo), hi)
     fs = SAFETY_FACTOR if asymptotic else SAFETY_FACTOR_OUTSIDE
-    r21 = h[1] / h[0]
     e21 = f[1] - f[0]
     denom = r21**p_used - 1.0
     gci = fs * abs(e21) / denom
