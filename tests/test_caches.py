@@ -91,3 +91,23 @@ def test_thermal_mesh_table_is_the_thermal_models_own(tmp_path):
         case.write_text("[thermal_mesh]\nlayers = 0\n")
         load_case(case)
     assert err.value.name == "thermal_mesh.layers"
+
+
+def test_code_hashes_cover_exactly_the_code_that_computes_the_cache():
+    """The cycle key hashes the modules the cycle solve imports, transitively (contact, the mesh,
+    the Newton driver, the facet geometry), and not the thermal model or the diagnosis; the mesh key
+    hashes the mesh generator, not the DOLFINx import."""
+    from gearfem.core.provenance import source_files, source_hash
+
+    cycle = set(source_files("gearfem.cycle.solve", "gearfem.cycle.model"))
+    assert {
+        "gearfem.contact.interface",
+        "gearfem.geometry.mesh",
+        "gearfem.core.newton",
+        "gearfem.core.facets",
+    } <= cycle
+    assert not {"gearfem.thermal.problem", "gearfem.core.gci", "gearfem.diagnose.forward"} & cycle
+    mesh = set(source_files("gearfem.geometry.gmsh_pair"))
+    assert {"gearfem.geometry.extrude", "gearfem.geometry.involute"} <= mesh
+    assert "gearfem.geometry.mesh" not in mesh
+    assert source_hash("gearfem.cycle.solve") == source_hash("gearfem.cycle.solve")

@@ -3,6 +3,8 @@ result."""
 
 from __future__ import annotations
 
+import ast
+import hashlib
 import platform
 import subprocess
 from pathlib import Path
@@ -79,3 +81,49 @@ def versions(comm=None) -> dict[str, Any]:
 def format_versions(info: dict[str, Any]) -> str:
     width = max(len(k) for k in info)
     return "\n".join(f"{k:<{width}}  {v}" for k, v in info.items())
+
+
+def source_files(*modules: str) -> dict[str, Path]:
+    """The gearfem ``modules`` and every gearfem module they import, transitively (read statically
+    from the files, so it does not depend on what happens to be imported), with their files."""
+    package = Path(__file__).resolve().parent.parent  # .../gearfem
+
+    def path_of(name: str) -> Path | None:
+        if name == "gearfem":
+            return package / "__init__.py"
+        rel = Path(*name.split(".")[1:])
+        for cand in (package / rel.with_suffix(".py"), package / rel / "__init__.py"):
+            if cand.is_file():
+                return cand
+        return None
+
+    seen: dict[str, Path] = {}
+    todo = list(modules)
+    while todo:
+        name = todo.pop()
+        if name in seen or not (name == "gearfem" or name.startswith("gearfem.")):
+            continue
+        path = path_of(name)
+        if path is None:
+            continue
+        seen[name] = path
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                todo.append(node.module)
+                todo.extend(f"{node.module}.{a.name}" for a in node.names)  # submodules
+            elif isinstance(node, ast.Import):
+                todo.extend(a.name for a in node.names)
+    return seen
+
+
+def source_hash(*modules: str, length: int = 16) -> str:
+    """Hash of the sources of :func:`source_files` of ``modules``. A cache whose content those
+    modules compute is keyed by it: an edit anywhere in the code that computes it invalidates the
+    cache, and edits elsewhere do not."""
+    seen = source_files(*modules)
+    h = hashlib.sha256()
+    for name in sorted(seen):
+        h.update(name.encode())
+        h.update(seen[name].read_bytes())
+    return h.hexdigest()[:length]

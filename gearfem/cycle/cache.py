@@ -23,6 +23,7 @@ import numpy as np
 
 from gearfem.core.io import jsonable
 from gearfem.core.params import to_dict
+from gearfem.core.provenance import source_hash
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
 from gearfem.geometry.mesh import cache_key as mesh_cache_key
@@ -57,15 +58,12 @@ def cache_root() -> Path:
 
 
 def _code_hash() -> str:
-    """Hash of the source of everything a stored cycle depends on: the layers below and including
-    the cycle (core: materials, facet geometry; geometry: the mesh; contact; cycle). Any edit there
-    invalidates stored cycles; this module's own edits do too (conservative)."""
-    root = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256()
-    for sub in ("core", "geometry", "contact", "cycle"):
-        for f in sorted((root / sub).glob("*.py")):
-            h.update(f.read_bytes())
-    return h.hexdigest()[:12]
+    """Hash of the source of every gearfem module the cycle solve imports, transitively (the
+    mesh, contact, materials, facet geometry, Newton driver, ...): an edit there invalidates stored
+    cycles, an edit elsewhere (the thermal model, the diagnosis) does not."""
+    return source_hash(
+        "gearfem.cycle.solve", "gearfem.cycle.model", "gearfem.cycle.cache", length=12
+    )
 
 
 def cycle_key(

@@ -37,16 +37,13 @@ from mpi4py import MPI
 
 from gearfem import pipeline
 from gearfem.config import Case, case_to_dict
+from gearfem.core.provenance import source_hash
 from gearfem.diagnose.candidates import LIBRARY, AmbientOffset, Candidate, apply_all, by_name
 from gearfem.diagnose.data import QUANTITIES, Dataset
 
 log = logging.getLogger(__name__)
 
 Request = tuple[str, float | None]  # (quantity, time_s or None = end value)
-
-
-# the packages whose code determines a surrogate table (its cache key hashes their sources)
-_SOURCE_PACKAGES = ("core", "geometry", "contact", "cycle", "coupling", "thermal")
 
 
 class FullModel:
@@ -236,19 +233,10 @@ class Surrogate:
 
     def _key(self, points) -> str:
         """Hash of everything the tables depend on: case, points, times, candidates' nodes, and
-        the code of every layer a table value comes through (core, geometry, contact, cycle,
-        coupling, thermal, config, pipeline, this module and the candidates)."""
-        root = Path(__file__).resolve().parent.parent
+        the source of every gearfem module a table value is computed by (this module and what it
+        imports, transitively: pipeline, thermal, coupling, cycle, contact, geometry, core)."""
         h = hashlib.sha256()
-        files = [
-            *(f for sub in _SOURCE_PACKAGES for f in (root / sub).glob("*.py")),
-            root / "config.py",
-            root / "pipeline.py",
-            root / "diagnose" / "forward.py",
-            root / "diagnose" / "candidates.py",
-        ]
-        for f in sorted(files):
-            h.update(f.read_bytes())
+        h.update(source_hash("gearfem.diagnose.forward", "gearfem.diagnose.candidates").encode())
         meta = {
             "case": case_to_dict(self.full.case),
             "points": points,

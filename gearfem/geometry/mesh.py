@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from gearfem.core.params import to_dict
+from gearfem.core.provenance import source_hash
 from gearfem.geometry.extrude import GMSH_REF
 from gearfem.geometry.gmsh_pair import gmsh_session, placement, write_model
 from gearfem.geometry.involute import GearPair, GearPairGeometry
@@ -60,14 +61,9 @@ def default_cache_dir() -> Path:
 
 
 def _source_hash() -> str:
-    """Hash of the source of the modules that generate meshes: every module of
-    :mod:`gearfem.geometry` but this one (any edit invalidates the cache)."""
-    h = hashlib.sha256()
-    here = Path(__file__).resolve()
-    for f in sorted(here.parent.glob("*.py")):
-        if f != here:
-            h.update(f.read_bytes())
-    return h.hexdigest()[:16]
+    """Hash of the source of the modules that generate meshes (gmsh_pair and what it imports,
+    transitively): an edit there invalidates the cache."""
+    return source_hash("gearfem.geometry.gmsh_pair")
 
 
 def cache_key(
