@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from gearfem import pipeline
 from gearfem.config import load_case
 from gearfem.core.errors import GearfemError
-from gearfem.core.io import write_json_atomic
+from gearfem.core.io import write_json
 from gearfem.core.log import ProgressBar, setup_logging
 from gearfem.core.provenance import format_versions, versions
 from gearfem.cycle.report import cycle_summary_dict, write_cycle_outputs
@@ -68,7 +68,7 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
                 f"{report['counts']['dofs_p2_vector']} P2 vector DOFs",
             )
             os.replace(png, out / "gear_pair_mesh.png")
-        write_json_atomic(out / "mesh.json", report)  # last: its presence marks a complete output
+        write_json(out / "mesh.json", report)  # last: its presence marks a complete output
         c, t = report["counts"], report["timing"]
         q = report["quality"]
         print(

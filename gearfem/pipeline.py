@@ -352,7 +352,7 @@ def run(
     if comm.rank == 0:
         write_case(case, out / "case.toml")
         write_json(out / "versions.json", vers)
-        write_json(out / "summary.json", summary.to_json())  # last: marks a complete run
+        write_json(out / "summary.json", summary)  # last: marks a complete run
     comm.barrier()
     return summary
 

@@ -22,10 +22,6 @@ import os
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 from mpi4py import MPI
 
 from gearfem import pipeline
@@ -137,7 +133,7 @@ def thermal_refinement(
     if comm.rank == 0:
         _write_table(study, out)
         _plot(study, out)
-        write_json(out / "refinement.json", study.to_json())  # last: marks a complete study
+        write_json(out / "refinement.json", study)  # last: marks a complete study
     comm.barrier()
     return study
 
@@ -186,6 +182,11 @@ def _write_table(study: RefinementStudy, out: Path) -> None:
 
 
 def _plot(study: RefinementStudy, out: Path) -> None:
+    import matplotlib  # plotting only here: not imported with the CLI
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     for r in study.rows:
         if not r.quantity.endswith(("max", "mean", "surface", "bulk")):

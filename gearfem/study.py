@@ -270,7 +270,7 @@ def run_study(
         mpi_size=comm.size,
     )
     if comm.rank == 0:
-        write_json(out / "study.json", results.to_json())  # last: marks a complete study
+        write_json(out / "study.json", results)  # last: marks a complete study
     comm.barrier()
     return results
 

@@ -15,15 +15,21 @@ import math
 
 import numpy as np
 import pytest
+import ufl
+from dolfinx import fem
 from mpi4py import MPI
 
 from gearfem import pipeline
 from gearfem.config import Case
 from gearfem.contact import ContactOptions
 from gearfem.core.errors import ParameterError
+from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE, cycle_heat_sources
+from gearfem.coupling.options import SourceOptions
 from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
 from gearfem.cycle.cache import load, save
+from gearfem.geometry.mesh import build_gear_mesh
 from gearfem.geometry.options import MeshOptions
+from gearfem.thermal.domain import ThermalDomain
 
 TINY = MeshOptions(
     teeth_in_model=4,
@@ -162,14 +168,6 @@ def test_pitch_point_pressure_matches_thesis_hertz():
 
 @pytest.mark.slow
 def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp_out):
-    import ufl
-    from dolfinx import fem
-
-    from gearfem.coupling.heat_sources import cycle_heat_sources
-    from gearfem.coupling.options import SourceOptions
-    from gearfem.geometry.mesh import build_gear_mesh
-    from gearfem.thermal.domain import ThermalDomain
-
     comm = MPI.COMM_WORLD
     if comm.rank == 0:
         save(loaded, tmp_out / "cyc")
@@ -187,15 +185,7 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     dom = ThermalDomain.from_gear_mesh(gm, "pinion")
     speed = 1000.0
     src = cycle_heat_sources(dom, gm, "pinion", back, SourceOptions(), case.materials, speed)
-    from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE
-
-    ds = ufl.Measure(
-        "ds",
-        domain=dom.mesh,
-        subdomain_data=dom.facet_tags,
-        metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE},
-    )(dom.tags(src.flux_surfaces))
-    heat = comm.allreduce(fem.assemble_scalar(fem.form(src.flank_flux_W_m2 * ds)), op=MPI.SUM)
+    heat = _flank_heat(dom, src)
     omega = 2 * math.pi * speed / 60
     share = SourceOptions().heat_fractions(case.materials)["pinion"]
     assert share == pytest.approx(0.5, rel=1e-12)  # equal materials: equal effusivities
@@ -205,7 +195,7 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     # the split is the coupling's: another heat_fraction_pinion reuses the same cycle
     split = SourceOptions(heat_fraction_pinion=0.8)
     src8 = cycle_heat_sources(dom, gm, "pinion", back, split, case.materials, speed)
-    heat8 = comm.allreduce(fem.assemble_scalar(fem.form(src8.flank_flux_W_m2 * ds)), op=MPI.SUM)
+    heat8 = _flank_heat(dom, src8)
     assert heat8 == pytest.approx(
         0.8 * 4 * back.tooth_heat_W_per_rad_s("pinion") * omega, rel=1e-10
     )
@@ -216,15 +206,21 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     gt = build_gear_mesh(case.geometry, finer, comm, bodies=("pinion",))
     dt = ThermalDomain.from_gear_mesh(gt, "pinion")
     st = cycle_heat_sources(dt, gt, "pinion", back, SourceOptions(), case.materials, speed)
-    dst = ufl.Measure(
-        "ds",
-        domain=dt.mesh,
-        subdomain_data=dt.facet_tags,
-        metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE},
-    )(dt.tags(st.flux_surfaces))
-    heat_t = comm.allreduce(fem.assemble_scalar(fem.form(st.flank_flux_W_m2 * dst)), op=MPI.SUM)
+    heat_t = _flank_heat(dt, st)
     assert dt.mesh.topology.index_map(3).size_global != dom.mesh.topology.index_map(3).size_global
     assert heat_t == pytest.approx(heat, rel=1e-10)
+
+
+def _flank_heat(domain, sources) -> float:
+    """∫ q_f dA over the flux surfaces of ``domain`` (W), with the area rule of the transfer."""
+    ds = ufl.Measure(
+        "ds",
+        domain=domain.mesh,
+        subdomain_data=domain.facet_tags,
+        metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE},
+    )(domain.tags(sources.flux_surfaces))
+    form = fem.form(sources.flank_flux_W_m2 * ds)
+    return domain.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
 
 @pytest.mark.mpi

@@ -505,7 +505,6 @@ class _ContactSystem:
         self.psi0 = 0.0
         self.dpsi = 0.0
         self.scale = 0.0
-        self.iteration = 0
 
     def residual_norm(self) -> float:
         return self.norm
@@ -516,7 +515,6 @@ class _ContactSystem:
 
     def compute_direction(self, iteration: int) -> None:
         p, st, ctl = self.p, self.state, self.p.controlled
-        self.iteration = iteration
         A = p._jacobian(st.coos)
         st.R.scale(-1.0)
         try:

@@ -4,6 +4,7 @@ result."""
 from __future__ import annotations
 
 import ast
+import functools
 import hashlib
 import platform
 import subprocess
@@ -117,10 +118,12 @@ def source_files(*modules: str) -> dict[str, Path]:
     return seen
 
 
+@functools.cache
 def source_hash(*modules: str, length: int = 16) -> str:
     """Hash of the sources of :func:`source_files` of ``modules``. A cache whose content those
     modules compute is keyed by it: an edit anywhere in the code that computes it invalidates the
-    cache, and edits elsewhere do not."""
+    cache, and edits elsewhere do not. Computed once per process (the code a process runs is the
+    code it imported; every cache key of a study would otherwise re-read the sources)."""
     seen = source_files(*modules)
     h = hashlib.sha256()
     for name in sorted(seen):

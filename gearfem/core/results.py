@@ -14,23 +14,7 @@ import types
 import typing
 from typing import Any, Self
 
-import numpy as np
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, JsonRecord):
-        return value.to_json()
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
+from gearfem.core.io import jsonable
 
 
 def _build(hint: Any, value: Any) -> Any:
@@ -61,7 +45,7 @@ class JsonRecord:
     """Mixin for frozen result dataclasses: ``to_json`` and ``from_json``."""
 
     def to_json(self) -> dict[str, Any]:
-        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+        return {f.name: jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> Self:

@@ -4,9 +4,7 @@ and its outputs (``diagnosis.json`` written last and atomically, ``report.md``, 
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
-import os
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +12,7 @@ import numpy as np
 from mpi4py import MPI
 
 from gearfem.config import Case
-from gearfem.core.io import prepare_output
+from gearfem.core.io import prepare_output, write_json
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY
@@ -119,19 +117,9 @@ def run_diagnosis(
     if comm.rank == 0:
         _plots(result, data, out)
         (out / "report.md").write_text(markdown(report, data))
-        tmp = out / f".diagnosis.json.tmp{os.getpid()}"
-        tmp.write_text(json.dumps(report.to_json(), indent=2, default=_default))
-        os.replace(tmp, out / "diagnosis.json")  # last: marks a complete diagnosis
+        write_json(out / "diagnosis.json", report)  # last: marks a complete diagnosis
     comm.barrier()
     return report
-
-
-def _default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
 
 
 def _probes(sur: Surrogate, data: Dataset) -> Dataset:

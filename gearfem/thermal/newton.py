@@ -274,7 +274,6 @@ class _ThermalSystem:
         s.T.x.petsc_vec.waxpy(-alpha, s.dx, s._x0)  # x = x0 - alpha dx
         s.T.x.scatter_forward()
         self.trial_norm = s._residual()
-        self.alpha = alpha
         return self.trial_norm
 
     def accept(self) -> None:
