@@ -1,0 +1,48 @@
+"""Generated documentation blocks: replaced between their markers, refused without them."""
+
+from __future__ import annotations
+
+import pytest
+
+from gearfem.core.doctables import markdown_table, read_block, replace_block
+from gearfem.core.errors import ParameterError
+
+PAGE = """# Page
+
+Text before.
+
+<!-- gearfem:begin demo -->
+| old |
+|---|
+<!-- gearfem:end demo -->
+
+Text after.
+"""
+
+
+def test_block_is_replaced_and_the_rest_kept(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(PAGE)
+    table = markdown_table(["h (mm)", "p0 error (%)"], [(14, "+0.58"), (10, "+0.25")])
+    replace_block(page, "demo", table)
+    replace_block(page, "demo", table)  # idempotent: markers stay
+    text = page.read_text()
+    assert text.startswith("# Page\n\nText before.\n\n")
+    assert text.endswith("\n\nText after.\n")
+    assert read_block(page, "demo") == table
+    assert "| 14 | +0.58 |" in table and table.count("\n") == 3
+
+
+def test_missing_or_doubled_markers_are_refused(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("no markers here\n")
+    with pytest.raises(ParameterError, match="demo"):
+        replace_block(page, "demo", "x")
+    page.write_text(PAGE + PAGE)
+    with pytest.raises(ParameterError, match="one '<!-- gearfem:begin demo -->'"):
+        replace_block(page, "demo", "x")
+
+
+def test_row_length_checked():
+    with pytest.raises(ValueError, match="2 cells"):
+        markdown_table(["a"], [(1, 2)])
