@@ -25,7 +25,8 @@ from gearfem.diagnose.data import read_csv
 from gearfem.diagnose.report import run_diagnosis
 from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair
 from gearfem.pipeline import read_case, run_thermal_case
-from gearfem.refinement import thermal_refinement
+from gearfem.refinement import KINDS as REFINEMENT_KINDS
+from gearfem.refinement import refinement_study
 from gearfem.study import load_study, run_study
 
 log = logging.getLogger("gearfem.cli")
@@ -222,7 +223,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
 
 def _cmd_converge(args: argparse.Namespace) -> int:
-    """Thermal refinement study of a case (gearfem.refinement)."""
+    """Refinement study of a case in one direction (gearfem.refinement)."""
     from mpi4py import MPI
 
     case = load_case(args.case)
@@ -230,15 +231,21 @@ def _cmd_converge(args: argparse.Namespace) -> int:
         case = dataclasses.replace(
             case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s)
         )
-    study = thermal_refinement(case, args.out, MPI.COMM_WORLD, factor=args.factor)
-    _say(f"thermal refinement of {case.name}: DOFs {', '.join(str(n) for n in study.dofs)}")
+    study = refinement_study(case, args.out, MPI.COMM_WORLD, kind=args.kind, factor=args.factor)
+    _say(
+        f"{args.kind} refinement of {case.name}: DOFs {', '.join(str(n) for n in study.dofs)} "
+        "(the case's resolution first)"
+    )
     for r in study.rows:
         _say(
-            f"  {r.quantity:18s} {r.values[0]:8.2f} C, order {r.observed_order:5.2f}, "
-            f"extrapolated {r.extrapolated:8.2f} C, u_num {r.u_num:6.2f} K"
-            f"{'' if r.asymptotic else ' (not asymptotic)'}"
+            f"  {r.quantity:26s} {r.values[2]:10.4g} {r.unit:3s} (case), order "
+            f"{r.observed_order:5.2f}, extrapolated {r.extrapolated:10.4g}, u_num of the case "
+            f"{r.u_num_case:8.3g}{'' if r.asymptotic else ' (not asymptotic)'}"
         )
-    _say(f"results in {args.out}: refinement.md, refinement.csv, refinement.png, refinement.json")
+    _say(
+        f"results in {args.out}: refinement.md, refinement.csv, refinement.png, refinement.json; "
+        f"filed for `gearfem run` under resolution {study.resolution_key}"
+    )
     return 0
 
 
@@ -393,13 +400,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser(
         "converge",
-        help="thermal mesh refinement study: observed order, extrapolation, GCI and u_num per "
-        "reported temperature",
+        help="refinement study (thermal mesh, structural contact zone, positions per pitch or tip "
+        "elements): observed order, extrapolation, GCI and u_num per reported quantity",
     )
     s.add_argument("case", nargs="?", default=None, help="case TOML (default: built-in thesis)")
     s.add_argument("--out", required=True, help="output directory")
     s.add_argument(
         "--factor", type=float, default=1.5, help="refinement factor between levels, [1.2, 3]"
+    )
+    s.add_argument(
+        "--kind",
+        default="thermal_mesh",
+        choices=REFINEMENT_KINDS,
+        help="what is refined (the case's resolution is the coarsest of three levels)",
     )
     s.add_argument("--duration-s", type=float, default=None, help="override [thermal] duration_s")
     s.set_defaults(func=_cmd_converge)

@@ -42,6 +42,7 @@ from gearfem.thermal.lumped import gear_radii, lumped_estimate
 from gearfem.thermal.outputs import solve_and_write
 from gearfem.thermal.problem import ThermalProblem
 from gearfem.thermal.source_terms import prescribed_heat_sources
+from gearfem.uncertainty import RunUncertainty, run_uncertainty
 
 log = logging.getLogger(__name__)
 
@@ -115,6 +116,9 @@ class Headline(JsonRecord):
     vdi2736_root1_C: float | None = None
     mao_bulk1_C: float | None = None
     flash_max_K: float | None = None
+    # numerical standard uncertainty (K, W, -) of the fields above that have one, by field name,
+    # from the refinement studies stored for the case's resolution (gearfem.uncertainty)
+    u_num: dict[str, float] | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,6 +138,7 @@ class RunSummary(JsonRecord):
     mpi_size: int
     cycle: CycleAtSpeed | None
     headline: Headline
+    numerical_uncertainty: RunUncertainty | None = None
 
     @classmethod
     def read(cls, path: str | Path) -> RunSummary:
@@ -337,6 +342,7 @@ def run(
     at_speed = None
     if cyc is not None:
         at_speed = CycleAtSpeed.of(cyc, case.operating.speed_rpm, CycleCache(str(cdir), cached))
+    unc = run_uncertainty(case, {q: v for q, (v, _) in reported_quantities(th, at_speed).items()})
     summary = RunSummary(
         case=case.name,
         speed_rpm=case.operating.speed_rpm,
@@ -346,7 +352,8 @@ def run(
         wall_time_s=times,
         mpi_size=comm.size,
         cycle=at_speed,
-        headline=headline(th, base, at_speed),
+        headline=headline(th, base, at_speed, unc, case.thermal.ambient_C),
+        numerical_uncertainty=unc,
     )
     vers = versions(comm)
     if comm.rank == 0:
@@ -357,11 +364,53 @@ def run(
     return summary
 
 
+def reported_quantities(
+    thermal: dict[str, Any], cycle: CycleAtSpeed | None
+) -> dict[str, tuple[float, str]]:
+    """The quantities a run reports and a refinement study follows, name -> (value, unit): every
+    temperature of the thermal summary at the end of the run and, with a cycle, its friction
+    power, effective contact ratio, pitch-point and largest pressures and mean transmission
+    error."""
+    out = {q: (v, "C") for q, v in thermal.get("final_temperatures_C", {}).items()}
+    if cycle is not None:
+        out.update(
+            friction_power_W=(cycle.friction_power_W, "W"),
+            effective_contact_ratio=(cycle.effective_contact_ratio, "-"),
+            pitch_point_pressure_MPa=(cycle.pitch_point_pressure_MPa, "MPa"),
+            max_contact_pressure_MPa=(cycle.max_contact_pressure_MPa, "MPa"),
+            transmission_error_mean_um=(cycle.transmission_error_um["mean"], "um"),
+        )
+    return out
+
+
 def headline(
-    thermal: dict[str, Any], baselines: dict[str, Any], cycle: CycleAtSpeed | None
+    thermal: dict[str, Any],
+    baselines: dict[str, Any],
+    cycle: CycleAtSpeed | None,
+    uncertainty: RunUncertainty | None = None,
+    ambient_C: float | None = None,
 ) -> Headline:
-    """The headline numbers of a run from its stage summaries."""
+    """The headline numbers of a run from its stage summaries (with u_num where a refinement
+    study of the case's resolution is stored)."""
     final = thermal.get("final_temperatures_C", {})
+    u_num = None
+    if uncertainty is not None:
+        u_num = {}
+        for field, q in (
+            ("max_surface_temperature_C", "max_surface"),
+            ("mean_bulk_temperature_C", "mean_bulk"),
+            ("friction_power_W", "friction_power_W"),
+            ("effective_contact_ratio", "effective_contact_ratio"),
+        ):
+            if uncertainty.u_num(q) is not None:
+                u_num[field] = uncertainty.u_num(q)
+        u_end = uncertainty.u_num("max_surface")
+        rise_end = final.get("max_surface", math.nan) - (ambient_C or 0.0)
+        if u_end is not None and rise_end > 0.0:  # earlier times: scaled by the rise
+            for t, v in thermal.get("at_times_C", {}).items():
+                if v.get("max_surface") is not None:
+                    rise = v["max_surface"] - (ambient_C or 0.0)
+                    u_num[f"at_times_max_surface_C[{t}]"] = u_end * abs(rise) / rise_end
     return Headline(
         time_s=thermal.get("time_s"),
         max_surface_temperature_C=final.get("max_surface"),
@@ -376,6 +425,7 @@ def headline(
         vdi2736_root1_C=baselines.get("vdi2736_root1_C"),
         mao_bulk1_C=baselines.get("mao_bulk1_C"),
         flash_max_K=baselines.get("flash_max_K"),
+        u_num=u_num,
     )
 
 

@@ -1,16 +1,31 @@
-"""Refinement studies: the numerical uncertainty of every reported thermal quantity.
+"""Refinement studies: the numerical uncertainty of every reported quantity.
 
-``gearfem converge CASE.toml --out DIR`` runs the thermal model of a case on three systematically
-refined thermal meshes (every element size and the size gradient divided by ``factor`` and the
-layer count multiplied by it, level by level; the structural cycle is the case's, computed once
-and cached) and estimates, for each reported temperature, the observed order, the extrapolated
-value and the grid convergence index with the numerical standard uncertainty u_num of the finest
-value (:mod:`gearfem.core.gci`). The representative size of a level is h = N^(-1/3) for its N
-temperature DOFs (the volume is the same on every level, so only the ratios matter).
+``gearfem converge CASE.toml --out DIR [--kind KIND]`` runs the chain of a case on three
+systematically refined discretisations, one direction (kind) at a time, and estimates for each
+reported quantity the observed order, the extrapolated value and the grid convergence index with
+the numerical standard uncertainty u_num (:mod:`gearfem.core.gci`) — of the solution at the
+case's own resolution, which is one of the three levels:
 
-Outputs (DIR): ``level<i>/`` (each level's thermal outputs), ``refinement.csv`` and
+* ``thermal_mesh``: the thermal model's mesh (``[thermal_mesh]``; every element size and the size
+  gradient divided by the factor, the layer count multiplied by it), the case's level the
+  coarsest; the structural cycle is the case's, solved once. h = N^(-1/3) for N temperature DOFs.
+* ``structural_mesh``: the contact zone of the structural mesh (flank, tip, root and tooth element
+  sizes divided by the factor; body size, size gradient and layers kept: the contact pressures and
+  the friction flux live there), the case's level the coarsest; the thermal mesh stays the case's.
+  h = the flank element size.
+* ``positions``: the pinion positions per pitch of the cycle (multiplied by the factor and
+  rounded), the case's level the coarsest; h = 1 / positions per pitch.
+* ``tip``: the tip element size alone (the tip rounds), the case's level the coarsest: the
+  largest contact pressure of the cycle sits on the mating gear's tip round (docs/cycle.md).
+
+Quantities: every temperature of the thermal summary at the end of the run, and for the kinds that
+re-solve the cycle (and for every kind when the sources come from a cycle) the friction power, the
+effective contact ratio, the pitch-point and largest contact pressures and the mean transmission
+error. Outputs (DIR): ``level<i>/`` (each level's thermal outputs), ``refinement.csv`` and
 ``refinement.md`` (one row per quantity), ``refinement.png`` (each quantity against h with the
-extrapolated value), ``refinement.json`` (written last).
+extrapolated value), ``refinement.json`` (written last). The study is also filed in the
+uncertainty store (:mod:`gearfem.uncertainty`) under the case's resolution key, where
+``gearfem run`` finds it and reports u_num with its headline numbers.
 """
 
 from __future__ import annotations
@@ -29,15 +44,21 @@ from gearfem.config import Case
 from gearfem.core.errors import ParameterError
 from gearfem.core.gci import grid_convergence, representative_size
 from gearfem.core.io import prepare_output, write_json
+from gearfem.core.params import require_choice, require_range
 from gearfem.core.results import JsonRecord
 from gearfem.geometry.options import MeshOptions
+from gearfem.uncertainty import StudyUncertainty, resolution_key, store_study
 
 LEVELS = 3
+KINDS = ("thermal_mesh", "structural_mesh", "positions", "tip")
 
 
 @dataclasses.dataclass(frozen=True)
 class RefinementRow(JsonRecord):
-    """One quantity on the three levels and its convergence (values fine to coarse)."""
+    """One quantity on the three levels and its convergence (values fine to coarse).
+
+    ``gci`` and ``u_num`` are those of the finest level; ``u_num_case`` that of the case's own
+    level (:meth:`gearfem.core.gci.Convergence.u_num_at`)."""
 
     quantity: str
     unit: str
@@ -48,20 +69,42 @@ class RefinementRow(JsonRecord):
     gci: float
     u_num: float
     asymptotic: bool
+    u_num_case: float
+
+
+@dataclasses.dataclass(frozen=True)
+class RefinementLevel(JsonRecord):
+    """One discretisation of the study: its representative size and what was varied."""
+
+    level: int
+    size: float
+    dofs: int  # thermal DOFs (thermal_mesh) or structural DOFs (the other kinds)
+    setting: dict[str, Any]
 
 
 @dataclasses.dataclass(frozen=True)
 class RefinementStudy(JsonRecord):
-    """A thermal refinement study of one case (``refinement.json``)."""
+    """A refinement study of one case (``refinement.json``). Levels coarse to fine."""
 
     case: str
+    kind: str
     factor: float
-    dofs: tuple[int, ...]  # per level, coarse to fine
-    meshes: tuple[dict[str, Any], ...]
+    case_level: int  # index (coarse to fine) of the case's own resolution
+    resolution_key: str
+    levels: tuple[RefinementLevel, ...]
     rows: tuple[RefinementRow, ...]
 
+    @property
+    def dofs(self) -> tuple[int, ...]:
+        return tuple(lv.dofs for lv in self.levels)
+
     def row(self, quantity: str) -> RefinementRow:
-        return next(r for r in self.rows if r.quantity == quantity)
+        try:
+            return next(r for r in self.rows if r.quantity == quantity)
+        except StopIteration:
+            raise ParameterError(
+                "refinement quantity", quantity, ", ".join(r.quantity for r in self.rows)
+            ) from None
 
 
 def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
@@ -82,44 +125,92 @@ def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
     )
 
 
-def thermal_refinement(
-    case: Case, out_dir: str | Path, comm: MPI.Comm, factor: float = 1.5
-) -> RefinementStudy:
-    """Run the refinement study (collective); see the module docstring."""
-    if not 1.2 <= factor <= 3.0:
-        raise ParameterError("refinement factor", factor, "[1.2, 3]")
-    out = prepare_output(out_dir, "refinement.json", comm)
-    cyc = None
-    if case.sources.mode == "cycle":
-        cyc, _, _ = pipeline.cycle(case, comm)
-    base = case.thermal_mesh_options
-    summaries, meshes = [], []
-    for level in range(LEVELS):
-        mesh = refined_mesh(base, factor**level)
-        c = dataclasses.replace(case, thermal_mesh=mesh)
-        summaries.append(
-            pipeline.thermal(
-                c,
-                out / f"level{level}",
-                comm,
-                cyc,
-                write_fields=False,
-                steady=False,
-                write_plot=False,
-            )
+def refined_contact_zone(options: MeshOptions, factor: float) -> MeshOptions:
+    """The contact zone of ``options`` refined: flank, tip, root and tooth element sizes divided
+    by ``factor`` (body size, size gradient and layers kept)."""
+    if not factor >= 1.0:
+        raise ParameterError("refinement factor", factor, ">= 1")
+    return dataclasses.replace(
+        options,
+        size_flank_mm=options.size_flank_mm / factor,
+        size_tip_mm=options.size_tip_mm / factor,
+        size_root_mm=options.size_root_mm / factor,
+        size_tooth_mm=options.size_tooth_mm / factor,
+    )
+
+
+def level_case(case: Case, kind: str, factor: float) -> Case:
+    """The case refined by ``factor`` (>= 1) in direction ``kind``. The thermal mesh is pinned to
+    the case's (``[thermal_mesh]``, or ``[mesh]`` when absent) in every kind but ``thermal_mesh``,
+    so that refining the structural mesh does not refine the thermal one with it."""
+    require_choice("refinement kind", kind, KINDS)
+    pinned = dataclasses.replace(case, thermal_mesh=case.thermal_mesh_options)
+    if kind == "thermal_mesh":
+        return dataclasses.replace(
+            case, thermal_mesh=refined_mesh(case.thermal_mesh_options, factor)
         )
-        meshes.append(dataclasses.asdict(mesh))
-    dofs = tuple(int(s["dofs"]) for s in summaries)
-    sizes = [representative_size(n) for n in dofs]
-    formal = case.thermal.degree + 1.0
+    if kind == "structural_mesh":
+        return dataclasses.replace(pinned, mesh=refined_contact_zone(case.mesh, factor))
+    if kind == "tip":
+        mesh = dataclasses.replace(case.mesh, size_tip_mm=case.mesh.size_tip_mm / factor)
+        return dataclasses.replace(pinned, mesh=mesh)
+    n = round(case.cycle.positions_per_pitch * factor)
+    return dataclasses.replace(pinned, cycle=dataclasses.replace(case.cycle, positions_per_pitch=n))
+
+
+def _size_and_setting(case: Case, kind: str, thermal: dict, cycle) -> tuple[float, int, dict]:
+    if kind == "thermal_mesh":
+        n = int(thermal["dofs"])
+        return representative_size(n), n, dataclasses.asdict(case.thermal_mesh_options)
+    dofs = int(cycle.info["dofs"]) if cycle is not None else 0
+    if kind == "structural_mesh":
+        return case.mesh.size_flank_mm * 1e-3, dofs, dataclasses.asdict(case.mesh)
+    if kind == "tip":
+        return case.mesh.size_tip_mm * 1e-3, dofs, {"size_tip_mm": case.mesh.size_tip_mm}
+    n = case.cycle.positions_per_pitch
+    return 1.0 / n, dofs, {"positions_per_pitch": n}
+
+
+def refinement_study(
+    case: Case, out_dir: str | Path, comm: MPI.Comm, kind: str = "thermal_mesh", factor: float = 1.5
+) -> RefinementStudy:
+    """Run the refinement study of ``case`` in direction ``kind`` (collective); see the module
+    docstring. The case's own resolution is the coarsest of the three levels."""
+    require_choice("refinement kind", kind, KINDS)
+    require_range("refinement factor", factor, 1.2, 3.0)
+    if kind != "thermal_mesh" and case.sources.mode != "cycle":
+        raise ParameterError(
+            "sources.mode", case.sources.mode, "'cycle'", f"a {kind} study re-solves the cycle"
+        )
+    out = prepare_output(out_dir, "refinement.json", comm)
+    levels, quantities = [], []
+    cyc_fixed = None
+    if kind == "thermal_mesh" and case.sources.mode == "cycle":
+        cyc_fixed, _, _ = pipeline.cycle(case, comm)
+    for level in range(LEVELS):
+        c = level_case(case, kind, factor**level)
+        cyc = cyc_fixed
+        if cyc is None and c.sources.mode == "cycle":
+            cyc, _, _ = pipeline.cycle(c, comm)
+        th = pipeline.thermal(
+            c, out / f"level{level}", comm, cyc, write_fields=False, steady=False, write_plot=False
+        )
+        at_speed = pipeline.CycleAtSpeed.of(cyc, c.operating.speed_rpm) if cyc else None
+        size, dofs, setting = _size_and_setting(c, kind, th, cyc)
+        levels.append(RefinementLevel(level, size, dofs, setting))
+        quantities.append(pipeline.reported_quantities(th, at_speed))
+    formal = case.thermal.degree + 1.0 if kind == "thermal_mesh" else None
     rows = []
-    for q in summaries[0]["final_temperatures_C"]:
-        values = [s["final_temperatures_C"][q] for s in summaries]
+    for q, (_, unit) in quantities[0].items():
+        values = [lq[q][0] for lq in quantities]
+        sizes = [lv.size for lv in levels]
+        if not all(math.isfinite(v) for v in values):
+            continue
         conv = grid_convergence(values, sizes, formal_order=formal)
         rows.append(
             RefinementRow(
                 q,
-                "C",
+                unit,
                 conv.values,
                 conv.sizes,
                 conv.observed_order,
@@ -127,58 +218,108 @@ def thermal_refinement(
                 conv.gci,
                 conv.u_num,
                 conv.asymptotic,
+                conv.u_num_at(LEVELS - 1),  # the case's level: the coarsest
             )
         )
-    study = RefinementStudy(case.name, factor, dofs, tuple(meshes), tuple(rows))
+    key = resolution_key(case)
+    study = RefinementStudy(case.name, kind, factor, 0, key, tuple(levels), tuple(rows))
     if comm.rank == 0:
         _write_table(study, out)
         _plot(study, out)
+        store_study(study_uncertainty(case, study))
         write_json(out / "refinement.json", study)  # last: marks a complete study
     comm.barrier()
     return study
 
 
+def thermal_refinement(
+    case: Case, out_dir: str | Path, comm: MPI.Comm, factor: float = 1.5
+) -> RefinementStudy:
+    """The thermal-mesh refinement study (:func:`refinement_study` with kind ``thermal_mesh``)."""
+    return refinement_study(case, out_dir, comm, "thermal_mesh", factor)
+
+
+def study_uncertainty(case: Case, study: RefinementStudy) -> StudyUncertainty:
+    """What the uncertainty store keeps of a study: the case level's value and u_num per
+    quantity, with the operating point they were measured at."""
+    level = LEVELS - 1 - study.case_level  # row values are fine to coarse
+    return StudyUncertainty(
+        kind=study.kind,
+        resolution_key=study.resolution_key,
+        case=study.case,
+        speed_rpm=case.operating.speed_rpm,
+        torque_Nm=case.operating.torque_Nm,
+        ambient_C=case.thermal.ambient_C,
+        factor=study.factor,
+        values={r.quantity: r.values[level] for r in study.rows},
+        units={r.quantity: r.unit for r in study.rows},
+        u_num={r.quantity: r.u_num_case for r in study.rows},
+        asymptotic={r.quantity: r.asymptotic for r in study.rows},
+    )
+
+
+_TITLES = {
+    "thermal_mesh": "Thermal mesh refinement",
+    "structural_mesh": "Structural mesh (contact zone) refinement",
+    "positions": "Positions per pitch",
+    "tip": "Tip element size",
+}
+
+
 def _write_table(study: RefinementStudy, out: Path) -> None:
-    cols = ("quantity", "fine", "medium", "coarse", "order", "extrapolated", "gci", "u_num")
+    cols = ("quantity", "unit", "fine", "medium", "coarse", "order", "extrapolated", "gci")
     tmp = out / f".refinement.csv.tmp{os.getpid()}"
     with tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow([*cols, "asymptotic"])
+        w.writerow([*cols, "u_num_fine", "u_num_case", "asymptotic"])
         for r in study.rows:
             w.writerow(
                 [
                     r.quantity,
+                    r.unit,
                     *r.values,
                     r.observed_order,
                     r.extrapolated,
                     r.gci,
                     r.u_num,
+                    r.u_num_case,
                     r.asymptotic,
                 ]
             )
     os.replace(tmp, out / "refinement.csv")
     lines = [
-        f"# Thermal refinement study: {study.case}",
+        f"# {_TITLES[study.kind]}: {study.case}",
         "",
-        f"Three thermal meshes, refinement factor {study.factor:g} (DOFs "
-        f"{', '.join(str(n) for n in study.dofs)}); values at the end of the run (C).",
+        markdown(study),
         "",
-        "| quantity | fine | medium | coarse | observed order | extrapolated | GCI (K) | "
-        "u_num (K) |",
-        "|---|---|---|---|---|---|---|---|",
+    ]
+    (out / "refinement.md").write_text("\n".join(lines))
+
+
+def markdown(study: RefinementStudy) -> str:
+    """The study as a Markdown table with its one-line caption (for refinement.md and docs/)."""
+    dofs = ", ".join(str(lv.dofs) for lv in study.levels)
+    sizes = ", ".join(f"{lv.size:.4g}" for lv in study.levels)
+    lines = [
+        f"{_TITLES[study.kind]}, factor {study.factor:g}: levels coarse to fine with h = {sizes} "
+        f"and {dofs} DOFs; the case's resolution is the coarsest. Values at the end of the run.",
+        "",
+        "| quantity | unit | fine | medium | coarse (case) | observed order | extrapolated | "
+        "u_num fine | u_num case |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in study.rows:
         flag = "" if r.asymptotic else " *"
         lines.append(
-            f"| {r.quantity} | {r.values[0]:.2f} | {r.values[1]:.2f} | {r.values[2]:.2f} | "
-            f"{r.observed_order:.2f}{flag} | {r.extrapolated:.2f} | {r.gci:.2f} | {r.u_num:.2f} |"
+            f"| {r.quantity} | {r.unit} | {r.values[0]:.4g} | {r.values[1]:.4g} | "
+            f"{r.values[2]:.4g} | {r.observed_order:.2f}{flag} | {r.extrapolated:.4g} | "
+            f"{r.u_num:.3g} | {r.u_num_case:.3g} |"
         )
     lines += [
         "",
-        "\\* not in the asymptotic range: Fs = 3 and the order clipped (core/gci.py).",
-        "",
+        "\\* not in the asymptotic range: Fs = 3 and the order clipped (gearfem/core/gci.py).",
     ]
-    (out / "refinement.md").write_text("\n".join(lines))
+    return "\n".join(lines)
 
 
 def _plot(study: RefinementStudy, out: Path) -> None:
@@ -189,14 +330,14 @@ def _plot(study: RefinementStudy, out: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     for r in study.rows:
-        if not r.quantity.endswith(("max", "mean", "surface", "bulk")):
+        if r.unit != "C" or not r.quantity.endswith(("max", "mean", "surface", "bulk")):
             continue
         h = [x / r.sizes[0] for x in r.sizes]
-        (line,) = ax.plot(h, r.values, "o-", label=f"{r.quantity} (±{r.u_num:.1f} K)")
+        (line,) = ax.plot(h, r.values, "o-", label=f"{r.quantity} (±{r.u_num_case:.1f} K)")
         ax.plot([0.0], [r.extrapolated], "*", color=line.get_color(), ms=10)
-    ax.set_xlabel("relative mesh size h / h_fine (★: extrapolated to h = 0)")
+    ax.set_xlabel("relative size h / h_fine (★: extrapolated to h = 0)")
     ax.set_ylabel("temperature at the end (°C)")
-    ax.set_title(f"Thermal mesh refinement, factor {study.factor:g}")
+    ax.set_title(f"{_TITLES[study.kind]}, factor {study.factor:g} (±: u_num of the case)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()

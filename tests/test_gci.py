@@ -58,3 +58,18 @@ def test_differences_growing_under_refinement_are_not_convergence():
     c = grid_convergence(values, [representative_size(n) for n in dofs], formal_order=3.0)
     assert not c.asymptotic
     assert c.gci >= 3.0 * (261.35 - 253.78) / (c.sizes[1] / c.sizes[0]) ** c.order_used
+
+
+@pytest.mark.parametrize("level", [0, 1, 2])
+def test_uncertainty_of_every_level_on_an_exact_power_law(level):
+    """The GCI of the medium and coarsest solutions is Fs |φ_level − φ| (Roache's coarse-grid
+    GCI): a run made at the coarsest of three resolutions gets its own, larger, u_num."""
+    sizes = (0.1, 0.15, 0.225)
+    values = [3.0 + 2.0 * h**2 for h in sizes]
+    c = grid_convergence(values, sizes, formal_order=3.0)
+    exact_error = abs(values[level] - 3.0)
+    assert c.gci_at(level) == pytest.approx(1.25 * exact_error, rel=1e-8)
+    assert c.u_num_at(level) == pytest.approx(c.gci_at(level) / 1.15)
+    assert c.gci_at(0) == c.gci
+    with pytest.raises(ParameterError):
+        c.gci_at(3)

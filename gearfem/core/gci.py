@@ -44,6 +44,22 @@ class Convergence:
     gci: float  # absolute, same unit as the values
     u_num: float  # standard uncertainty of φ1
     asymptotic: bool  # monotone and 0.5 <= p <= formal order
+    safety_factor: float = SAFETY_FACTOR  # Fs used (1.25 in the asymptotic range, else 3)
+
+    def gci_at(self, level: int) -> float:
+        """GCI of the solution on ``level`` (0: finest, 1: medium, 2: coarsest): Fs |φ_level −
+        φ_ext| with the order and Fs of this estimate (Roache's coarse-grid GCI); level 0 gives
+        :attr:`gci`. For oscillatory convergence the spread bound :attr:`gci` holds for every
+        level."""
+        if level not in (0, 1, 2):
+            raise ParameterError("refinement level", level, "0 (finest), 1 or 2 (coarsest)")
+        if level == 0 or self.extrapolated == self.values[0]:
+            return self.gci
+        return self.safety_factor * abs(self.values[level] - self.extrapolated)
+
+    def u_num_at(self, level: int) -> float:
+        """Numerical standard uncertainty of the solution on ``level`` (GCI / 1.15)."""
+        return self.gci_at(level) / GCI_TO_STANDARD
 
     @property
     def relative_gci(self) -> float:
@@ -113,4 +129,6 @@ def grid_convergence(
     if s < 0:  # oscillatory: the spread of the three solutions bounds the error instead
         gci = max(gci, fs * (max(f) - min(f)))
         extrapolated = f[0]
-    return Convergence(f, h, p, p_used, extrapolated, gci, gci / GCI_TO_STANDARD, asymptotic)
+    return Convergence(
+        f, h, p, p_used, extrapolated, gci, gci / GCI_TO_STANDARD, asymptotic, safety_factor=fs
+    )

@@ -1,0 +1,107 @@
+"""The uncertainty store: resolution keys, stored studies, u_num of a run (gearfem.uncertainty)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from gearfem.config import load_case
+from gearfem.refinement import level_case
+from gearfem.uncertainty import (
+    StudyUncertainty,
+    resolution_key,
+    run_uncertainty,
+    store_study,
+    stored_studies,
+)
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    monkeypatch.setenv("GEARFEM_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def _study(case, kind, u_max, u_bulk, max_C=250.0, bulk_C=93.0):
+    return StudyUncertainty(
+        kind=kind,
+        resolution_key=resolution_key(case),
+        case=case.name,
+        speed_rpm=case.operating.speed_rpm,
+        torque_Nm=case.operating.torque_Nm,
+        ambient_C=case.thermal.ambient_C,
+        factor=1.5,
+        values={"max_surface": max_C, "mean_bulk": bulk_C},
+        units={"max_surface": "C", "mean_bulk": "C"},
+        u_num={"max_surface": u_max, "mean_bulk": u_bulk},
+        asymptotic={"max_surface": False, "mean_bulk": True},
+    )
+
+
+def test_resolution_key_follows_the_discretisation_not_the_physics():
+    case = load_case(None)
+    key = resolution_key(case)
+    physics = [
+        case.with_operating(speed_rpm=2000.0, torque_Nm=4.0),
+        dataclasses.replace(
+            case, contact=dataclasses.replace(case.contact, friction_coefficient=0.3)
+        ),
+        dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, ambient_C=30.0)),
+        dataclasses.replace(case, sources=dataclasses.replace(case.sources, flux_scale=0.5)),
+    ]
+    for c in physics:
+        assert resolution_key(c) == key
+    resolution = [
+        level_case(case, kind, 1.5)
+        for kind in ("thermal_mesh", "structural_mesh", "positions", "tip")
+    ] + [dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, degree=1))]
+    keys = {resolution_key(c) for c in resolution}
+    assert key not in keys and len(keys) == len(resolution)
+
+
+def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
+    case = load_case(None)
+    assert case.thermal_mesh is None  # the built-in case's thermal mesh is its [mesh]
+    s = level_case(case, "structural_mesh", 2.0)
+    assert s.mesh.size_flank_mm == pytest.approx(case.mesh.size_flank_mm / 2)
+    assert s.mesh.layers == case.mesh.layers and s.mesh.size_body_mm == case.mesh.size_body_mm
+    assert s.thermal_mesh_options == case.mesh  # the thermal mesh does not follow
+    t = level_case(case, "tip", 2.0)
+    assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
+    assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
+    p = level_case(case, "positions", 1.5)
+    assert p.cycle.positions_per_pitch == 18 and p.thermal_mesh_options == case.mesh
+    th = level_case(case, "thermal_mesh", 1.5)
+    assert th.mesh == case.mesh and th.thermal_mesh.layers == 3
+
+
+def test_no_study_no_uncertainty(store):
+    assert run_uncertainty(load_case(None), {"max_surface": 250.0}) is None
+
+
+def test_studies_combine_in_quadrature_and_scale_with_the_rise(store):
+    case = load_case(None)
+    store_study(_study(case, "thermal_mesh", 3.0, 0.4))
+    store_study(_study(case, "positions", 4.0, 0.3))
+    assert set(stored_studies(resolution_key(case))) == {"thermal_mesh", "positions"}
+    run = run_uncertainty(case, {"max_surface": 250.0, "mean_bulk": 93.0, "tip_max": 200.0})
+    q = run.quantities["max_surface"]
+    assert q.u_num == pytest.approx(5.0) and not q.scaled and not q.asymptotic
+    assert run.quantities["mean_bulk"].u_num == pytest.approx(0.5)
+    assert "tip_max" not in run.quantities  # no study measured it: no number invented
+    assert run.missing == ("structural_mesh", "tip")
+    # another operating point: scaled by the rise above ambient (23 C)
+    other = case.with_operating(speed_rpm=2000.0, torque_Nm=4.0)
+    run2 = run_uncertainty(other, {"max_surface": 23.0 + 0.5 * (250.0 - 23.0)})
+    q2 = run2.quantities["max_surface"]
+    assert q2.scaled and q2.u_num == pytest.approx(2.5)
+    assert math.isclose(run2.u_num("max_surface"), 2.5) and run2.u_num("nothing") is None
+
+
+def test_another_resolution_finds_nothing(store):
+    case = load_case(None)
+    store_study(_study(case, "thermal_mesh", 3.0, 0.4))
+    finer = level_case(case, "positions", 1.5)
+    assert run_uncertainty(finer, {"max_surface": 250.0}) is None
