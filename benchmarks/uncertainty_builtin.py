@@ -1,0 +1,71 @@
+"""The built-in case's numerical uncertainty: refinement studies in every direction, filed with
+gearfem and written into docs/refinement.md.
+
+For each kind (thermal mesh, structural contact zone, positions per pitch, tip elements) this runs
+:func:`gearfem.refinement.refinement_study` on the built-in thesis case (its resolution the
+coarsest of three levels), then (rank 0):
+
+* files the study as package data, ``gearfem/data/uncertainty/<resolution key>/<kind>.json``:
+  ``gearfem run`` of the built-in case reads u_num from there (tests/test_uncertainty.py checks
+  that the shipped studies belong to the built-in case's current resolution, so a change of
+  resolution without re-running this script fails the test suite);
+* replaces the block ``refinement_<kind>`` of docs/refinement.md with the study's table
+  (gearfem.core.doctables) and copies its plot to docs/images/refinement_<kind>.png.
+
+Usage (2 ranks; the cycles of the refined levels are cached under cache/cycles):
+
+    mpirun -n 2 python benchmarks/uncertainty_builtin.py [--kinds thermal_mesh positions ...]
+        [--factor 1.5] [--out results/uncertainty]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
+from gearfem.config import load_case
+from gearfem.core.doctables import replace_block
+from gearfem.core.io import write_json
+from gearfem.refinement import KINDS, markdown, refinement_study, study_uncertainty
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "gearfem" / "data" / "uncertainty"
+DOC = ROOT / "docs" / "refinement.md"
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
+    p.add_argument("--factor", type=float, default=1.5)
+    p.add_argument("--out", default="results/uncertainty")
+    args = p.parse_args()
+    comm = MPI.COMM_WORLD
+    case = load_case(None)
+    for kind in args.kinds:
+        t0 = time.perf_counter()
+        study = refinement_study(case, Path(args.out) / kind, comm, kind=kind, factor=args.factor)
+        wall = time.perf_counter() - t0
+        if comm.rank == 0:
+            write_json(DATA / study.resolution_key / f"{kind}.json", study_uncertainty(case, study))
+            caption = (
+                f"\n\n`mpirun -n {comm.size} python benchmarks/uncertainty_builtin.py --kinds "
+                f"{kind}`: {wall:.0f} s on {comm.size} ranks, load average "
+                f"{os.getloadavg()[0]:.1f}."
+            )
+            replace_block(DOC, f"refinement_{kind}", markdown(study) + caption)
+            shutil.copy(
+                Path(args.out) / kind / "refinement.png",
+                ROOT / "docs" / "images" / f"refinement_{kind}.png",
+            )
+            print(markdown(study), flush=True)
+        comm.barrier()
+
+
+if __name__ == "__main__":
+    main()
