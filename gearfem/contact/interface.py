@@ -8,8 +8,12 @@ Formulation (Gauss-point-to-surface with segmentation, two-pass):
   g = (x_s − x_m(ζ))·n_m is taken from the closest-point projection ζ onto the curved master facet
   in the current configuration (body displacement plus rigid motion).
 * Pressure p = ⟨λ − εg⟩ (λ = 0: penalty). λ lives at the standard Gauss points of each slave facet
-  and is carried to the segment points by the facet's linear least-squares fit (exact for uniform
-  and linear multiplier fields), so the multipliers survive re-segmentation when surfaces slide.
+  (as many as the facet element has nodes: 6 on a P2 triangle) and is carried to the segment
+  points by a field over the facet (:meth:`ContactInterface.multipliers_at`), so the multipliers
+  survive re-segmentation when surfaces slide: on a facet inside the contact zone (all its
+  multipliers positive) the facet-element interpolant (quadratic on P2, exact for quadratic
+  pressures), on a facet cut by the contact boundary the linear least-squares fit (which does not
+  overshoot the multipliers that the Uzawa update clipped to zero).
 * Traction on the slave t = p (n_m − μ ŝ); the master receives −t at the projected point.
 * Virtual work: ∫ t·(δu_s − δu_m) dA with δg = (δu_s − δu_m)·n (normal and projection point frozen
   in the linearisation: the tangent is ε ∫ [ρ][γ]ᵀ dA with ρ = N⊗(n − μŝ), γ = N⊗n on the slave and
@@ -168,8 +172,14 @@ class ContactInterface:
             )
         roles = [(a, b), (b, a)] if options.two_pass else [(a, b)]
         w = 0.5 if options.two_pass else 1.0
-        self.fixed_points, self.fixed_weights = a.ref.quadrature(max(2, options.quadrature_degree))
-        self.fit = a.ref.linear_fit(self.fixed_points)  # (3, n_fixed)
+        # multiplier points: a rule with at least as many points as the facet element has nodes
+        # (degree 2·p: 6 points on P2 triangles, 9 on Q2 quadrilaterals), so that the
+        # facet-element field through them is determined
+        self.fixed_points, self.fixed_weights = a.ref.quadrature(
+            max(2 * a.ref.degree, options.quadrature_degree)
+        )
+        self._linear_fit = a.ref.linear_fit(self.fixed_points)  # (3, n_fixed)
+        self._nodal_fit = a.ref.nodal_fit(self.fixed_points)  # (n_nodes, n_fixed)
         self.passes: list[_Pass] = []
         for s, m in roles:
             if options.penalty_Pa_m is not None:
@@ -321,7 +331,6 @@ class ContactInterface:
         the segmentation's frozen slip direction (within a Newton solve) if it has one."""
         ref_s, ref_m = ps.slave.ref, ps.master.ref
         fs, xi = seg.slave_facet, seg.xi
-        n = len(fs)
         x, _, _, Ns = evaluate(ref_s, place.xs[fs], xi)
         _, T1, T2, _ = evaluate(ref_s, place.slave_data.X[fs], xi)  # reference area (small strain)
         jac = np.linalg.norm(np.cross(T1, T2), axis=1)
@@ -331,8 +340,7 @@ class ContactInterface:
         gap = np.einsum("pd,pd->p", x - xmp, normal)
         gap = np.where(valid, gap, np.inf)
         eps = ps.eps[fs]
-        coef = np.einsum("kq,fq->fk", self.fit, ps.lam)  # linear fit per slave facet
-        lam = coef[fs, 0] + coef[fs, 1] * xi[:, 0] + coef[fs, 2] * xi[:, 1] if n else np.zeros(0)
+        lam = self.multipliers_at(ps.lam, fs, xi, Ns)
         trial = np.where(valid, lam - eps * np.where(valid, gap, 0.0), -np.inf)
         pressure, slope, active = self._pressure(trial, valid)
         vrel = place.slave_motion.velocity(x) - place.master_motion.velocity(x)
@@ -361,6 +369,31 @@ class ContactInterface:
             Ns=Ns,
             Nm=Nm,
         )
+
+    def multipliers_at(
+        self, lam: np.ndarray, facet: np.ndarray, xi: np.ndarray, N: np.ndarray
+    ) -> np.ndarray:
+        """The multiplier field at points ``xi`` of the slave facets ``facet`` (N: the facet
+        element's shape functions there), from the values ``lam`` (nf, n_fixed) at the fixed points.
+
+        Inside the contact zone (every multiplier of the facet positive) the field is the
+        facet-element interpolant of the fixed-point values: on P2 facets the quadratic through the
+        6 points, exact for quadratic pressure fields (the Hertz pressure near its apex). A linear
+        least-squares fit there would overshoot a concave peak at the facet vertices by about
+        (h/a)²/12 of p0 (the L2 error of a linear fit of a parabola at the ends of the interval) and
+        carry that error to the peak pressure. On facets cut by the contact boundary (some
+        multipliers clipped to zero by the Uzawa update) the pressure has its square-root edge,
+        which a polynomial through the clipped values would overshoot (by up to 1.9 times a single
+        positive value, the peak of a quadratic Lagrange function): there the linear least-squares
+        fit is used.
+        """
+        if not len(facet):
+            return np.zeros(0)
+        lin = np.einsum("kq,fq->fk", self._linear_fit, lam)[facet]
+        linear = lin[:, 0] + lin[:, 1] * xi[:, 0] + lin[:, 2] * xi[:, 1]
+        nodal = np.einsum("pk,pk->p", N, (lam @ self._nodal_fit.T)[facet])
+        inside = (lam > 0.0).all(axis=1)[facet]
+        return np.where(inside, nodal, linear)
 
     def _master_feet(self, ref_m, xm: np.ndarray, x: np.ndarray, seg: Segmentation):
         """Master facet, reference coordinates and validity of the closest-point foot of each
