@@ -18,6 +18,7 @@ from mpi4py import MPI
 from gearfem.contact import ContactInterface, ContactOptions
 from gearfem.contact.kinematics import evaluate, project, segment
 from gearfem.contact.output import summary, write_vtx
+from gearfem.contact.rigid import RigidMotion
 from gearfem.contact.verification import (
     block_case,
     compare_hertz,
@@ -136,6 +137,40 @@ def test_multiplier_field_is_quadratic_inside_the_contact_and_linear_at_its_edge
     c = np.linalg.lstsq(A, lam[1], rcond=None)[0]
     np.testing.assert_allclose(got[20:], c[0] + xi[20:] @ c[1:], atol=1e-12)
     assert got[20:].max() < 1.0
+
+
+def test_uzawa_update_follows_a_tangential_shift_since_the_segmentation():
+    """The multiplier update takes each fixed point's gap from the master facets it faces now.
+
+    Two flat blocks (uniform contact) are solved; then the upper body is moved tangentially by 30 %
+    of its facet size without re-segmenting (as the surfaces shear under friction within one
+    Newton solve). A tangential shift of a flat interface leaves every gap unchanged, so the Uzawa
+    step must give the same multipliers at every fixed point that still faces the upper block.
+    (Before: the gaps came only from the facet pairs of the stale segmentation and a foot had to
+    lie strictly inside a facet; fixed points facing a facet not paired then had their multiplier
+    reset to zero.)
+    """
+    opts = ContactOptions(method="augmented_lagrangian", penalty_Pa_m=100.0)
+    case = block_case(MPI.COMM_SELF, opts)
+    prob = case.problem
+    prob.solve("blocks")
+    itf = prob.interfaces[0]
+    u = prob.u.x.array
+    solved = [ps.lam.copy() for ps in itf.passes]
+    itf.update_multipliers(u, prob.motions)
+    expected = [ps.lam.copy() for ps in itf.passes]
+    for ps, lam in zip(itf.passes, solved):
+        ps.lam[:] = lam
+    shift = 0.3 * 0.17  # the upper block's element size is 0.17 m
+    moved = dict(prob.motions, upper=RigidMotion(translation_m=(shift, 0.0, 0.0)))
+    itf.update_multipliers(u, moved)
+    for ps, want in zip(itf.passes, expected):
+        # fixed points whose facet lies where both blocks still overlap after the shift
+        X = ps.slave.local.X[:, :3, 0] + (shift if ps.slave.body == "upper" else 0.0)
+        facing = (X.min(axis=1) > shift + 1e-9) & (X.max(axis=1) < 1.0 - 1e-9)
+        assert facing.sum() > 10
+        assert np.all(want[facing] > 0.0)
+        np.testing.assert_allclose(ps.lam[facing], want[facing], rtol=1e-9)
 
 
 # ------------------------------------------------------------------------------------------------
