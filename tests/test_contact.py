@@ -312,14 +312,15 @@ def test_hertz_line_contact_p0_and_a_converge(tmp_out):
 
 @pytest.mark.slow
 def test_augmented_lagrangian_meets_tolerance_and_matches_stiff_penalty():
-    """AL reaches its penetration tolerance; the enforcement (AL against a stiff penalty) changes
-    the force by less than the discretisation error of the contact solution (the FE peak pressure
-    against Hertz on this mesh with this tolerance: 1.5 %).
+    """AL reaches its penetration tolerance; the enforcement (AL against a stiff penalty, ε ×1e4)
+    changes the force per length by less than the discretisation's error bound of the peak
+    pressure on this mesh, (h/a)²/12 = 0.87 % (:func:`peak_pressure_bound`), and the AL's p0 is
+    within that bound.
 
-    Measured: force per length AL 8.22997e-4, penalty ×100 8.22416e-4, penalty ×1e4 8.22693e-4
-    (penalty converges like 1/ε to 8.2270e-4): AL − penalty limit = 3.7e-4 relative, which is the
-    constraint's own discretisation (multipliers at facet Gauss points); the change of the force
-    from h = 0.01 to 0.007 is only 8e-5 under displacement control, so it is not the measure used.
+    The AL − penalty difference in P' is the constraint's own discretisation (multipliers at the
+    facet Gauss points against pointwise penalty at the integration points); the change of the
+    force from h = 0.01 to 0.007 under displacement control is much smaller and not the measure
+    used. Measured values: docs/contact.md, block contact_al.
     """
     tol_rel = 1e-3
     al = ContactOptions(search_distance_rel=2.0, penetration_tolerance_rel=tol_rel)
@@ -339,9 +340,9 @@ def test_augmented_lagrangian_meets_tolerance_and_matches_stiff_penalty():
         forces[name] = -summary(case.problem).normal_force_N[1] / case.thickness_m
         r = compare_hertz(case)
         p0_err[name] = abs(r.p0_error)
-    discretisation = p0_err["al"]
-    assert 0.0 < discretisation < 0.03
-    assert abs(forces["al"] / forces["stiff"] - 1.0) < discretisation
+        bound = peak_pressure_bound(HERTZ_DEFAULT_SIZE, r.a_analytic_m)
+    assert p0_err["al"] < bound
+    assert abs(forces["al"] / forces["stiff"] - 1.0) < bound
 
 
 @pytest.mark.mpi
