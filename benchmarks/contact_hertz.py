@@ -12,10 +12,15 @@ contact size 0.0115 m (a/2.7), 3 layers, 0.069 m thick: 101 808 P2 displacement 
 Usage:
     python benchmarks/contact_hertz.py                   # the 3D case on 1 rank
     mpirun -n 2 python benchmarks/contact_hertz.py       # ... on 2 ranks
-    python benchmarks/contact_hertz.py --ranks-both      # re-launch with mpirun -n 1 and -n 2, both
-    tables
+    python benchmarks/contact_hertz.py --ranks-both      # re-launch with mpirun -n 1 and -n 2,
+                                                         # both tables
     python benchmarks/contact_hertz.py --refinement      # p0 and a errors vs contact size
-    (convergence)
+    python benchmarks/contact_hertz.py --refinement --docs docs/contact.md
+    python benchmarks/contact_hertz.py --ranks-both --docs docs/contact.md
+
+With ``--docs PAGE`` the measured table replaces the page's block ``hertz_refinement``
+(``--refinement``) or ``hertz_timing`` (``--ranks-both``) between its ``<!-- gearfem:begin/end -->``
+markers (``gearfem.core.doctables.replace_block``): the page's numbers are this script's output.
 
 Columns: DOFs; Newton iterations (all Uzawa steps); Uzawa (augmented Lagrangian) iterations; MUMPS
 factorizations; linear (GMRES) solves; wall time of the mesh build, of the problem setup (spaces,
@@ -46,7 +51,8 @@ from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.contact import ContactOptions
-from gearfem.contact.verification import compare_hertz, hertz_case
+from gearfem.contact.verification import compare_hertz, hertz_case, peak_pressure_bound
+from gearfem.core.doctables import markdown_table, replace_block
 
 REFINEMENT_SIZES = (0.014, 0.01, 0.007, 0.005)
 
@@ -89,6 +95,12 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--ranks-both", action="store_true", help="run on 1 and on 2 ranks (via mpirun)")
     p.add_argument(
         "--json", type=Path, default=None, help="also write the results as JSON (rank 0)"
+    )
+    p.add_argument(
+        "--docs",
+        type=Path,
+        default=None,
+        help="Markdown page whose hertz_refinement / hertz_timing block to replace (rank 0)",
     )
     return p.parse_args(argv)
 
@@ -140,6 +152,7 @@ def run_case(
         "a_error": cmp.a_error,
         "a_fit_error": cmp.a_fit_m / cmp.a_analytic_m - 1.0,
         "a_current_error": cmp.a_current_m / cmp.a_analytic_m - 1.0,
+        "p0_bound": peak_pressure_bound(contact_size, cmp.a_analytic_m),
         "force_per_length_N_m": cmp.force_per_length_N_m,
     }
 
@@ -195,6 +208,106 @@ def format_refinement(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _pct(v: float) -> str:
+    return f"{100 * v:+.2f} %".replace("-", "−")
+
+
+def _order(prev: dict | None, r: dict, key: str) -> str:
+    """Observed order of |r[key]| between two refinement levels ('' when undefined)."""
+    if prev is None or r[key] == 0 or prev[key] == 0 or prev[key] * r[key] < 0:
+        return ""
+    ratio = prev["contact_size_m"] / r["contact_size_m"]
+    return f"{math.log(abs(prev[key] / r[key])) / math.log(ratio):.1f}"
+
+
+def refinement_markdown(rows: list[dict], loads: list[float]) -> str:
+    """The refinement table for docs/contact.md (block ``hertz_refinement``)."""
+    body, prev = [], None
+    for r in rows:
+        body.append(
+            [
+                f"{1e3 * r['contact_size_m']:g}",
+                f"{r['a_over_h']:.1f}",
+                f"{r['dofs']:,}".replace(",", " "),
+                r["newton"],
+                r["uzawa"],
+                _pct(r["p0_error"]),
+                f"{100 * r['p0_bound']:.2f} %",
+                _pct(r["a_error"]),
+                _order(prev, r, "a_error"),
+                _pct(r["a_fit_error"]),
+                _pct(r["a_current_error"]),
+            ]
+        )
+        prev = r
+    head = [
+        "h (mm)",
+        "a/h",
+        "DOFs",
+        "Newton",
+        "Uzawa",
+        "p0 error",
+        "bound (h/a)²/12",
+        "a error",
+        "a order",
+        "a (ellipse fit)",
+        "a from current x",
+    ]
+    ranks = rows[0]["ranks"] if rows else 1
+    return (
+        f"{markdown_table(head, body)}\n\n`python benchmarks/contact_hertz.py --refinement` "
+        f"({rows[0]['layers'] if rows else 1} layer, {ranks} rank{'s' if ranks > 1 else ''}, "
+        f"load average {loads[0]:.1f} before, {loads[-1]:.1f} after)"
+    )
+
+
+def timing_markdown(rows: list[dict], loads: dict[int, list[float]]) -> str:
+    """The 1 and 2 rank timing table for docs/contact.md (block ``hertz_timing``)."""
+    body = []
+    for r in rows:
+        la = loads.get(r["ranks"], [float("nan")] * 2)
+        body.append(
+            [
+                r["ranks"],
+                f"{la[0]:.1f}–{la[-1]:.1f}",
+                f"{r['dofs']:,}".replace(",", " "),
+                r["newton"],
+                r["uzawa"],
+                r["factorizations"],
+                r["linear_solves"],
+                f"{r['mesh_s']:.1f}",
+                f"{r['setup_s']:.1f}",
+                f"{r['solve_s']:.1f}",
+                f"{r['solve_cpu_s']:.1f}",
+                f"{r['rss_max_MiB']:.0f} / {r['rss_sum_MiB']:.0f}",
+                _pct(r["p0_error"]),
+                _pct(r["a_error"]),
+            ]
+        )
+    head = [
+        "ranks",
+        "load average",
+        "DOFs",
+        "Newton",
+        "Uzawa",
+        "factorizations",
+        "linear solves",
+        "mesh (s)",
+        "setup (s)",
+        "solve wall (s)",
+        "solve CPU (s)",
+        "peak RSS max / sum (MiB)",
+        "p0 error",
+        "a error",
+    ]
+    r0 = rows[0] if rows else {"layers": 3, "contact_size_m": 0.0115}
+    return (
+        f"{markdown_table(head, body)}\n\n`python benchmarks/contact_hertz.py --ranks-both` "
+        f"({r0['layers']} layers, h = {1e3 * r0['contact_size_m']:g} mm; load average before "
+        "and after each run)"
+    )
+
+
 def _mpirun() -> str:
     local = Path(sys.executable).with_name("mpirun")
     found = str(local) if local.is_file() else shutil.which("mpirun")
@@ -205,8 +318,15 @@ def _mpirun() -> str:
 
 def ranks_both(args, argv: list[str]) -> int:
     """Re-launch this script with mpirun -n 1 and -n 2; print both outputs and a combined table."""
-    passthrough = [a for a in argv if a != "--ranks-both"]
-    rows = []
+    passthrough, skip = [], False
+    for a in argv:  # the children measure; this process writes the page
+        if skip:
+            skip = False
+        elif a == "--docs":
+            skip = True
+        elif a != "--ranks-both" and not a.startswith("--docs="):
+            passthrough.append(a)
+    rows, loads = [], {}
     with tempfile.TemporaryDirectory() as tmp:
         for n in (1, 2):
             out = Path(tmp) / f"np{n}.json"
@@ -227,9 +347,14 @@ def ranks_both(args, argv: list[str]) -> int:
                     f"run on {n} rank(s) failed with exit code {proc.returncode}", file=sys.stderr
                 )
                 return proc.returncode
-            rows += json.loads(out.read_text())["rows"]
+            data = json.loads(out.read_text())
+            rows += data["rows"]
+            loads[n] = data["load_average"]
     print("\n1 and 2 ranks:")
     print(format_refinement(rows) if args.refinement else format_timing(rows))
+    if args.docs is not None and not args.refinement:
+        replace_block(args.docs, "hertz_timing", timing_markdown(rows, loads))
+        print(f"wrote block hertz_timing of {args.docs}")
     if args.json:
         args.json.write_text(json.dumps({"rows": rows}, indent=2) + "\n")
     return 0
@@ -267,6 +392,9 @@ def main(argv: list[str] | None = None) -> int:
             f"after"
         )
         print(format_refinement(rows) if args.refinement else format_timing(rows))
+        if args.docs is not None and args.refinement:
+            replace_block(args.docs, "hertz_refinement", refinement_markdown(rows, [load0, load1]))
+            print(f"wrote block hertz_refinement of {args.docs}")
         if args.json:
             args.json.write_text(
                 json.dumps({"rows": rows, "load_average": [load0, load1]}, indent=2) + "\n"

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import pytest
 
 from gearfem.core.doctables import markdown_table, read_block, replace_block
@@ -46,3 +49,23 @@ def test_missing_or_doubled_markers_are_refused(tmp_path):
 def test_row_length_checked():
     with pytest.raises(ValueError, match="2 cells"):
         markdown_table(["a"], [(1, 2)])
+
+
+def test_every_documentation_block_has_a_script_that_writes_it():
+    """Each marked block in docs/*.md is non-empty and named in a script of benchmarks/ (or
+    gearfem/, demos/) that writes it: a table whose generator was removed or renamed fails here
+    instead of silently going stale."""
+    root = Path(__file__).resolve().parent.parent
+    sources = "\n".join(
+        p.read_text()
+        for d in ("benchmarks", "gearfem", "demos")
+        for p in sorted((root / d).rglob("*.py"))
+    )
+    marker = re.compile(r"^<!-- gearfem:begin ([A-Za-z0-9_.-]+) -->$", re.M)
+    names = []
+    for page in sorted((root / "docs").glob("*.md")):
+        for name in marker.findall(page.read_text()):
+            names.append(name)
+            assert read_block(page, name), f"{page.name}: block {name} is empty"
+            assert f'"{name}"' in sources, f"{page.name}: no script writes block {name}"
+    assert "hertz_refinement" in names and "calculix_hertz" in names

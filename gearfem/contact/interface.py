@@ -8,8 +8,12 @@ Formulation (Gauss-point-to-surface with segmentation, two-pass):
   g = (x_s − x_m(ζ))·n_m is taken from the closest-point projection ζ onto the curved master facet
   in the current configuration (body displacement plus rigid motion).
 * Pressure p = ⟨λ − εg⟩ (λ = 0: penalty). λ lives at the standard Gauss points of each slave facet
-  and is carried to the segment points by the facet's linear least-squares fit (exact for uniform
-  and linear multiplier fields), so the multipliers survive re-segmentation when surfaces slide.
+  (as many as the facet element has nodes: 6 on a P2 triangle) and is carried to the segment
+  points by a field over the facet (:meth:`ContactInterface.multipliers_at`), so the multipliers
+  survive re-segmentation when surfaces slide: on a facet inside the contact zone (all its
+  multipliers positive) the facet-element interpolant (quadratic on P2, exact for quadratic
+  pressures), on a facet cut by the contact boundary the linear least-squares fit (which does not
+  overshoot the multipliers that the Uzawa update clipped to zero).
 * Traction on the slave t = p (n_m − μ ŝ); the master receives −t at the projected point.
 * Virtual work: ∫ t·(δu_s − δu_m) dA with δg = (δu_s − δu_m)·n (normal and projection point frozen
   in the linearisation: the tangent is ε ∫ [ρ][γ]ᵀ dA with ρ = N⊗(n − μŝ), γ = N⊗n on the slave and
@@ -168,8 +172,14 @@ class ContactInterface:
             )
         roles = [(a, b), (b, a)] if options.two_pass else [(a, b)]
         w = 0.5 if options.two_pass else 1.0
-        self.fixed_points, self.fixed_weights = a.ref.quadrature(max(2, options.quadrature_degree))
-        self.fit = a.ref.linear_fit(self.fixed_points)  # (3, n_fixed)
+        # multiplier points: a rule with at least as many points as the facet element has nodes
+        # (degree 2·p: 6 points on P2 triangles, 9 on Q2 quadrilaterals), so that the
+        # facet-element field through them is determined
+        self.fixed_points, self.fixed_weights = a.ref.quadrature(
+            max(2 * a.ref.degree, options.quadrature_degree)
+        )
+        self._linear_fit = a.ref.linear_fit(self.fixed_points)  # (3, n_fixed)
+        self._nodal_fit = a.ref.nodal_fit(self.fixed_points)  # (n_nodes, n_fixed)
         self.passes: list[_Pass] = []
         for s, m in roles:
             if options.penalty_Pa_m is not None:
@@ -257,21 +267,23 @@ class ContactInterface:
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
             _, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
-            si, mj = self._candidate_pairs(ps, xs, xm, mdata)
-            nv = ps.slave.ref.num_vertices
-            pair, xi, wref = segment(
-                ps.slave.ref, xs[si, :nv], xm[mj, :nv], self._tri_points, self._tri_weights
-            )
+            si, mj, xi, wref = self._overlaps(ps, xs, xm, mdata)
             # master facets overlapping each slave facet (for re-projection across facet edges)
-            used = (
-                np.unique(np.stack([si[pair], mj[pair]], axis=1), axis=0)
-                if len(pair)
-                else np.zeros((0, 2), np.int64)
-            )
+            used = _unique_pairs(si, mj)
             ptr = np.searchsorted(used[:, 0], np.arange(xs.shape[0] + 1))
             cand = MasterCandidates(ptr, used[:, 1])
-            self._segments.append(Segmentation(si[pair], mj[pair], xi, wref, cand))
+            self._segments.append(Segmentation(si, mj, xi, wref, cand))
         self.update_slip(u_array, motions)
+
+    def _overlaps(self, ps: _Pass, xs: np.ndarray, xm: np.ndarray, mdata):
+        """The segment points of one pass in the configuration (xs, xm): slave facet, master facet,
+        slave reference coordinates and reference weight of every point."""
+        si, mj = self._candidate_pairs(ps, xs, xm, mdata)
+        nv = ps.slave.ref.num_vertices
+        pair, xi, wref = segment(
+            ps.slave.ref, xs[si, :nv], xm[mj, :nv], self._tri_points, self._tri_weights
+        )
+        return si[pair], mj[pair], xi, wref
 
     def update_slip(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
         """Freeze the friction slip directions ŝ at the current configuration (collective).
@@ -321,7 +333,6 @@ class ContactInterface:
         the segmentation's frozen slip direction (within a Newton solve) if it has one."""
         ref_s, ref_m = ps.slave.ref, ps.master.ref
         fs, xi = seg.slave_facet, seg.xi
-        n = len(fs)
         x, _, _, Ns = evaluate(ref_s, place.xs[fs], xi)
         _, T1, T2, _ = evaluate(ref_s, place.slave_data.X[fs], xi)  # reference area (small strain)
         jac = np.linalg.norm(np.cross(T1, T2), axis=1)
@@ -331,8 +342,7 @@ class ContactInterface:
         gap = np.einsum("pd,pd->p", x - xmp, normal)
         gap = np.where(valid, gap, np.inf)
         eps = ps.eps[fs]
-        coef = np.einsum("kq,fq->fk", self.fit, ps.lam)  # linear fit per slave facet
-        lam = coef[fs, 0] + coef[fs, 1] * xi[:, 0] + coef[fs, 2] * xi[:, 1] if n else np.zeros(0)
+        lam = self.multipliers_at(ps.lam, fs, xi, Ns)
         trial = np.where(valid, lam - eps * np.where(valid, gap, 0.0), -np.inf)
         pressure, slope, active = self._pressure(trial, valid)
         vrel = place.slave_motion.velocity(x) - place.master_motion.velocity(x)
@@ -361,6 +371,31 @@ class ContactInterface:
             Ns=Ns,
             Nm=Nm,
         )
+
+    def multipliers_at(
+        self, lam: np.ndarray, facet: np.ndarray, xi: np.ndarray, N: np.ndarray
+    ) -> np.ndarray:
+        """The multiplier field at points ``xi`` of the slave facets ``facet`` (N: the facet
+        element's shape functions there), from the values ``lam`` (nf, n_fixed) at the fixed points.
+
+        Inside the contact zone (every multiplier of the facet positive) the field is the
+        facet-element interpolant of the fixed-point values: on P2 facets the quadratic through the
+        6 points, exact for quadratic pressure fields (the Hertz pressure near its apex). A linear
+        least-squares fit there would overshoot a concave peak at the facet vertices by about
+        (h/a)²/12 of p0 (the L2 error of a linear fit of a parabola at the ends of the interval) and
+        carry that error to the peak pressure. On facets cut by the contact boundary (some
+        multipliers clipped to zero by the Uzawa update) the pressure has its square-root edge,
+        which a polynomial through the clipped values would overshoot (by up to 1.9 times a single
+        positive value, the peak of a quadratic Lagrange function): there the linear least-squares
+        fit is used.
+        """
+        if not len(facet):
+            return np.zeros(0)
+        lin = np.einsum("kq,fq->fk", self._linear_fit, lam)[facet]
+        linear = lin[:, 0] + lin[:, 1] * xi[:, 0] + lin[:, 2] * xi[:, 1]
+        nodal = np.einsum("pk,pk->p", N, (lam @ self._nodal_fit.T)[facet])
+        inside = (lam > 0.0).all(axis=1)[facet]
+        return np.where(inside, nodal, linear)
 
     def _master_feet(self, ref_m, xm: np.ndarray, x: np.ndarray, seg: Segmentation):
         """Master facet, reference coordinates and validity of the closest-point foot of each
@@ -569,18 +604,16 @@ class ContactInterface:
         """Uzawa step λ ← ⟨λ − εg⟩ at the fixed points; returns the largest penetration (global,
         m)."""
         worst = 0.0
-        if self._segments is None:
-            self.update_segmentation(u_array, motions)
-        for ps, seg in zip(self.passes, self._segments):
+        for ps in self.passes:
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
             _sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
             mdata, xm = self._nodes(ps.master, u_array, mm, gathered=True)
-            # the facet pairs that overlap in the current segmentation
-            pairs = (
-                np.unique(np.stack([seg.slave_facet, seg.master_facet], axis=1), axis=0)
-                if len(seg.slave_facet)
-                else np.zeros((0, 2), np.int64)
-            )
+            # the facet pairs that overlap in the current configuration: not those of the
+            # segmentation made at the start of the Newton solve, which the surfaces may have
+            # left since (tangential shear under friction: 0.6 mm, 4-9 % of a facet, in the
+            # Hertz case with μ = 0.3); fixed points facing a facet that was not paired then
+            # found no gap and had their multiplier reset to zero
+            pairs = _unique_pairs(*self._overlaps(ps, xs, xm, mdata)[:2])
             si, mj = pairs[:, 0], pairs[:, 1]
             nf, nq = ps.lam.shape
             gaps = np.full((nf, nq), np.inf)
@@ -591,7 +624,11 @@ class ContactInterface:
                 xi = np.tile(self.fixed_points, (len(si), 1))
                 x = evaluate(ps.slave.ref, xs[fs], xi)[0]
                 zeta, _ = _closest_master_points(ps.master.ref, xm, fm, x)
-                inside = ps.master.ref.inside(zeta, tol=1e-9)
+                # the same foot tolerance as the contact points (_master_feet): the pairs are
+                # those of the segmentation made at the start of the solve, and a fixed point whose
+                # foot has since moved just past a paired facet's edge (tangential shear under
+                # friction) would otherwise find no gap and have its multiplier reset to zero
+                inside = ps.master.ref.inside(zeta, tol=self.options.projection_tolerance)
                 xmp, t1, t2, _ = evaluate(ps.master.ref, xm[fm], zeta)
                 normal, _ = unit_normal(t1, t2, mdata.orientation[fm])
                 g = np.einsum("pd,pd->p", x - xmp, normal)
@@ -610,6 +647,13 @@ class ContactInterface:
             worst = max(worst, float(pen.max(initial=0.0)))
             ps.lam[:] = new
         return self.a.comm.allreduce(worst, op=_mpi_max())
+
+
+def _unique_pairs(slave: np.ndarray, master: np.ndarray) -> np.ndarray:
+    """The distinct (slave facet, master facet) rows, sorted, (n, 2)."""
+    if not len(slave):
+        return np.zeros((0, 2), np.int64)
+    return np.unique(np.stack([slave, master], axis=1), axis=0)
 
 
 def _facet_normal(ref, nodes: np.ndarray, orientation: np.ndarray) -> np.ndarray:

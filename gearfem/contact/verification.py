@@ -213,6 +213,23 @@ def hertz_line_contact(
     return a, 2.0 * force_per_length_N_m / (math.pi * a)
 
 
+def peak_pressure_bound(contact_size_m: float, a_m: float) -> float:
+    """Relative error of the peak pressure that the discretisation accounts for: (h/a)²/12.
+
+    Near its apex the Hertz pressure is p0 (1 − x²/(2a²)). A quadratic displacement element has
+    stresses, hence contact pressures, that vary linearly across it; the best such field in the
+    L2 sense over an element of width h at the apex misses the parabola by p0 (h/a)²/12 at the
+    element ends (the L2 error of a linear fit of t² on [0, 1] is t² − t + 1/6, 1/6 at the ends),
+    and its nodal interpolant by p0 (h/a)²/16 at the middle. An FE peak pressure further from
+    Hertz than that has an error the element's own stress space does not explain (such as a
+    second approximation of the pressure on top of the solution). h: element size at the contact,
+    a: Hertz half-width.
+    """
+    require_positive("contact_size_m", contact_size_m)
+    require_positive("a_m", a_m)
+    return (contact_size_m / a_m) ** 2 / 12.0
+
+
 def hertz_pressure(x_m: np.ndarray, a_m: float, p0_Pa: float) -> np.ndarray:
     """Hertz's elliptical pressure p0 sqrt(1 − x²/a²) at distances ``x_m`` from the contact line
     (zero outside |x| < a), Pa. Its integral over x is the force per length π a p0 / 2."""

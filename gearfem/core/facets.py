@@ -130,6 +130,17 @@ class FacetReference:
         phi = np.column_stack([np.ones(len(points)), points])
         return np.linalg.solve(phi.T @ phi, phi.T)
 
+    def nodal_fit(self, points: np.ndarray) -> np.ndarray:
+        """Matrix F (n_nodes, n) such that F @ values are the nodal values of the least-squares
+        facet-element function (P_d triangle, Q_d quadrilateral) through ``values`` at ``points``:
+        interpolation when there are as many points as nodes (exact for data in that space)."""
+        phi = self.tabulate(np.asarray(points, dtype=np.float64), 0)[0]  # (n, n_nodes)
+        if phi.shape[0] < phi.shape[1]:
+            raise ParameterError(
+                "multiplier points per facet", phi.shape[0], f">= {phi.shape[1]} facet nodes"
+            )
+        return np.linalg.solve(phi.T @ phi, phi.T)
+
     def inside(self, xi: np.ndarray, tol: float = 0.0) -> np.ndarray:
         """True where the reference point lies in the facet (within ``tol``)."""
         if self.facet_type == basix.CellType.triangle:
