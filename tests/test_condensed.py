@@ -16,7 +16,9 @@ import math
 import numpy as np
 import pytest
 from mpi4py import MPI
+from test_cycle import _case, _model
 
+from gearfem import pipeline
 from gearfem.contact import ContactOptions
 from gearfem.contact.compliance import (
     Condensation,
@@ -28,6 +30,8 @@ from gearfem.contact.condensed import CondensedContactProblem
 from gearfem.contact.verification import block_case, compare_hertz, hertz_case
 from gearfem.core.errors import ConvergenceError, ParameterError, UncoveredContactError
 from gearfem.core.petsc import cholesky_factor, schur_complement
+from gearfem.cycle import CycleOptions, GearContactModel
+from gearfem.cycle.cache import compliance_store
 
 _PATCH = ContactOptions(method="penalty", penalty_Pa_m=100.0)
 HERTZ = ContactOptions(search_distance_rel=2.0)
@@ -171,14 +175,10 @@ def test_condensed_solver_refuses_loads_and_unknown_solvers():
 
 
 def _tiny_case(**cycle):
-    from test_cycle import _case
-
     return _case(8.0, 0.5, **cycle)
 
 
 def test_cycle_solver_option_is_validated():
-    from gearfem.cycle import CycleOptions
-
     with pytest.raises(ParameterError, match=r"cycle\.solver") as err:
         CycleOptions(solver="condenced")
     assert "condensed" in str(err.value) and "full" in str(err.value)
@@ -191,8 +191,6 @@ def test_a_contact_outside_the_condensed_surfaces_names_the_tooth():
     in rigid contact there (pinion tooth 2, wheel tooth 1). At 2° the loaded soft teeth bring the
     next pair into contact (the full solver carries 21 N on pinion tooth 1 there): the guard finds
     the penetration of the teeth left out and names them."""
-    from test_cycle import _model
-
     case = _tiny_case(solver="condensed", condensed_extra_teeth=0, pitches=3 / 12)
     case = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, check_periodicity=False))
     m = _model(case)
@@ -210,11 +208,8 @@ def test_a_contact_outside_the_condensed_surfaces_names_the_tooth():
 def test_compliance_store_serves_the_next_model(tmp_path):
     """A second model of the same mesh and material (another torque) takes the gears'
     compliances from the store, bit for bit, and gives the same first position as a fresh one."""
-    from gearfem import pipeline
-    from gearfem.cycle import GearContactModel
-    from gearfem.cycle.cache import compliance_store
-
-    case = _tiny_case(solver="condensed")
+    case = _tiny_case(solver="condensed", pitches=1 / 12)
+    case = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, check_periodicity=False))
     store = compliance_store(case.geometry, case.mesh, case.materials, tmp_path)
     gm = pipeline.pair_mesh(case, MPI.COMM_WORLD)
     models = []

@@ -66,7 +66,7 @@ class CycleOptions:
     initial_interference_m: float = 2e-6
     creep_ratio: float | None = None
     pressure_smoothing_fraction: float = 0.005
-    solver: str = "full"
+    solver: str = "condensed"
     condensed_extra_teeth: int = 1
 
     def __post_init__(self) -> None:
