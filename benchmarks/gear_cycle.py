@@ -286,7 +286,7 @@ def compare(reference: str, other: str) -> list[list]:
         [
             "friction power (every position)",
             f"{a.mean_friction_power_W_per_rad_s():.4f} W per rad/s mean",
-            f"{b.mean_friction_power_W_per_rad_s():.4f}",
+            f"{b.mean_friction_power_W_per_rad_s():.4f} W per rad/s mean",
             f"{_relative(a.friction_power_W_per_rad_s, b.friction_power_W_per_rad_s):.1e}",
         ],
     ]

@@ -159,17 +159,24 @@ def body_dofs(
     return out
 
 
-def spd_inverse(S: np.ndarray, what: str = "Schur complement") -> np.ndarray:
-    """Inverse of a symmetric positive definite matrix (LAPACK potrf + potri, in place on a copy);
-    raises ConvergenceError when it is not positive definite."""
-    c, info = sla.lapack.dpotrf(S, lower=1, clean=1, overwrite_a=0)
+def spd_inverse(S: np.ndarray, what: str = "Schur complement", block: int = 512) -> np.ndarray:
+    """Inverse of a symmetric positive definite matrix, computed in the storage of ``S`` (LAPACK
+    potrf + potri on its lower triangle, then the upper triangle filled by blocks: no n²
+    temporaries); raises ConvergenceError when it is not positive definite. ``S`` is consumed."""
+    S = S.T if S.flags.c_contiguous else np.asfortranarray(S)  # symmetric: Sᵀ is S, in F order
+    c, info = sla.lapack.dpotrf(S, lower=1, clean=0, overwrite_a=1)
     if info != 0:
         raise ConvergenceError(f"Cholesky factorisation of the {what}", f"LAPACK info {info}")
     inv, info = sla.lapack.dpotri(c, lower=1, overwrite_c=1)
     if info != 0:
         raise ConvergenceError(f"inverse of the {what}", f"LAPACK info {info}")
-    lower = np.tril(inv)
-    return lower + np.tril(lower, -1).T
+    n = inv.shape[0]
+    for j0 in range(0, n, block):  # the lower triangle is the inverse's: mirror it
+        j1 = min(n, j0 + block)
+        inv[:j0, j0:j1] = inv[j0:j1, :j0].T
+        tile = inv[j0:j1, j0:j1]
+        inv[j0:j1, j0:j1] = np.tril(tile) + np.tril(tile, -1).T
+    return inv.T  # C order (the inverse is symmetric)
 
 
 def compliance_by_solves(factor: PETSc.PC, n: int, rows: np.ndarray) -> np.ndarray:
@@ -201,8 +208,9 @@ def compliance_by_solves(factor: PETSc.PC, n: int, rows: np.ndarray) -> np.ndarr
 
 
 class ComplianceStore:
-    """Compliances on disk: ``<directory>/<key>/compliance.npy`` and ``meta.json`` (written last,
-    through a temporary directory renamed into place: a killed run never leaves a half entry).
+    """Compliances on disk: ``<directory>/<key>/compliance.npy``, ``names.npy`` and ``meta.json``,
+    written in a temporary directory renamed into place (a killed run never leaves a half entry;
+    of two runs storing the same key at once, the first rename wins).
 
     ``key`` hashes ``context`` (what the caller knows the compliance depends on: the mesh key, the
     materials, the code) with the body's :meth:`BodyDofs.identity`.
@@ -241,9 +249,13 @@ class ComplianceStore:
         meta = {"body": body.name, "dofs": int(body.num_contact), "context": self.context}
         meta.update({k: float(v) for k, v in info.items()})
         (tmp / "meta.json").write_text(json.dumps(meta, indent=2))
-        if final.exists():
-            shutil.rmtree(final)
-        os.replace(tmp, final)
+        try:
+            os.replace(tmp, final)
+        except OSError:
+            # another run (a study's other torque) stored the same key meanwhile: keep theirs
+            shutil.rmtree(tmp, ignore_errors=True)
+            if not (final / "meta.json").is_file():
+                raise
         return final
 
 
