@@ -150,6 +150,27 @@ def test_condensed_hertz_matches_the_full_solver(comms):
     assert world.p0_fe_Pa == pytest.approx(one.p0_fe_Pa, rel=1e-8)
 
 
+def test_condensed_non_convergence_names_reason_step_and_iteration():
+    """The rotated patch test needs several Newton steps (the projection points move between
+    iterates); allowed one, the condensed Newton fails with the driver's reason, the step label and
+    the iteration, like the full solver."""
+    opts = ContactOptions(
+        method="penalty", penalty_Pa_m=100.0, newton_max_it=1, newton_rtol=1e-12, newton_atol_N=0.0
+    )
+    case = block_case(
+        MPI.COMM_SELF,
+        opts,
+        compression_m=1e-3,
+        motion_angle_rad=math.radians(30.0),
+        solver="condensed",
+    )
+    with pytest.raises(ConvergenceError) as err:
+        case.problem.solve("rotated step")
+    assert "DIVERGED_MAX_IT" in err.value.reason
+    assert err.value.step.startswith("rotated step") and err.value.iteration == 1
+    assert "condensed" in err.value.solver
+
+
 def test_condensed_solver_refuses_loads_and_unknown_solvers():
     case = block_case(MPI.COMM_SELF, _PATCH)
     prob = case.problem

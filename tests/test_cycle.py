@@ -274,7 +274,7 @@ def test_condensed_cycle_matches_the_full_solver(loaded, loaded_full):
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=5e-3)
     total = sum(np.asarray(v) for v in a.tooth_load_N.values())
     for k in a.tooth_load_N:
-        np.testing.assert_allclose(b.tooth_load_N[k], a.tooth_load_N[k], rtol=0, atol=5e-3 * total)
+        assert np.all(np.abs(b.tooth_load_N[k] - a.tooth_load_N[k]) <= 5e-3 * total), k
     np.testing.assert_allclose(b.p_max_mid_Pa[0], a.p_max_mid_Pa[0], rtol=1e-2)
     np.testing.assert_allclose(
         b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-2
@@ -307,7 +307,7 @@ def test_condensed_cycle_matches_the_full_solver_on_the_coarse_case():
     total = sum(np.asarray(v) for v in a.tooth_load_N.values())
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=5e-3)
     for k in a.tooth_load_N:
-        np.testing.assert_allclose(b.tooth_load_N[k], a.tooth_load_N[k], rtol=0, atol=5e-3 * total)
+        assert np.all(np.abs(b.tooth_load_N[k] - a.tooth_load_N[k]) <= 5e-3 * total), k
     np.testing.assert_allclose(b.p_max_mid_Pa[0], a.p_max_mid_Pa[0], rtol=1e-2)
     np.testing.assert_allclose(
         b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-2
