@@ -1,29 +1,36 @@
-"""Gear meshing-cycle benchmark: DOFs, positions, Newton iterations, wall time and peak memory.
+"""Gear meshing-cycle benchmark: the cycle's wall time per torque with either contact solver, its
+memory, and its agreement with a stored reference cycle.
 
-The structural cycle solve of a case (default: the built-in thesis case, 8 of 30 teeth per gear, P2
-tetrahedra, 1000 rpm / 8 N m, μ = 0.5, 24 positions per pitch plus the periodicity check) is run
-without the cycle cache, so the figures are those of a real cycle solve.
+The structural cycle of a case (default: the built-in thesis case, 8 of 30 teeth per gear, P2
+tetrahedra, 8 N m, μ = 0.5, 12 positions per pitch plus the periodicity check) is solved without
+the cycle cache, so the figures are those of a real cycle solve. With the condensed solver
+(``[cycle] solver = "condensed"``) the first torque pays for the gears' condensation (MUMPS Schur
+complements and their inverses), which a fresh compliance store receives; every further torque
+takes the compliances from that store and pays only for the factorisations (for the volume field)
+and the cycle itself.
 
 Usage:
-    python benchmarks/gear_cycle.py                      # the cycle on 1 rank
-    mpirun -n 2 python benchmarks/gear_cycle.py          # ... on 2 ranks
-    python benchmarks/gear_cycle.py --ranks-both         # re-launch with mpirun -n 1 and -n 2, both
-    rows
-    python benchmarks/gear_cycle.py --refinement         # max contact pressure at the pitch point
-    vs mesh size
+    python benchmarks/gear_cycle.py                          # the case's cycle on 1 rank
+    mpirun -n 2 python benchmarks/gear_cycle.py --torques 8 4  # first torque, then a further one
+    python benchmarks/gear_cycle.py --ranks-both --torques 8 4  # 1 and 2 ranks (re-launches)
+    python benchmarks/gear_cycle.py --ranks-both --torques 8 4 --write-docs
+                                                             # ... and the table in docs/cycle.md
+    mpirun -n 2 python benchmarks/gear_cycle.py --solver full --save DIR
+                                                             # the full solver's reference cycle
+    python benchmarks/gear_cycle.py --compare DIR_FULL DIR_CONDENSED [--write-docs]
+                                                             # agreement of two stored cycles
+    python benchmarks/gear_cycle.py --refinement             # pitch-point pressure vs mesh size
 
-Columns: P2 displacement DOFs; positions solved; Newton iterations (sum over positions, all Uzawa
-passes); wall time of the mesh (build or cache load + DOLFINx import), of the model setup and of the
-cycle solve (max over ranks); peak resident memory (``getrusage`` ru_maxrss, max over ranks and
-summed).
-``--refinement`` solves the single position with the pitch point in mid-contact at the case mesh
-scaled by the factors given (flank, tip, root and tooth element sizes; layers with --scale-layers)
-and
-prints the largest contact pressure in the middle half of the face width and its change against
-the next finer mesh: the mesh is fine enough when that change is below 5 %. The machine's 1-minute
-load average is printed: timings on a shared machine are only as good as the load allows.
-Target (issue 5): the whole cycle in under 10 minutes on 2 cores. The thesis's ANSYS model of the
-full pair took about 30 hours.
+Columns: ranks; solver; torque; P2 DOFs; condensed DOFs (both gears); positions solved; Newton
+iterations; wall time (max over ranks) of the mesh (cache load and DOLFINx import), of the model
+set-up (spaces, stiffness, contact surfaces; with the condensed solver the factorisations and the
+condensation or the store), of the cycle solve, and their sum; the CPU time of the cycle solve
+(process time of the busiest rank: on a loaded machine it shows what a quiet one would take on 1
+rank; MPICH ranks poll while they wait, so on 2 ranks it includes waiting); whether the
+compliances came from the store; the dense compliance blocks held on rank 0 (MB); peak resident
+memory (max over ranks, and summed); the mean transmission error and the effective contact ratio.
+The machine has 2 cores shared with other developers: the 1-minute load average before and after
+each run is printed beside the figures, which are only as good as the load allows.
 """
 
 from __future__ import annotations
@@ -33,6 +40,7 @@ import dataclasses
 import json
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -45,7 +53,11 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
+from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.cycle import GearContactModel, solve_cycle
+from gearfem.cycle.cache import compliance_store, load, save
+
+DOCS = Path(__file__).resolve().parent.parent / "docs" / "cycle.md"
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -55,12 +67,40 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument(
         "case", nargs="?", default=None, help="case TOML (default: the built-in thesis case)"
     )
-    p.add_argument("--torque-Nm", type=float, default=8.0, help="torque, N m")
+    p.add_argument(
+        "--torques",
+        type=float,
+        nargs="+",
+        default=[8.0],
+        help="torques, N m, solved one after the other (the first fills the compliance store)",
+    )
+    p.add_argument(
+        "--solver", choices=("condensed", "full"), default=None, help="override [cycle] solver"
+    )
     p.add_argument(
         "--positions-per-pitch", type=int, default=None, help="override [cycle] positions_per_pitch"
     )
     p.add_argument(
+        "--store",
+        default=None,
+        help="compliance store directory (default: a fresh temporary one, so the first torque "
+        "condenses)",
+    )
+    p.add_argument(
         "--ranks-both", action="store_true", help="run on 1 and on 2 ranks (re-launches itself)"
+    )
+    p.add_argument(
+        "--save", default=None, help="store the (first torque's) cycle in this directory"
+    )
+    p.add_argument(
+        "--compare",
+        nargs=2,
+        default=None,
+        metavar=("REFERENCE", "OTHER"),
+        help="compare two stored cycles (e.g. full and condensed) instead of solving",
+    )
+    p.add_argument(
+        "--write-docs", action="store_true", help="write the table into docs/cycle.md (rank 0)"
     )
     p.add_argument(
         "--refinement", action="store_true", help="pitch-point pressure vs mesh size instead"
@@ -77,7 +117,7 @@ def parse_args(argv=None) -> argparse.Namespace:
         action="store_true",
         help="with --refinement: also scale the number of layers across the face width",
     )
-    p.add_argument("--json", default=None, help="(internal) write the row to this file")
+    p.add_argument("--json", default=None, help="(internal) write the rows to this file")
     return p.parse_args(argv)
 
 
@@ -86,65 +126,212 @@ def _memory(comm) -> tuple[float, float]:
     return comm.allreduce(kb, op=MPI.MAX) / 1024.0, comm.allreduce(kb, op=MPI.SUM) / 1024.0
 
 
-def _case(args):
-    case = load_case(args.case).with_operating(torque_Nm=args.torque_Nm)
+def _case(args, torque: float):
+    case = load_case(args.case).with_operating(torque_Nm=torque)
+    cyc = case.cycle
     if args.positions_per_pitch is not None:
-        case = dataclasses.replace(
-            case,
-            cycle=dataclasses.replace(case.cycle, positions_per_pitch=args.positions_per_pitch),
-        )
-    return case
+        cyc = dataclasses.replace(cyc, positions_per_pitch=args.positions_per_pitch)
+    if args.solver is not None:
+        cyc = dataclasses.replace(cyc, solver=args.solver)
+    return dataclasses.replace(case, cycle=cyc)
 
 
-def cycle_row(args) -> dict:
+def cycle_rows(args) -> list[dict]:
+    """One row per torque (collective)."""
     comm = MPI.COMM_WORLD
-    case = _case(args)
-    t0 = time.perf_counter()
-    gm = pipeline.pair_mesh(case, comm)
-    t1 = time.perf_counter()
-    model = GearContactModel(gm, case.materials, case.contact, case.operating.torque_Nm, case.cycle)
-    t2 = time.perf_counter()
-    res = solve_cycle(model)
-    t3 = time.perf_counter()
-    mx, tot = _memory(comm)
-    wall = [comm.allreduce(v, op=MPI.MAX) for v in (t1 - t0, t2 - t1, t3 - t2)]
-    extra = 1 if res.periodicity is not None else 0
-    return {
-        "ranks": comm.size,
-        "dofs": model.V.dofmap.index_map.size_global * 3,
-        "positions": len(res.phi_rad) + extra,
-        "newton": int(np.sum(res.newton_iterations)),
-        "mesh_s": wall[0],
-        "setup_s": wall[1],
-        "cycle_s": wall[2],
-        "mem_max_MB": mx,
-        "mem_sum_MB": tot,
-        "p_max_MPa": float(np.max(res.p_max_Pa)) / 1e6,
-        "eps_eff": res.effective_contact_ratio(),
-        "te_um": float(np.mean(res.te_m)) * 1e6,
-    }
+    tmp = None
+    if args.store is not None:
+        root = Path(args.store)
+    else:
+        tmp = tempfile.mkdtemp(prefix="gearfem-bench-store-") if comm.rank == 0 else None
+        root = Path(comm.bcast(tmp, root=0))
+    rows = []
+    try:
+        for i, torque in enumerate(args.torques):
+            case = _case(args, torque)
+            store = compliance_store(case.geometry, case.mesh, case.materials, root)
+            load0 = os.getloadavg()[0]
+            comm.barrier()
+            t0 = time.perf_counter()
+            gm = pipeline.pair_mesh(case, comm)
+            t1 = time.perf_counter()
+            model = GearContactModel(
+                gm, case.materials, case.contact, torque, case.cycle, compliance_store=store
+            )
+            t2, c2 = time.perf_counter(), time.process_time()
+            res = solve_cycle(model)
+            t3, c3 = time.perf_counter(), time.process_time()
+            mx, tot = _memory(comm)
+            wall = [comm.allreduce(v, op=MPI.MAX) for v in (t1 - t0, t2 - t1, t3 - t2, t3 - t0)]
+            info = res.info
+            condensed = case.cycle.solver == "condensed"
+            rows.append(
+                {
+                    "ranks": comm.size,
+                    "solver": case.cycle.solver,
+                    "torque_Nm": torque,
+                    "dofs": info["dofs"],
+                    "condensed_dofs": sum(info["condensed_dofs"].values()) if condensed else 0,
+                    "positions": len(res.phi_rad) + (res.periodicity is not None),
+                    "newton": int(np.sum(res.newton_iterations)),
+                    "mesh_s": wall[0],
+                    "setup_s": wall[1],
+                    "cycle_s": wall[2],
+                    "cycle_cpu_s": comm.allreduce(c3 - c2, op=MPI.MAX),
+                    "total_s": wall[3],
+                    "from_store": bool(condensed and all(info["compliance_from_store"].values())),
+                    "condensation_s": info.get("condensation_s", 0.0),
+                    "factorization_s": info.get("factorization_s", 0.0),
+                    "compliance_MB": info.get("compliance_MB_root", 0.0),
+                    "mem_max_MB": mx,
+                    "mem_sum_MB": tot,
+                    "te_um": float(np.mean(res.te_m)) * 1e6,
+                    "eps_eff": res.effective_contact_ratio(),
+                    "load_before": load0,
+                    "load_after": os.getloadavg()[0],
+                }
+            )
+            if i == 0 and args.save and comm.rank == 0:
+                save(res, args.save)
+            del model
+    finally:
+        if tmp is not None and comm.rank == 0:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return rows
 
 
-def print_rows(rows) -> None:
-    print(
-        f"{'ranks':>5} {'DOFs':>8} {'pos':>4} {'Newton':>6} {'mesh s':>7} {'setup s':>7} "
-        f"{'cycle s':>8} "
-        f"{'cycle min':>9} {'mem max MB':>10} {'mem sum MB':>10} {'p_max MPa':>9} {'eps_eff':>7} "
-        f"{'TE um':>6}"
-    )
+HEADERS = (
+    "ranks",
+    "solver",
+    "torque",
+    "DOFs",
+    "condensed DOFs",
+    "positions",
+    "Newton",
+    "mesh (s)",
+    "set-up (s)",
+    "cycle (s)",
+    "cycle CPU (s)",
+    "total (s)",
+    "compliance",
+    "C on rank 0 (MB)",
+    "memory max / sum (MB)",
+    "TE mean (µm)",
+    "ε_eff",
+    "load avg",
+)
+
+
+def table_rows(rows) -> list[list]:
+    out = []
     for r in rows:
-        print(
-            f"{r['ranks']:5d} {r['dofs']:8d} {r['positions']:4d} {r['newton']:6d} "
-            f"{r['mesh_s']:7.1f} "
-            f"{r['setup_s']:7.1f} {r['cycle_s']:8.1f} {r['cycle_s'] / 60:9.2f} "
-            f"{r['mem_max_MB']:10.0f} "
-            f"{r['mem_sum_MB']:10.0f} {r['p_max_MPa']:9.2f} {r['eps_eff']:7.3f} {r['te_um']:6.1f}"
+        if r["solver"] != "condensed":
+            comp = "–"
+        elif r["from_store"]:
+            comp = "stored"
+        else:
+            comp = f"computed ({r['condensation_s']:.1f} s)"
+        out.append(
+            [
+                r["ranks"],
+                r["solver"],
+                f"{r['torque_Nm']:g} N m",
+                f"{r['dofs']:,}",
+                f"{r['condensed_dofs']:,}" if r["condensed_dofs"] else "–",
+                r["positions"],
+                r["newton"],
+                f"{r['mesh_s']:.1f}",
+                f"{r['setup_s']:.1f}",
+                f"{r['cycle_s']:.1f}",
+                f"{r['cycle_cpu_s']:.1f}",
+                f"**{r['total_s']:.1f}**",
+                comp,
+                f"{r['compliance_MB']:.0f}" if r["compliance_MB"] else "–",
+                f"{r['mem_max_MB']:.0f} / {r['mem_sum_MB']:.0f}",
+                f"{r['te_um']:.2f}",
+                f"{r['eps_eff']:.3f}",
+                f"{r['load_before']:.1f}–{r['load_after']:.1f}",
+            ]
         )
+    return out
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest difference relative to the largest value of the reference."""
+    scale = float(np.max(np.abs(a), initial=0.0))
+    return float(np.max(np.abs(b - a), initial=0.0)) / scale if scale > 0 else 0.0
+
+
+def compare(reference: str, other: str) -> list[list]:
+    """Agreement of two stored cycles: (quantity, reference, other, difference) rows."""
+    a, b = load(reference), load(other)
+    total = sum(np.asarray(v) for v in a.tooth_load_N.values())
+    load_dev = max(
+        float(np.max(np.abs(b.tooth_load_N[k] - a.tooth_load_N[k]) / total)) for k in a.tooth_load_N
+    )
+    rows = [
+        [
+            "transmission error (every position)",
+            f"{np.mean(a.te_m) * 1e6:.3f} µm mean",
+            f"{np.mean(b.te_m) * 1e6:.3f} µm mean",
+            f"{_relative(a.te_m, b.te_m):.1e}",
+        ],
+        [
+            "normal load per tooth (every position and tooth, of the total)",
+            f"{float(np.mean(total)):.1f} N total",
+            "",
+            f"{load_dev:.1e}",
+        ],
+        [
+            "pitch-point pressure (middle half of the face)",
+            f"{a.p_max_mid_Pa[0] / 1e6:.3f} MPa",
+            f"{b.p_max_mid_Pa[0] / 1e6:.3f} MPa",
+            f"{abs(b.p_max_mid_Pa[0] / a.p_max_mid_Pa[0] - 1):.1e}",
+        ],
+        [
+            "friction power (every position)",
+            f"{a.mean_friction_power_W_per_rad_s():.4f} W per rad/s mean",
+            f"{b.mean_friction_power_W_per_rad_s():.4f} W per rad/s mean",
+            f"{_relative(a.friction_power_W_per_rad_s, b.friction_power_W_per_rad_s):.1e}",
+        ],
+    ]
+    for g in ("pinion", "wheel"):
+        ua, ub = a.fields[g].u_max_J_m3, b.fields[g].u_max_J_m3
+        rows.append(
+            [
+                f"U_max field, {g} (every cell of the sector)",
+                f"{ua.max() / 1e3:.2f} kJ/m³ max",
+                f"{ub.max() / 1e3:.2f} kJ/m³ max",
+                f"{_relative(ua, ub):.1e}",
+            ]
+        )
+    rows.append(
+        [
+            "effective contact ratio",
+            f"{a.effective_contact_ratio():.3f}",
+            f"{b.effective_contact_ratio():.3f}",
+            "identical"
+            if a.effective_contact_ratio() == b.effective_contact_ratio()
+            else "differs",
+        ]
+    )
+    rows.append(
+        [
+            "Newton iterations (sum)",
+            f"{int(np.sum(a.newton_iterations))}",
+            f"{int(np.sum(b.newton_iterations))}",
+            "",
+        ]
+    )
+    rows.append(
+        ["cycle wall time", f"{np.sum(a.wall_time_s):.0f} s", f"{np.sum(b.wall_time_s):.0f} s", ""]
+    )
+    return rows
 
 
 def refinement(args) -> None:
     comm = MPI.COMM_WORLD
-    base = _case(args)
+    base = _case(args, args.torques[0])
     rows = []
     for f in args.factors:
         m = base.mesh
@@ -193,13 +380,12 @@ def refinement(args) -> None:
     if comm.rank == 0:
         print(
             f"pitch-point position, {base.operating.torque_Nm:g} N m, mu = "
-            f"{base.contact.friction_coefficient:g}, "
+            f"{base.contact.friction_coefficient:g}, {base.cycle.solver} solver, "
             f"{comm.size} rank(s)"
         )
         print(
             f"{'factor':>6} {'flank mm':>8} {'layers':>6} {'DOFs':>8} {'p_mid MPa':>9} "
-            f"{'change':>7} "
-            f"{'p_max MPa':>9} {'change':>7} {'TE um':>6} {'wall s':>7}"
+            f"{'change':>7} {'p_max MPa':>9} {'change':>7} {'TE um':>6} {'wall s':>7}"
         )
         for i, r in enumerate(rows):
             nxt = rows[i + 1] if i + 1 < len(rows) else None
@@ -207,54 +393,55 @@ def refinement(args) -> None:
             c2 = f"{(r['p_max_MPa'] / nxt['p_max_MPa'] - 1) * 100:+6.2f}%" if nxt else "      -"
             print(
                 f"{r['factor']:6.2f} {r['flank_mm']:8.3f} {r['layers']:6d} {r['dofs']:8d} "
-                f"{r['p_mid_MPa']:9.2f} "
-                f"{c1:>7} {r['p_max_MPa']:9.2f} {c2:>7} {r['te_um']:6.1f} {r['wall_s']:7.1f}"
+                f"{r['p_mid_MPa']:9.2f} {c1:>7} {r['p_max_MPa']:9.2f} {c2:>7} {r['te_um']:6.1f} "
+                f"{r['wall_s']:7.1f}"
             )
         print("change: relative to the next finer mesh")
+
+
+def _relaunch(args) -> list[dict]:
+    mpirun = Path(sys.executable).with_name("mpirun")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in (1, 2):
+            out = Path(tmp) / f"rows{n}.json"
+            cmd = [str(mpirun) if mpirun.exists() else "mpirun", "-n", str(n), sys.executable]
+            cmd += [__file__, "--json", str(out), "--torques", *map(str, args.torques)]
+            if args.case:
+                cmd.append(args.case)
+            if args.solver:
+                cmd += ["--solver", args.solver]
+            if args.positions_per_pitch:
+                cmd += ["--positions-per-pitch", str(args.positions_per_pitch)]
+            subprocess.run(cmd, check=True)
+            rows += json.loads(out.read_text())
+    return rows
 
 
 def main(argv=None) -> int:
     args = parse_args(argv)
     comm = MPI.COMM_WORLD
-    load0 = os.getloadavg()[0]
-    if args.ranks_both:
-        mpirun = Path(sys.executable).with_name("mpirun")
-        rows = []
-        with tempfile.TemporaryDirectory() as tmp:
-            for n in (1, 2):
-                out = Path(tmp) / f"row{n}.json"
-                cmd = [
-                    str(mpirun) if mpirun.exists() else "mpirun",
-                    "-n",
-                    str(n),
-                    sys.executable,
-                    __file__,
-                    "--torque-Nm",
-                    str(args.torque_Nm),
-                    "--json",
-                    str(out),
-                ]
-                if args.case:
-                    cmd.insert(4, args.case)
-                if args.positions_per_pitch:
-                    cmd += ["--positions-per-pitch", str(args.positions_per_pitch)]
-                subprocess.run(cmd, check=True)
-                rows.append(json.loads(out.read_text()))
-        print_rows(rows)
-    elif args.refinement:
-        refinement(args)
-    else:
-        row = cycle_row(args)
+    if args.compare:
+        rows = compare(*args.compare)
         if comm.rank == 0:
-            if args.json:
-                Path(args.json).write_text(json.dumps(row))
-            else:
-                print_rows([row])
+            table = markdown_table(("quantity", "reference", "other", "difference"), rows)
+            print(table)
+            if args.write_docs:
+                replace_block(DOCS, "cycle_solver_agreement", table)
+        return 0
+    if args.refinement:
+        refinement(args)
+        return 0
+    rows = _relaunch(args) if args.ranks_both else cycle_rows(args)
     if comm.rank == 0:
-        print(
-            f"load average (1 min): {load0:.2f} before, {os.getloadavg()[0]:.2f} after; "
-            f"{os.cpu_count()} CPUs; target: whole cycle < 10 min on 2 cores"
-        )
+        if args.json:
+            Path(args.json).write_text(json.dumps(rows))
+            return 0
+        table = markdown_table(HEADERS, table_rows(rows))
+        print(table)
+        print(f"{os.cpu_count()} CPUs; targets: first torque <= 60 s, further torques <= 20 s")
+        if args.write_docs:
+            replace_block(DOCS, "cycle_benchmark", table)
     return 0
 
 

@@ -29,7 +29,13 @@ from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.core.provenance import versions
 from gearfem.core.results import JsonRecord
 from gearfem.coupling.heat_sources import cycle_heat_sources
-from gearfem.cycle.cache import cache_root, cached_cycle, cycle_key
+from gearfem.cycle.cache import (
+    cache_root,
+    cached_cycle,
+    compliance_context,
+    compliance_store,
+    cycle_key,
+)
 from gearfem.cycle.cache import load as load_cycle
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.report import write_cycle_outputs
@@ -160,6 +166,12 @@ def case_cycle_key(case: Case) -> str:
     )
 
 
+def case_compliance_context(case: Case) -> str:
+    """The part of the gear-compliance store key that comes from the case (mesh, elastic
+    constants, code); the store adds each gear's contact DOFs and supports."""
+    return compliance_context(case.geometry, case.mesh, case.materials)
+
+
 def cycle(
     case: Case,
     comm: MPI.Comm,
@@ -174,7 +186,12 @@ def cycle(
     def factory():
         gm = pair_mesh(case, comm, mesh_cache)
         return GearContactModel(
-            gm, case.materials, case.contact, case.operating.torque_Nm, case.cycle
+            gm,
+            case.materials,
+            case.contact,
+            case.operating.torque_Nm,
+            case.cycle,
+            compliance_store=compliance_store(case.geometry, case.mesh, case.materials, cache_dir),
         )
 
     return cached_cycle(

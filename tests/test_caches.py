@@ -1,10 +1,11 @@
 """Every cache is keyed by every input that changes what it holds, and by nothing else.
 
-For each cache (the pair mesh, the structural cycle per torque), each input that changes the cached
-result must change the key (a recompute), and each input that does not must leave it unchanged (a
-hit). The heat split between the gears is applied after the cycle cache (by the coupling), so it is
-in the second group; the cycle test of the coupling checks that the split then scales the friction
-heat (tests/test_cycle.py::test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model).
+For each cache (the pair mesh, the structural cycle per torque, the gear compliances of the
+condensed contact solver), each input that changes the cached result must change the key (a
+recompute), and each input that does not must leave it unchanged (a hit). The heat split between
+the gears is applied after the cycle cache (by the coupling), so it is in the second group; the
+cycle test of the coupling checks that the split then scales the friction heat
+(tests/test_cycle.py::test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
 from gearfem.geometry.mesh import cache_key as mesh_key
 from gearfem.geometry.options import MeshOptions
-from gearfem.pipeline import case_cycle_key
+from gearfem.pipeline import case_compliance_context, case_cycle_key
 
 CASE = load_case(None)
 
@@ -40,6 +41,9 @@ CYCLE_CHANGES = {
     "Young's modulus": _replace(
         CASE, "material", youngs_modulus_Pa=0.9 * CASE.material.youngs_modulus_Pa
     ),
+    "contact solver": _replace(
+        CASE, "cycle", solver="full" if CASE.cycle.solver == "condensed" else "condensed"
+    ),
 }
 
 CYCLE_SAME = {
@@ -49,6 +53,66 @@ CYCLE_SAME = {
     "ambient temperature": _replace(CASE, "thermal", ambient_C=40.0),
     "thermal body": _replace(CASE, "thermal", body="wheel"),
 }
+
+
+# The condensed solver's gear compliances (cache/compliance): one per mesh and elastic material,
+# reused for every torque, friction law, contact option and speed. The store adds each gear's
+# contact DOFs and supports to the key (test_compliance_store_key_holds_the_dofs_and_supports).
+COMPLIANCE_CHANGES = {
+    "flank element size": CYCLE_CHANGES["flank element size"],
+    "face width": CYCLE_CHANGES["face width"],
+    "Young's modulus": CYCLE_CHANGES["Young's modulus"],
+    "Poisson's ratio": _replace(CASE, "material", poissons_ratio=0.35),
+    "wheel material": dataclasses.replace(
+        CASE,
+        material_wheel=dataclasses.replace(
+            CASE.material, youngs_modulus_Pa=2 * CASE.material.youngs_modulus_Pa
+        ),
+    ),
+}
+
+COMPLIANCE_SAME = {
+    **CYCLE_SAME,
+    "torque": CYCLE_CHANGES["torque"],
+    "friction coefficient": CYCLE_CHANGES["friction coefficient"],
+    "contact penalty": CYCLE_CHANGES["contact penalty"],
+    "positions per pitch": CYCLE_CHANGES["positions per pitch"],
+    "contact solver": CYCLE_CHANGES["contact solver"],
+    "thermal conductivity": _replace(CASE, "material", thermal_conductivity_W_mK=0.3),
+}
+
+
+@pytest.mark.parametrize("name", list(COMPLIANCE_CHANGES))
+def test_compliance_key_changes_with_mesh_and_elastic_constants(name):
+    assert case_compliance_context(COMPLIANCE_CHANGES[name]) != case_compliance_context(CASE)
+
+
+@pytest.mark.parametrize("name", list(COMPLIANCE_SAME))
+def test_compliance_key_ignores_the_operating_point_and_contact_options(name):
+    assert case_compliance_context(COMPLIANCE_SAME[name]) == case_compliance_context(CASE)
+
+
+def test_compliance_store_key_holds_the_dofs_and_supports(tmp_path):
+    """Within one context, the key changes with the body, its contact DOFs (names, so the same on
+    any number of ranks) and its supports; the global numbering of a run does not enter."""
+    import numpy as np
+
+    from gearfem.contact.compliance import BodyDofs, ComplianceStore
+
+    store = ComplianceStore(tmp_path, case_compliance_context(CASE))
+    names = np.arange(0, 300, 1, dtype=np.int64)
+    body = BodyDofs("pinion", 0, np.arange(1000), np.arange(300), names, "supports")
+    assert store.key(dataclasses.replace(body, free=np.arange(5, 1005))) == store.key(body)
+    assert store.key(dataclasses.replace(body, contact=np.arange(1, 301))) == store.key(body)
+    assert store.key(dataclasses.replace(body, owner=1)) == store.key(body)
+    for other in (
+        dataclasses.replace(body, name="wheel"),
+        dataclasses.replace(body, contact_names=names + 3),
+        dataclasses.replace(body, contact_names=names[:-1]),
+        dataclasses.replace(body, fixed_hash="other supports"),
+    ):
+        assert store.key(other) != store.key(body)
+    assert ComplianceStore(tmp_path, "another mesh").key(body) != store.key(body)
 
 
 @pytest.mark.parametrize("name", list(CYCLE_CHANGES))

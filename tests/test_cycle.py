@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from gearfem import pipeline
-from gearfem.config import Case
+from gearfem.config import Case, load_case
 from gearfem.contact import ContactOptions
 from gearfem.core.errors import ParameterError
 from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE, cycle_heat_sources
@@ -71,6 +72,12 @@ def low_torque():
 @pytest.fixture(scope="module")
 def loaded():
     return solve_cycle(_model(_case(8.0, 0.5)))
+
+
+@pytest.fixture(scope="module")
+def loaded_full():
+    """The loaded cycle with the full 3D solver (the reference of the default condensed one)."""
+    return solve_cycle(_model(_case(8.0, 0.5, solver="full")))
 
 
 def _check_periodic(r):
@@ -223,25 +230,92 @@ def _flank_heat(domain, sources) -> float:
     return domain.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
 
-@pytest.mark.mpi
-def test_cycle_one_and_two_ranks_agree(comms):
-    """Two positions at 2 N m with friction on 1 rank and on all ranks."""
-    out = []
-    for comm in comms:
-        case = dataclasses.replace(
-            _case(2.0, 0.5),
-            cycle=CycleOptions(positions_per_pitch=POSITIONS, pitches=2.0 / POSITIONS),
-        )
-        r = solve_cycle(_model(case, comm))
-        out.append(r)
-    a, b = out
-    np.testing.assert_allclose(b.te_m, a.te_m, rtol=1e-6)
-    np.testing.assert_allclose(b.pinion_torque_Nm, a.pinion_torque_Nm, rtol=1e-6)
+def _assert_same_cycle(a, b, rtol: float) -> None:
+    np.testing.assert_allclose(b.te_m, a.te_m, rtol=rtol)
+    np.testing.assert_allclose(b.pinion_torque_Nm, a.pinion_torque_Nm, rtol=rtol)
     np.testing.assert_allclose(
-        b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-5
+        b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=10 * rtol
     )
     for k in a.tooth_load_N:
-        np.testing.assert_allclose(b.tooth_load_N[k], a.tooth_load_N[k], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(b.tooth_load_N[k], a.tooth_load_N[k], rtol=rtol, atol=1e-9)
+    for g in ("pinion", "wheel"):
+        ua, ub = a.fields[g].u_max_J_m3, b.fields[g].u_max_J_m3
+        assert np.abs(ub - ua).max() <= 10 * rtol * np.abs(ua).max()
+
+
+@pytest.mark.mpi
+def test_cycle_one_and_two_ranks_agree(comms):
+    """Two positions at 2 N m with friction on 1 rank and on all ranks, with both contact solvers;
+    the condensed solver gives the full solver's cycle (static condensation is exact)."""
+    out = {}
+    for solver in ("full", "condensed"):
+        for comm in comms if MPI.COMM_WORLD.size > 1 else comms[:1]:
+            case = dataclasses.replace(
+                _case(2.0, 0.5),
+                cycle=CycleOptions(
+                    positions_per_pitch=POSITIONS, pitches=2.0 / POSITIONS, solver=solver
+                ),
+            )
+            out[solver, comm.size] = solve_cycle(_model(case, comm))
+    n = MPI.COMM_WORLD.size
+    for solver in ("full", "condensed"):
+        _assert_same_cycle(out[solver, 1], out[solver, n], rtol=1e-6)
+    _assert_same_cycle(out["full", 1], out["condensed", 1], rtol=1e-6)
+    assert out["condensed", n].info["back_substitution_error"] < 1e-9
+
+
+@pytest.mark.slow
+def test_condensed_cycle_matches_the_full_solver(loaded, loaded_full):
+    """The whole loaded cycle (8 N m, μ = 0.5, 12 positions and the periodicity check): loads
+    per tooth and TE within 0.5 %, pitch-point pressure within 1 %, friction power and the U_max
+    field within 1 %, the same effective contact ratio (issue 14). Measured: all within 1e-10."""
+    a, b = loaded_full, loaded
+    assert a.info["solver"] == "full" and b.info["solver"] == "condensed"
+    np.testing.assert_allclose(b.te_m, a.te_m, rtol=5e-3)
+    total = sum(np.asarray(v) for v in a.tooth_load_N.values())
+    for k in a.tooth_load_N:
+        assert np.all(np.abs(b.tooth_load_N[k] - a.tooth_load_N[k]) <= 5e-3 * total), k
+    np.testing.assert_allclose(b.p_max_mid_Pa[0], a.p_max_mid_Pa[0], rtol=1e-2)
+    np.testing.assert_allclose(
+        b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-2
+    )
+    for g in ("pinion", "wheel"):
+        ua, ub = a.fields[g].u_max_J_m3, b.fields[g].u_max_J_m3
+        assert np.abs(ub - ua).max() <= 1e-2 * np.abs(ua).max()
+    assert b.effective_contact_ratio() == a.effective_contact_ratio()
+    assert b.periodicity["te_shifted_m"] == pytest.approx(a.periodicity["te_shifted_m"], rel=5e-3)
+    # the same discrete problem: the same Newton path, to round-off
+    np.testing.assert_array_equal(b.newton_iterations, a.newton_iterations)
+    np.testing.assert_allclose(b.te_m, a.te_m, rtol=1e-8)
+    assert b.info["back_substitution_error"] < 1e-9
+
+
+@pytest.mark.slow
+def test_condensed_cycle_matches_the_full_solver_on_the_coarse_case():
+    """tests/cases/coarse.toml (6 of 30 teeth, 8 positions, 8 N m, μ = 0.5): the condensed
+    solver solves on teeth 1-4 of each gear and guards teeth 0 and 5, and gives the full
+    solver's cycle."""
+    case = load_case(Path(__file__).resolve().parent / "cases" / "coarse.toml")
+    out = {}
+    for solver in ("full", "condensed"):
+        c = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, solver=solver))
+        m = _model(c)
+        out[solver] = solve_cycle(m)
+        if solver == "condensed":
+            assert m.contact_teeth == {"pinion": [1, 2, 3, 4], "wheel": [1, 2, 3, 4]}
+    a, b = out["full"], out["condensed"]
+    total = sum(np.asarray(v) for v in a.tooth_load_N.values())
+    np.testing.assert_allclose(b.te_m, a.te_m, rtol=5e-3)
+    for k in a.tooth_load_N:
+        assert np.all(np.abs(b.tooth_load_N[k] - a.tooth_load_N[k]) <= 5e-3 * total), k
+    np.testing.assert_allclose(b.p_max_mid_Pa[0], a.p_max_mid_Pa[0], rtol=1e-2)
+    np.testing.assert_allclose(
+        b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-2
+    )
+    for g in ("pinion", "wheel"):
+        ua, ub = a.fields[g].u_max_J_m3, b.fields[g].u_max_J_m3
+        assert np.abs(ub - ua).max() <= 1e-2 * np.abs(ua).max()
+    assert b.effective_contact_ratio() == a.effective_contact_ratio()
 
 
 @pytest.mark.parametrize(

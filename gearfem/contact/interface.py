@@ -285,6 +285,16 @@ class ContactInterface:
         )
         return si[pair], mj[pair], xi, wref
 
+    def segmentation_blocks(self) -> np.ndarray:
+        """Global node (block) numbers of every facet the current segmentation can involve until
+        the next :meth:`update_segmentation`: this rank's slave facets that carry integration points
+        and every master facet they may be projected on (sorted; local to this rank's points)."""
+        out = [np.zeros(0, np.int64)]
+        for ps, seg in zip(self.passes, self._segments or []):
+            out.append(ps.slave.local.blocks[np.unique(seg.slave_facet)].ravel())
+            out.append(ps.master.gathered().blocks[np.unique(seg.candidates.facets)].ravel())
+        return np.unique(np.concatenate(out))
+
     def update_slip(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
         """Freeze the friction slip directions ŝ at the current configuration (collective).
 

@@ -50,6 +50,9 @@ def project(
     facet polynomial is used beyond the reference facet when the foot lies outside it; callers
     decide what to do with such points (``ref.inside``).
 
+    Each point iterates until its own step is below ``tol`` (or ``iterations`` are done): points
+    that have converged are not evaluated again.
+
     Returns:
         (xi, distance) with xi (n, 2) and the distance |x − x_m(ξ)|.
     """
@@ -58,9 +61,12 @@ def project(
         xi = np.tile(ref.reference_polygon.mean(axis=0), (n, 1))
     else:
         xi = np.array(xi0, dtype=np.float64, copy=True)
+    todo = np.arange(n)
     for _ in range(iterations):
-        xm, t1, t2, _, (x11, x12, x22) = evaluate(ref, nodes, xi, derivatives=2)
-        d = xm - x
+        if not len(todo):
+            break
+        xm, t1, t2, _, (x11, x12, x22) = evaluate(ref, nodes[todo], xi[todo], derivatives=2)
+        d = xm - x[todo]
         g = np.stack([np.einsum("pd,pd->p", d, t1), np.einsum("pd,pd->p", d, t2)], axis=1)
         h11 = np.einsum("pd,pd->p", t1, t1) + np.einsum("pd,pd->p", d, x11)
         h12 = np.einsum("pd,pd->p", t1, t2) + np.einsum("pd,pd->p", d, x12)
@@ -73,9 +79,8 @@ def project(
         step = np.stack([dxi0, dxi1], axis=1)
         step[bad] = 0.0
         step = np.clip(step, -0.5, 0.5)  # keep the iteration near the facet
-        xi += step
-        if np.max(np.abs(step), initial=0.0) < tol:
-            break
+        xi[todo] += step
+        todo = todo[np.max(np.abs(step), axis=1) >= tol]
     xm = evaluate(ref, nodes, xi)[0]
     return xi, np.linalg.norm(x - xm, axis=1)
 

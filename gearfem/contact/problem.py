@@ -16,12 +16,12 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from gearfem.contact.elasticity import elastic_stress, stiffness_form
 from gearfem.contact.interface import ContactInterface, ContactPoints
 from gearfem.contact.options import ContactOptions
 from gearfem.contact.rigid import RigidMotion
@@ -31,11 +31,7 @@ from gearfem.core.petsc import ksp_reason, set_options
 
 log = logging.getLogger(__name__)
 
-
-def elastic_stress(u, mu, lmbda):
-    """Linear isotropic stress σ = 2μ ε(u) + λ tr(ε(u)) I (UFL)."""
-    eps = ufl.sym(ufl.grad(u))
-    return 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(len(u))
+__all__ = ["ContactProblem", "ControlledRotation", "SolveReport", "elastic_stress", "fixed_mask"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,14 +121,10 @@ class ContactProblem:
         self.interfaces = list(interfaces)
         self.motions = dict(motions)
         self.u = fem.Function(V, name="displacement")
-        du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-        self.a = fem.form(ufl.inner(elastic_stress(du, mu, lmbda), ufl.sym(ufl.grad(v))) * ufl.dx)
+        self.a = fem.form(stiffness_form(V, mu, lmbda))
         self.K_full = fem_petsc.assemble_matrix(self.a)  # for residuals (no BC rows)
         self.K_full.assemble()
-        self.K_bc = fem_petsc.assemble_matrix(
-            self.a, bcs=self.bcs
-        )  # Jacobian base (BC rows: identity)
-        self.K_bc.assemble()
+        self._K_bc: PETSc.Mat | None = None  # Jacobian base (BC rows: identity), when first needed
         self.f_ext = self.K_full.createVecLeft()
         if traction_form is not None:
             fem_petsc.assemble_vector(self.f_ext, fem.form(traction_form))
@@ -164,6 +156,15 @@ class ContactProblem:
         self.linear_solves = 0
         self.stalled = 0  # Newton solves accepted at a stall (see ContactOptions.newton_stall_rtol)
         self.last_points: list[list[ContactPoints]] = []
+
+    @property
+    def K_bc(self) -> PETSc.Mat:
+        """The elastic stiffness with identity rows at the Dirichlet DOFs (the Jacobian's base;
+        assembled on first use)."""
+        if self._K_bc is None:
+            self._K_bc = fem_petsc.assemble_matrix(self.a, bcs=self.bcs)
+            self._K_bc.assemble()
+        return self._K_bc
 
     # -------------------------------------------------------------------------------------------
     def _owned_bc_rows(self) -> np.ndarray:
@@ -312,6 +313,20 @@ class ContactProblem:
         body = self.controlled.body
         self.motions[body] = dataclasses.replace(self.motions[body], angle_rad=float(angle))
 
+    def newton_settings(self) -> NewtonSettings:
+        """How the contact Newton iterates (backtracking on the residual norm, a stall accepted
+        below ``newton_stall_rtol``)."""
+        o = self.options
+        return NewtonSettings(
+            max_it=o.newton_max_it,
+            line_search="backtracking",
+            max_halvings=11 if o.line_search else 0,
+            armijo=1e-4,
+            accept_below_tolerance=True,
+            on_line_search_failure="keep_last",
+            min_iterations=1,
+        )
+
     def newton(self, label: str = "", rtol: float | None = None) -> tuple[int, float]:
         """Solve for fixed multipliers; returns (iterations, final residual norm).
 
@@ -327,17 +342,8 @@ class ContactProblem:
         for itf in self.interfaces:
             itf.update_segmentation(self.u.x.array, self.motions)
         system = _ContactSystem(self, rtol, label)
-        settings = NewtonSettings(
-            max_it=o.newton_max_it,
-            line_search="backtracking",
-            max_halvings=11 if o.line_search else 0,
-            armijo=1e-4,
-            accept_below_tolerance=True,
-            on_line_search_failure="keep_last",
-            min_iterations=1,
-        )
         try:
-            report = newton_solve(system, settings, "contact Newton", label)
+            report = newton_solve(system, self.newton_settings(), "contact Newton", label)
         except ConvergenceError:
             system.free()
             raise

@@ -16,11 +16,12 @@ import gmsh
 import numpy as np
 from mpi4py import MPI
 
+from gearfem.contact.condensed import CondensedContactProblem
 from gearfem.contact.interface import ContactInterface
 from gearfem.contact.problem import ContactProblem, fixed_mask
 from gearfem.contact.rigid import RigidMotion
 from gearfem.contact.surface import ContactSurface
-from gearfem.core.params import require_int, require_positive
+from gearfem.core.params import require_choice, require_int, require_positive
 
 INITIAL_GAP = 1e-6  # relative to the radius, see hertz_cylinders
 
@@ -273,6 +274,35 @@ def _component_bc(V, md, name: str, comp: int, value: float):
     return fem.dirichletbc(dolfinx.default_scalar_type(value), dofs, V.sub(comp))
 
 
+#: Contact solvers of the verification cases: the full volume system or the condensed surfaces.
+SOLVERS = ("full", "condensed")
+
+
+def _problem(solver: str, md, V, mu, lmbda, bcs, interfaces, motions, options, prefix: str):
+    """The contact problem of a verification case with either solver (the bodies are the
+    mesh volumes named by the surfaces' bodies)."""
+    require_choice("solver", solver, SOLVERS)
+    if solver == "full":
+        return ContactProblem(
+            V, mu, lmbda, bcs, interfaces, motions, options, petsc_options_prefix=prefix
+        )
+    bodies = {
+        b: md.cell_tags.find(md.physical_groups[b].tag)
+        for b in sorted({s.body for itf in interfaces for s in (itf.a, itf.b)})
+    }
+    return CondensedContactProblem(
+        V,
+        mu,
+        lmbda,
+        bcs,
+        interfaces,
+        motions,
+        options,
+        bodies=bodies,
+        petsc_options_prefix=prefix + "condensed_",
+    )
+
+
 def _surface(V, md, name: str, body: str, mask):
     return ContactSurface(
         V, md.facet_tags.find(md.physical_groups[name].tag), body, mask, name=name
@@ -291,6 +321,7 @@ def block_case(
     size_lower: float = 0.25,
     size_upper: float = 0.17,
     clamped: bool = False,
+    solver: str = "full",
 ) -> ContactCase:
     """Two unit blocks pressed together by moving the top of the upper one down by
     ``compression_m``.
@@ -344,9 +375,7 @@ def block_case(
         ),
     }
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-    prob = ContactProblem(
-        V, mu, lmbda, bcs, [itf], motions, options, petsc_options_prefix="gearfem_blocks_"
-    )
+    prob = _problem(solver, md, V, mu, lmbda, bcs, [itf], motions, options, "gearfem_blocks_")
     return ContactCase(
         prob, md, E, nu, timings_s={"mesh": t1 - t0, "setup": time.perf_counter() - t1}
     )
@@ -363,6 +392,7 @@ def hertz_case(
     layers: int = 1,
     thickness_m: float | None = None,
     far_size: float = 0.2,
+    solver: str = "full",
 ) -> ContactCase:
     """Two equal half-cylinders (radius 1) pressed together in plane strain (u_z = 0 on both faces).
 
@@ -404,16 +434,8 @@ def hertz_case(
     )
     itf = ContactInterface(lower, upper, options, {"lower": E, "upper": E})
     mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-    prob = ContactProblem(
-        V,
-        mu,
-        lmbda,
-        bcs,
-        [itf],
-        {"lower": RigidMotion(), "upper": RigidMotion()},
-        options,
-        petsc_options_prefix="gearfem_hertz_",
-    )
+    motions = {"lower": RigidMotion(), "upper": RigidMotion()}
+    prob = _problem(solver, md, V, mu, lmbda, bcs, [itf], motions, options, "gearfem_hertz_")
     return ContactCase(
         prob,
         md,

@@ -71,3 +71,23 @@ class ConvergenceError(GearfemError, RuntimeError):
 
 class MissingDependencyError(GearfemError, ImportError):
     """A required library is missing or too old."""
+
+
+class UncoveredContactError(GearfemError):
+    """A contact found outside the surfaces a reduced (condensed) contact model solves on.
+
+    Args:
+        where: The step (load step, angle) in words with units.
+        contacts: One line per surface pair that touches outside the set: what touches what,
+            how deep, where, which facets.
+        hint: How to widen the set (or to use the full solver).
+    """
+
+    def __init__(self, where: str, contacts: list[str], hint: str = "") -> None:
+        self.where = where
+        self.contacts = list(contacts)
+        self.hint = hint
+        msg = f"contact outside the condensed contact surfaces at {where}: " + "; ".join(contacts)
+        if hint:
+            msg += f" ({hint})"
+        super().__init__(msg)

@@ -4,8 +4,10 @@ A :class:`~gearfem.cycle.solve.CycleResult` is stored as ``cycle.npz`` (arrays) 
 ``cycle.json`` (scalars and metadata), written to a temporary name and renamed, so an interrupted
 run never leaves a result that looks complete. Results are cached under
 ``<cache>/cycles/<key>/`` with ``key`` a hash of everything that changes the structural answer:
-geometry, mesh options, materials, contact and cycle options, torque and the source of the
-contact/cycle code (speed does not enter: one cycle solve per torque serves every speed).
+geometry, mesh options, materials, contact and cycle options (the solver among them), torque and
+the source of the contact/cycle code (speed does not enter: one cycle solve per torque serves every
+speed). The condensed solver's gear compliances are stored under ``<cache>/compliance/`` (one per
+mesh, material and contact surface set, whatever the torque: :func:`compliance_store`).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from gearfem.contact.compliance import ComplianceStore
 from gearfem.core.io import jsonable
 from gearfem.core.params import to_dict
 from gearfem.core.provenance import source_hash
@@ -81,6 +84,33 @@ def cycle_key(
         "code": _code_hash(),
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def compliance_context(geometry, mesh_options, materials: dict) -> str:
+    """What a stored gear compliance depends on besides its body's DOFs and supports (which
+    :class:`~gearfem.contact.compliance.ComplianceStore` adds): the pair mesh (its key), each
+    gear's elastic constants, and the code that computes it (the compliance module and the
+    stiffness form, with what they import). Torque, friction, contact and cycle options do not
+    enter: one compliance serves every operating point."""
+    data = {
+        "mesh_key": mesh_cache_key(geometry, mesh_options),
+        "elastic": {
+            b: [float(m.youngs_modulus_Pa), float(m.poissons_ratio)]
+            for b, m in sorted(materials.items())
+        },
+        "code": source_hash("gearfem.contact.compliance", "gearfem.contact.elasticity", length=12),
+    }
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def compliance_store(
+    geometry, mesh_options, materials: dict, cache_dir: Path | None = None
+) -> ComplianceStore:
+    """The store of the gear compliances under ``<cache>/compliance/``."""
+    return ComplianceStore(
+        (cache_dir or cache_root()) / "compliance",
+        compliance_context(geometry, mesh_options, materials),
+    )
 
 
 def save(result: CycleResult, directory: str | Path) -> Path:

@@ -24,6 +24,8 @@ from gearfem.contact import (
     ContactSurface,
     RigidMotion,
 )
+from gearfem.contact.compliance import ComplianceStore
+from gearfem.contact.condensed import CondensedContactProblem, Guard
 from gearfem.contact.problem import ControlledRotation, fixed_mask
 from gearfem.contact.verification import hertz_line_contact
 from gearfem.core.errors import ParameterError
@@ -45,7 +47,13 @@ class GearContactModel:
         materials: Material of the pinion and of the wheel.
         contact: Contact options (friction coefficient, penalty, tolerances).
         torque_Nm: Resisting torque on the wheel (> 0: the pinion drives forward).
-        options: Cycle options (surfaces, predictor).
+        options: Cycle options (surfaces, predictor, solver).
+        compliance_store: With ``options.solver = "condensed"``: where the gears' compliances are
+            kept between runs (None: computed by this model).
+
+    With the condensed solver, the contact surfaces are those of the teeth that can engage over
+    the angles the cycle solves (:meth:`engaging_teeth`); the other teeth are guards: a contact
+    found on one of them after a position raises an error naming it.
     """
 
     def __init__(
@@ -55,6 +63,7 @@ class GearContactModel:
         contact: ContactOptions,
         torque_Nm: float,
         options: CycleOptions = CycleOptions(),  # noqa: B008 - frozen, immutable
+        compliance_store: ComplianceStore | None = None,
     ) -> None:
         require_positive("operating.torque_Nm", torque_Nm)
         if set(gm.bodies) != set(BODIES):
@@ -102,15 +111,26 @@ class GearContactModel:
             for b in BODIES
         ]
         mask = fixed_mask(self.V, self.bcs)
-        self.surfaces = {}
-        for b in BODIES:
-            names = [n for k in options.contact_kinds for n in gm.names(body=b, kind=k)]
-            self.surfaces[b] = ContactSurface(self.V, gm.facets(*names), b, mask, name=f"{b}_teeth")
+        #: every modelled tooth of each gear, and those whose surfaces the contact is solved on
+        self.teeth = {b: self._modelled_teeth(b) for b in BODIES}
+        self.contact_teeth = (
+            self.engaging_teeth(options.condensed_extra_teeth)
+            if options.solver == "condensed"
+            else dict(self.teeth)
+        )
+        youngs = {b: materials[b].youngs_modulus_Pa for b in BODIES}
+        self.surfaces = {
+            b: ContactSurface(
+                self.V,
+                gm.facets(*self._contact_names(b, self.contact_teeth[b])),
+                b,
+                mask,
+                name=f"{b}_teeth",
+            )
+            for b in BODIES
+        }
         self.interface = ContactInterface(
-            self.surfaces["pinion"],
-            self.surfaces["wheel"],
-            contact,
-            {b: materials[b].youngs_modulus_Pa for b in BODIES},
+            self.surfaces["pinion"], self.surfaces["wheel"], contact, youngs
         )
         z1, z2 = gm.geometry.teeth_pinion, gm.geometry.teeth_wheel
         self.ratio = z1 / z2
@@ -125,25 +145,122 @@ class GearContactModel:
                 center=tuple(gm.center("wheel")), angular_velocity_rad_s=-self.ratio
             ),
         }
-        self.problem = ContactProblem(
-            self.V,
-            self.lame_mu,
-            self.lame_lambda,
-            self.bcs,
-            [self.interface],
-            dict(self._motion0),
-            contact,
-            petsc_options_prefix="gearfem_cycle_",
-            controlled=ControlledRotation("wheel", torque_Nm, self.base_radius_m["wheel"]),
-        )
+        held = ControlledRotation("wheel", torque_Nm, self.base_radius_m["wheel"])
+        if options.solver == "full":
+            self.problem = ContactProblem(
+                self.V,
+                self.lame_mu,
+                self.lame_lambda,
+                self.bcs,
+                [self.interface],
+                dict(self._motion0),
+                contact,
+                petsc_options_prefix="gearfem_cycle_",
+                controlled=held,
+            )
+        else:
+            self.problem = CondensedContactProblem(
+                self.V,
+                self.lame_mu,
+                self.lame_lambda,
+                self.bcs,
+                [self.interface],
+                dict(self._motion0),
+                contact,
+                bodies={b: gm.cells(b) for b in BODIES},
+                petsc_options_prefix="gearfem_cycle_condensed_",
+                controlled=held,
+                store=compliance_store,
+                guards=self._guards(mask, youngs),
+                guard_hint=(
+                    f"the condensed surfaces hold pinion teeth {self.contact_teeth['pinion']} and "
+                    f"wheel teeth {self.contact_teeth['wheel']}: raise "
+                    "cycle.condensed_extra_teeth, or use cycle.solver = 'full'"
+                ),
+            )
         self.tooth_of_facet = {b: self._facet_teeth(b) for b in BODIES}
         self.phi = 0.0
         self.windup_rad = None  # δψ of the last converged position
 
     # -------------------------------------------------------------------------------------------
+    def _modelled_teeth(self, body: str) -> list[int]:
+        teeth = {parse_group_name(n)[1] for n in self.gm.names(body=body)}
+        return sorted(k for k in teeth if k is not None)
+
+    def _contact_names(self, body: str, teeth) -> list[str]:
+        """Group names of the contact surfaces (``contact_kinds``) of the given teeth."""
+        return [
+            n
+            for k in self.options.contact_kinds
+            for n in self.gm.names(body=body, kind=k)
+            if parse_group_name(n)[1] in set(teeth)
+        ]
+
+    def solved_angles_rad(self) -> tuple[float, float]:
+        """The pinion angles the cycle solves, relative to the mesh as built: from the start to
+        the end of the last pitch (and the periodicity check one pitch after the start)."""
+        o = self.options
+        pitch = 2.0 * math.pi / self.gm.geometry.teeth_pinion
+        start = math.radians(o.start_angle_deg)
+        return start, start + pitch * max(o.pitches, 1.0 if o.check_periodicity else 0.0)
+
+    def engaging_teeth(self, extra: int) -> dict[str, list[int]]:
+        """Teeth of each gear in rigid involute contact at some pinion angle of
+        :meth:`solved_angles_rad` (pair k_ref + j of the pinion with k_ref − j of the wheel
+        touches while −g_f <= S <= g_a, S = r_b1 φ + j p_b: :meth:`GearPair.contact_parameter`),
+        plus ``extra`` teeth on each side (loaded teeth deflect into contact before and after the
+        rigid path)."""
+        pair, gm = self.pair, self.gm
+        rot = math.radians(gm.options.pinion_angle_deg)
+        phi0, phi1 = self.solved_angles_rad()
+        s0 = float(pair.contact_parameter(phi0 + rot))
+        s1 = float(pair.contact_parameter(phi1 + rot))
+        lo, hi, pb = -pair.approach_length_m, pair.recess_length_m, pair.base_pitch_m
+        n = gm.options.teeth_in_model
+        offsets = [j for j in range(-n, n + 1) if s0 + j * pb <= hi and s1 + j * pb >= lo]
+        out = {}
+        for b, sign in (("pinion", 1), ("wheel", -1)):
+            ks = {gm.reference_tooth(b) + sign * j for j in offsets}
+            ks = {k + d for k in ks for d in range(-extra, extra + 1)}
+            out[b] = sorted(ks & set(self.teeth[b]))
+        return out
+
+    def _guards(self, mask: np.ndarray, youngs: dict[str, float]) -> list[Guard]:
+        """Contact checks of the teeth left out of the condensed surfaces: per gear, those teeth
+        against every contact surface of the other gear (facets labelled by tooth)."""
+        gm, guards = self.gm, []
+        whole = {
+            b: ContactSurface(
+                self.V, gm.facets(*self._contact_names(b, self.teeth[b])), b, mask, name=f"{b}"
+            )
+            for b in BODIES
+        }
+        for b, other in (("pinion", "wheel"), ("wheel", "pinion")):
+            out = sorted(set(self.teeth[b]) - set(self.contact_teeth[b]))
+            if not out:
+                continue
+            left = ContactSurface(
+                self.V,
+                gm.facets(*self._contact_names(b, out)),
+                b,
+                mask,
+                name=f"{b} teeth {out}",
+            )
+            tooth = self._teeth_of(b, left)["gathered"]
+            guards.append(
+                Guard(
+                    ContactInterface(left, whole[other], self.contact, youngs),
+                    np.array([f"{b} tooth {k}" for k in tooth], dtype=object),
+                )
+            )
+        return guards
+
     def _facet_teeth(self, body: str) -> dict[str, np.ndarray]:
         """Tooth index of every facet of a body's contact surface: local and gathered order."""
-        gm, surf = self.gm, self.surfaces[body]
+        return self._teeth_of(body, self.surfaces[body])
+
+    def _teeth_of(self, body: str, surf: ContactSurface) -> dict[str, np.ndarray]:
+        gm = self.gm
         tag_to_tooth = {}
         for name in gm.names(body=body):
             _b, k, _kind = parse_group_name(name)

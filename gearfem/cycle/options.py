@@ -1,12 +1,16 @@
-"""The ``[cycle]`` options: how the pinion is stepped through the mesh cycle (DOLFINx-free)."""
+"""The ``[cycle]`` options: how the pinion is stepped through the mesh cycle and which contact
+solver does it (DOLFINx-free)."""
 
 from __future__ import annotations
 
 import dataclasses
 
 from gearfem.core.errors import ParameterError
-from gearfem.core.params import require_int, require_positive, require_range
+from gearfem.core.params import require_choice, require_int, require_positive, require_range
 from gearfem.geometry.options import TOOTH_KINDS
+
+#: Contact solvers of the cycle (``[cycle] solver``).
+SOLVERS = ("condensed", "full")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,6 +47,14 @@ class CycleOptions:
             (rounded tips entering and leaving contact) can make Newton cycle at a residual just
             above tolerance (measured on the 4-tooth test mesh at 8 N m, μ = 0.5: 40 iterations
             stuck at 7e-5 relative; with δ = 0.4 % of p0: 13-18 iterations). 0 keeps the exact ramp.
+        solver: ``"condensed"``: each gear's stiffness is condensed once (per mesh and material)
+            onto the contact surfaces of the teeth that can engage over the solved angles, and
+            every position is solved on those surfaces only (:mod:`gearfem.contact.condensed`; the
+            volume field by back-substitution). ``"full"``: the whole 3D system at every Newton
+            iteration (the reference). Both solve the same discrete problem.
+        condensed_extra_teeth: With the condensed solver, teeth added on each side of those that
+            engage (rigid geometry) over the solved angles. The teeth left out are checked after
+            every position: a contact there raises an error naming the tooth.
     """
 
     positions_per_pitch: int = 24
@@ -54,6 +66,8 @@ class CycleOptions:
     initial_interference_m: float = 2e-6
     creep_ratio: float | None = None
     pressure_smoothing_fraction: float = 0.005
+    solver: str = "condensed"
+    condensed_extra_teeth: int = 1
 
     def __post_init__(self) -> None:
         require_int("cycle.positions_per_pitch", self.positions_per_pitch, 2, 2000)
@@ -69,3 +83,5 @@ class CycleOptions:
         require_range(
             "cycle.pressure_smoothing_fraction", self.pressure_smoothing_fraction, 0.0, 0.1
         )
+        require_choice("cycle.solver", self.solver, SOLVERS)
+        require_int("cycle.condensed_extra_teeth", self.condensed_extra_teeth, 0, 50)

@@ -26,8 +26,8 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 
+from gearfem.contact.elasticity import elastic_stress
 from gearfem.contact.kinematics import evaluate
-from gearfem.contact.problem import elastic_stress
 from gearfem.core.facets import FacetReference
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.periodic import (
@@ -154,7 +154,7 @@ class _PositionProbe:
         self.model, self.se = model, se
         self.root_stress = _RootStress(model)
         gm, pair = model.gm, model.pair
-        self.teeth = sorted({int(k) for k in model.tooth_of_facet["pinion"]["gathered"] if k >= 0})
+        self.teeth = list(model.teeth["pinion"])  # every modelled tooth, loaded or not
         self.z_mid_m = 0.5 * gm.geometry.face_width_mm * 1e-3
         self.rw1_sin = pair.pinion.operating_pitch_radius_m * math.sin(
             pair.operating_pressure_angle_rad
@@ -343,6 +343,9 @@ def solve_cycle(
             "dofs": model.V.dofmap.index_map.size_global * 3,
             "positions": n,
             "mpi_size": comm.size,
+            "solver": o.solver,
+            "contact_teeth": {b: list(v) for b, v in model.contact_teeth.items()},
+            **(model.problem.info if o.solver == "condensed" else {}),
             "stalled_newton_solves": model.problem.stalled,
             "factorizations": model.problem.factorizations,
             "linear_solves": model.problem.linear_solves,
