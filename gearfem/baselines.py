@@ -57,6 +57,7 @@ References
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from typing import Any, NamedTuple
@@ -671,6 +672,173 @@ def blok_flash_temperature_K(
     if np.any((num > 0) & (denom <= 0)):
         raise ParameterError("half_width_m", 0.0, "> 0 where the load is > 0")
     return out
+
+
+#: Flux distributions over a band source of half-width a: the mean over the band is 1.
+BAND_SHAPES = ("uniform", "semi_elliptic")
+#: Peclet range tabulated by :func:`band_source_rise`; beyond it the asymptotes are used.
+_PECLET_TABLE = (1e-3, 1e3)
+
+
+def _band_shape(shape: str):
+    if shape == "uniform":
+        return lambda x: np.ones_like(x)
+    if shape == "semi_elliptic":
+        return lambda x: 4.0 / math.pi * np.sqrt(np.clip(1.0 - x * x, 0.0, None))
+    raise ParameterError("band shape", shape, "one of " + ", ".join(BAND_SHAPES))
+
+
+def _band_surface_rise(L: float, shape: str, X: float) -> float:
+    """Dimensionless surface temperature k theta / (q_mean a) at X = x/a under a steady band source
+    on [-1, 1] moving at Peclet number L = V a / (2 kappa): the exact 2D solution
+
+        theta(x) = 1/(pi k) int q(xi) exp(-V (x - xi) / (2 kappa)) K0(V |x - xi| / (2 kappa)) dxi
+
+    (the moving line source on an insulated half-space, [Jae1942; Carslaw & Jaeger 10.7]), the
+    band moving towards +x (the trailing edge at X = -1)."""
+    from scipy import integrate, special
+
+    f = _band_shape(shape)
+
+    def kernel(xi):
+        u = X - xi
+        z = L * abs(u)
+        # exp(-L u) K0(L |u|) = exp(-L u - L |u|) k0e(L |u|)
+        return float(f(np.asarray(xi))) * math.exp(-L * u - z) * float(special.k0e(z))
+
+    pts = [X] if -1.0 < X < 1.0 else None
+    val = integrate.quad(kernel, -1.0, 1.0, points=pts, limit=400, epsabs=0, epsrel=1e-10)[0]
+    return val / math.pi
+
+
+@functools.cache
+def _clustered_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre on [0, 1] mapped by s = (1 - cos(pi t))/2: nodes and weights ds."""
+    t, w = np.polynomial.legendre.leggauss(n)
+    t, w = 0.5 * (t + 1.0), 0.5 * w
+    return 0.5 * (1.0 - np.cos(math.pi * t)), 0.5 * math.pi * np.sin(math.pi * t) * w
+
+
+def _band_surface_rise_fast(L: float, shape: str, X: np.ndarray, n: int = 200) -> np.ndarray:
+    """The integral of :func:`_band_surface_rise` for many X at once, by Gauss-Legendre on each side
+    of X with the map xi = X -+ d (1 - cos(pi t))/2, which clusters the nodes at X (log singularity
+    of K0) and at the band's edges (square-root edge of the semi-elliptic flux); agrees with the
+    adaptive quadrature to about 1e-7 (tests/test_friction.py)."""
+    from scipy import special
+
+    f = _band_shape(shape)
+    s, ds = _clustered_rule(n)
+    X = np.atleast_1d(np.asarray(X, dtype=float))
+    out = np.zeros_like(X)
+    for side, d in ((-1.0, X + 1.0), (1.0, 1.0 - X)):  # xi below X (u > 0), above X (u < 0)
+        xi = X[:, None] + side * d[:, None] * s[None, :]
+        u = X[:, None] - xi
+        z = L * np.abs(u)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kern = np.where(z > 0, np.exp(-L * u - z) * special.k0e(z), 0.0)
+        out += np.sum(f(xi) * kern * (d[:, None] * ds[None, :]), axis=1)
+    return out / math.pi
+
+
+@functools.cache
+def _band_table(shape: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(log L, max, mean) of k theta sqrt(L) / (q_mean a) on a log grid of Peclet numbers."""
+    logL = np.linspace(math.log(_PECLET_TABLE[0]), math.log(_PECLET_TABLE[1]), 61)
+    xg, wg = np.polynomial.legendre.leggauss(64)
+    xs = np.linspace(-1.0, 1.0, 401)
+    mx, mn = [], []
+    for lg in logL:
+        L = math.exp(lg)
+        mn.append(0.5 * float(_band_surface_rise_fast(L, shape, xg) @ wg))
+        vals = _band_surface_rise_fast(L, shape, xs)
+        i = int(np.argmax(vals))
+        fine = np.linspace(xs[max(i - 1, 0)], xs[min(i + 1, len(xs) - 1)], 101)
+        mx.append(float(max(vals.max(), _band_surface_rise_fast(L, shape, fine).max())))
+    s = np.sqrt(np.exp(logL))
+    return logL, np.asarray(mx) * s, np.asarray(mn) * s
+
+
+#: High-Peclet limits of k theta sqrt(L) / (q_mean a) for the band source: maximum and mean
+#: (uniform: 2/sqrt(pi) = 1.128 and 2/3 of it; Jaeger's 1.596 and 1.064 for theta k / (q
+#: sqrt(kappa a / V)) divided by sqrt(2); semi-elliptic: the 1D Duhamel integral's 1.1115 and its
+#: mean (computed once by the same integral).
+@functools.cache
+def band_source_high_peclet(shape: str, which: str = "max") -> float:
+    """k theta sqrt(L) / (q_mean a) as L -> infinity (the 1D, heat-normal-to-the-surface limit):
+    surface temperature of a semi-infinite solid passing under the flux for the time 2a/V."""
+    from scipy import integrate
+
+    f = _band_shape(shape)
+
+    def I(x):  # noqa: E743 - int_x^1 f(xi)/sqrt(xi - x) dxi (the band moves towards +x)
+        return integrate.quad(
+            lambda t: 2.0 * float(f(np.asarray(x + t * t))),
+            0.0,
+            math.sqrt(max(1.0 - x, 0.0)),
+            limit=200,
+        )[0]
+
+    # theta(X) = 1/pi sqrt(pi / (2L)) I(X) (K0 asymptote) in units of q a / k
+    scale = 1.0 / math.pi * math.sqrt(math.pi / 2.0)
+    if which == "mean":
+        xg, wg = np.polynomial.legendre.leggauss(64)
+        return scale * 0.5 * float(sum(w * I(x) for x, w in zip(xg, wg)))
+    from scipy import optimize
+
+    res = optimize.minimize_scalar(
+        lambda x: -I(x), bounds=(-1.0, 0.5), method="bounded", options={"xatol": 1e-10}
+    )
+    return scale * max(-float(res.fun), I(-1.0))
+
+
+def band_source_low_peclet_uniform(peclet: float, which: str = "max") -> float:
+    """k theta / (q a) of a uniform band source as L -> 0: the small-argument expansion
+    K0(z) = -ln(z/2) - gamma of the exact solution gives (2/pi)(1 - gamma + ln 2 - ln L) at the
+    centre (the maximum) and (2/pi)(3/2 - gamma - ln L) for the mean over the band [Jae1942]. A
+    band (2D) source has no stationary limit: the temperature grows like ln(1/L)."""
+    g = 0.5772156649015329
+    if which == "mean":
+        return 2.0 / math.pi * (1.5 - g - math.log(peclet))
+    return 2.0 / math.pi * (1.0 - g + math.log(2.0) - math.log(peclet))
+
+
+def band_source_rise(
+    peclet: float | np.ndarray, shape: str = "semi_elliptic", which: str = "max"
+) -> np.ndarray:
+    """Dimensionless flash temperature g(L) = k theta / (q_mean a) of a band heat source of
+    half-width a and mean flux q_mean moving at Peclet number L = V a / (2 kappa) over a
+    semi-infinite body, for any L (exact 2D steady solution, tabulated once on 1e-3 <= L <= 1e3 and
+    interpolated in log L; beyond: the high-Peclet asymptote, and the low-Peclet expansion for the
+    uniform band). ``which``: ``"max"`` (the surface maximum, Blok's flash temperature) or
+    ``"mean"`` (over the band). Regimes: L < 0.1 low (heat spreads ahead of the source), L > 5
+    high (Blok's formula, eq. 2.1, is within a few per cent)."""
+    require_choice("which", which, ("max", "mean"))
+    L = np.asarray(peclet, dtype=float)
+    if np.any(~np.isfinite(L)) or np.any(L <= 0):
+        raise ParameterError("peclet", "non-positive or non-finite", "> 0")
+    from scipy.interpolate import CubicSpline
+
+    logL, mx, mn = _band_table(shape)
+    tab = mx if which == "max" else mn
+    lg = np.log(L)
+    out = CubicSpline(logL, tab)(np.clip(lg, logL[0], logL[-1])) / np.sqrt(L)
+    hi = lg > logL[-1]
+    if np.any(hi):
+        out = np.where(hi, band_source_high_peclet(shape, which) / np.sqrt(L), out)
+    lo = lg < logL[0]
+    if np.any(lo):
+        if shape != "uniform":
+            raise ParameterError(
+                "peclet", float(L.min()), f">= {_PECLET_TABLE[0]:g} for a {shape} band"
+            )
+        low = np.vectorize(lambda v: band_source_low_peclet_uniform(v, which))(np.where(lo, L, 1.0))
+        out = np.where(lo, low, out)
+    return out
+
+
+def peclet_regime(peclet: float) -> str:
+    """'low' (L < 0.1), 'intermediate' or 'high' (L > 5) for a band source (Jaeger's ranges)."""
+    return "low" if peclet < 0.1 else ("high" if peclet > 5.0 else "intermediate")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1346,6 +1514,7 @@ def temperature_rise_ratio(summary_a: dict[str, Any], summary_b: dict[str, Any],
 
 
 __all__ = [
+    "BAND_SHAPES",
     "BLOK_FORM_FACTOR_SEMI_ELLIPTIC",
     "BLOK_FORM_FACTOR_UNIFORM",
     "VDI2736_K_THETA",
@@ -1356,6 +1525,9 @@ __all__ = [
     "RootFormFactors",
     "agma_pitch_contact_stress_Pa",
     "band_source_flash_K",
+    "band_source_high_peclet",
+    "band_source_low_peclet_uniform",
+    "band_source_rise",
     "baseline_summary",
     "blok_flash_temperature_K",
     "effective_modulus_Pa",
@@ -1365,6 +1537,7 @@ __all__ = [
     "involute_curvature_radii_m",
     "mao_bulk_temperature_rise_K",
     "max_rack_fillet_coef",
+    "peclet_regime",
     "profile_shift_from_thickness",
     "root_form_factors",
     "root_stress_Pa",
