@@ -224,7 +224,9 @@ def thermal(
                 "cycle",
                 "a cycle result (run `gearfem cycle` or `gearfem run`) or mode = 'prescribed'",
             )
-        sources = cycle_heat_sources(domain, gm, body, cycle_result, src, case.materials, n1)
+        sources = cycle_heat_sources(
+            domain, gm, body, cycle_result, src, case.materials, n1, case.friction
+        )
         title = (
             f"{body}, {n1:g} rpm, {case.operating.torque_Nm:g} N m (sources from the contact cycle)"
         )
