@@ -19,6 +19,7 @@ import pytest
 from mpi4py import MPI
 
 import gearfem  # noqa: F401
+from gearfem.config import Case
 from gearfem.core.errors import ParameterError
 from gearfem.diagnose import data as ddata
 from gearfem.diagnose import vv20
@@ -26,8 +27,6 @@ from gearfem.diagnose.candidates import LIBRARY, by_name
 
 sys.path.insert(0, str(Path(__file__).parent))
 import diagnose_generator as G
-
-from gearfem.coupling.heat_sources import friction_temperature_factor
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -204,13 +203,17 @@ def test_pair_found_and_confirmed_on_full_model(models):
 
 
 def test_friction_temperature_options():
-    from gearfem.coupling.options import SourceOptions
+    from gearfem.config import case_from_dict
 
-    assert friction_temperature_factor(SourceOptions()) is None
-    with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):
-        SourceOptions(friction_temperature_coefficient_per_K=-0.001)
-    with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):
-        SourceOptions(mode="prescribed", friction_temperature_coefficient_per_K=0.001)
+    # the mu(T) of earlier versions is a friction law now: old case files are refused by name,
+    # with the replacement spelled out
+    with pytest.raises(ParameterError, match="sources.friction_temperature_coefficient_per_K"):
+        case_from_dict({"sources": {"friction_temperature_coefficient_per_K": 0.004}})
+    with pytest.raises(ParameterError, match="temperature_coefficient_per_K"):
+        case_from_dict({"sources": {"friction_reference_C": 25.0}})
+    case = by_name("friction_temperature").apply(Case(), -0.002)
+    assert case.friction.temperature_coefficient_per_K == -0.002
+    assert case.friction_law().may_rise_with_temperature
 
 
 @pytest.mark.slow
@@ -227,7 +230,10 @@ def test_friction_temperature_reduces_friction_heat_within_bounds(models, tmp_pa
     for b in (0.0, beta):
         case = full.point_case(1000.0, 8.0, 23.0, {"friction_temperature": b} if b else {})
         case = dataclasses.replace(
-            case, thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=())
+            case,
+            thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=()),
+            # the factor on the flank temperature (the bounds below are those of the flank)
+            friction=dataclasses.replace(case.friction, contact_temperature="flank"),
         )
         runs[b] = pipeline.thermal(
             case,

@@ -100,6 +100,10 @@ def _thermal(case: Case, **kw) -> Case:
     return dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, **kw))
 
 
+def _friction(case: Case, **kw) -> Case:
+    return dataclasses.replace(case, friction=dataclasses.replace(case.friction, **kw))
+
+
 def _sources(case: Case, **kw) -> Case:
     return dataclasses.replace(case, sources=dataclasses.replace(case.sources, **kw))
 
@@ -158,17 +162,20 @@ class FrictionScale(Candidate):
 
 @dataclasses.dataclass(frozen=True)
 class FrictionTemperature(Candidate):
-    """Friction coefficient falling with the local flank temperature, mu = mu_ref exp(-beta (T - 25
-    C))
-    (thesis 4.3.5: PEEK-PEEK mu fell from 0.55 at 50 C to 0.40 at 75 C, about 0.013 /K, and kept
-    falling up to 175 C). Acts like extra cooling that scales with the friction power (load x
-    speed)."""
+    """Friction coefficient changing exponentially with the contact temperature,
+    mu = mu_T exp(-beta (T - 25 C)) ([friction] temperature_coefficient_per_K; beta > 0 falls:
+    thesis 4.3.5, PEEK-PEEK mu fell from 0.55 at 50 C to 0.40 at 75 C, about 0.013 /K, and kept
+    falling up to 175 C; beta < 0 rises, as the twin-disk and pin-on-disk results across T_g quoted
+    in thesis 4.2.1-4.2.2). Prior [-0.002, 0.008] /K: the upper end is the pin-on-disk's mean
+    slope over 25-175 C, the lower end the steepest rise that keeps mu <= 2 with the other friction
+    candidates up to 400 C. Acts like extra cooling (or heating) that scales with the friction
+    power."""
 
     name: ClassVar[str] = "friction_temperature"
-    parameter: ClassVar[Parameter] = Parameter("beta_mu", "1/K", 0.0, 0.0, 0.008)
+    parameter: ClassVar[Parameter] = Parameter("beta_mu", "1/K", 0.0, -0.002, 0.008)
 
     def apply(self, case: Case, value: float) -> Case:
-        return _sources(case, friction_temperature_coefficient_per_K=self.parameter.check(value))
+        return _friction(case, temperature_coefficient_per_K=self.parameter.check(value))
 
 
 @dataclasses.dataclass(frozen=True)
