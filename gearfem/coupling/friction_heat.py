@@ -26,14 +26,29 @@ with g the exact 2D moving band-source solution for any Peclet number L
 of a band goes into the two gears either by a **fixed** fraction (``[sources]
 heat_fraction_pinion`` or the effusivity ratio, today's default) or by **Blok's partition**
 (``heat_partition = "blok"``): the share that makes both surfaces' flash temperatures equal,
-f = (k1/g1) / (k1/g1 + k2/g2), and then theta = q_bar a / (k1/g1 + k2/g2). Because the flash
-temperature grows with mu, T_c solves theta = q_bar(mu(T_flank + theta)) a g / k per band; the
-smallest solution is taken (the fixed-point iteration from theta = 0, bisection where it does not
-converge), on the band's heat-weighted mean flank temperature.
+f = (k1/g1) / (k1/g1 + k2/g2), and then theta = q_bar a / (k1/g1 + k2/g2).
+
+Because the flash temperature grows with mu and mu with it, mu follows the surface temperature
+along the contact: a point of the flank passes under the band in the time 2a/v and heats as a
+semi-infinite body under the flux it receives (Blok's picture, heat normal to the surface), so
+with xi in [-1, 1] across the band, the semi-elliptic pressure shape f(xi) (mean 1) and the
+band's mean flank temperature T_b,
+
+    theta(xi) = K int_-1^xi mu_T(T_b + theta(xi')) f(xi') / sqrt(xi - xi') dxi',
+
+a Volterra equation with a unique, continuous solution (solved marching across the band, 48
+intervals, product integration of the Abel kernel, mu of each interval at its leading node). K
+makes a constant mu = 1 reach the band's flash temperature per unit mu, theta_max = q_bar0 a g / k
+(which carries the 2D correction g(L) and the partition); the friction coefficient of a point is
+the pressure-weighted mean of mu_T over the profile at the flank temperature T_b of the point's
+place, its contact temperature T_b + max theta. The solution depends on T_b and theta0 only, so it
+is tabulated once per law (:class:`FlashTable`). (A single band-mean contact temperature would
+make mu = mu_T(T_b + theta(mu)) bistable for a steep law: the contact would switch all at once,
+and the flux jump with the flank temperature.)
 
 :class:`FrictionFlux` evaluates this for a set of **targets** (reference facets, or the cells of the
-thermal mesh next to the flanks) at given target temperatures: flux, its temperature derivative
-(for the thermal Newton Jacobian: the derivative for a uniform shift of the band's flank
+thermal mesh next to the flanks) at given target temperatures: flux, its temperature derivative (for
+the thermal Newton Jacobian: the derivative through the target's own share of its band's mean flank
 temperature), and per point mu, flash and contact temperatures (for the maps). On the thermal mesh
 it is the :class:`gearfem.thermal.source_terms.SurfaceFluxModel` that the thermal solver updates at
 every residual evaluation (:class:`ThermalFrictionFlux`).
@@ -271,17 +286,117 @@ class FluxState:
     flux_W_m2: np.ndarray  # per target
     dflux_dT_W_m2K: np.ndarray  # per target
     mu: np.ndarray  # per instance
-    contact_K: np.ndarray  # per instance
-    flash_K: np.ndarray  # per group
-    band_flank_K: np.ndarray  # per group
+    contact_K: np.ndarray  # per instance (flank temperature of its target + flash)
+    flash_K: np.ndarray  # per instance
+
+
+@dataclasses.dataclass(frozen=True)
+class _Volterra:
+    """Product-integration weights of the Abel kernel on [-1, 1] (N intervals): W[k, j] =
+    int_{xi_j}^{xi_j+1} dxi' / sqrt(xi_k - xi'), j < k; the semi-elliptic shape at the interval
+    midpoints; i_max = max_k sum_j W[k, j] f_j (the constant-mu maximum)."""
+
+    W: np.ndarray
+    f_mid: np.ndarray
+    i_max: float
+
+    @classmethod
+    def build(cls, n: int = 48) -> _Volterra:
+        xi = np.linspace(-1.0, 1.0, n + 1)
+        d = xi[:, None] - xi[None, :]
+        W = np.zeros((n + 1, n))
+        for k in range(1, n + 1):
+            j = np.arange(k)
+            W[k, :k] = 2.0 * (np.sqrt(d[k, j]) - np.sqrt(np.maximum(d[k, j + 1], 0.0)))
+        mid = 0.5 * (xi[1:] + xi[:-1])
+        f = 4.0 / math.pi * np.sqrt(1.0 - mid * mid)
+        return cls(W, f, float(np.max(W @ f)))
+
+
+_VOLTERRA = _Volterra.build()
+
+
+@dataclasses.dataclass(frozen=True)
+class FlashTable:
+    """The Volterra solution tabulated once per law: the profile-mean mu_T and the largest flash
+    temperature of a band as functions of its flank temperature T (uniform grid) and its flash
+    temperature per unit mu, theta0 (0 and a geometric grid up to the largest band's), bilinear
+    interpolation. A constant mu_T is reproduced exactly (every entry equals it)."""
+
+    T_K: np.ndarray
+    theta0_K: np.ndarray
+    mu: np.ndarray  # (n_theta0, n_T)
+    theta_max_K: np.ndarray  # (n_theta0, n_T)
+
+    @classmethod
+    def build(
+        cls, law: FrictionLaw, theta0_max_K: float, T_range_K=(200.0, 1300.0), dT_K: float = 0.5
+    ) -> FlashTable:
+        T = np.arange(T_range_K[0], T_range_K[1] + 0.5 * dT_K, dT_K)
+        top = max(float(theta0_max_K), 1e-2) * 1.001
+        th = np.concatenate([[0.0], np.geomspace(1e-2, top, 47)])
+        Tg = np.tile(T, len(th))
+        f0 = np.repeat(th, len(T))
+        mbar, theta = _profile(law, Tg, f0)
+        return cls(T, th, mbar.reshape(len(th), len(T)), theta.reshape(len(th), len(T)))
+
+    def weights(self, theta0_K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Row index and weight of each theta0 in the table."""
+        th = self.theta0_K
+        a = np.clip(np.searchsorted(th, theta0_K, side="right") - 1, 0, len(th) - 2)
+        s = np.clip((theta0_K - th[a]) / (th[a + 1] - th[a]), 0.0, 1.0)
+        return a, s
+
+    def lookup(self, a: np.ndarray, s: np.ndarray, T_K: np.ndarray):
+        """(mu_T, d mu_T / dT, theta_max) at rows (a, s) and flank temperatures T (constant in T
+        beyond the grid, where the derivative is 0)."""
+        T0, dT, n = self.T_K[0], self.T_K[1] - self.T_K[0], len(self.T_K)
+        x = (np.asarray(T_K, dtype=float) - T0) / dT
+        inside = (x >= 0.0) & (x <= n - 1)
+        x = np.clip(x, 0.0, n - 1.0)
+        i = np.minimum(x.astype(np.int64), n - 2)
+        t = x - i
+        M, Th = self.mu, self.theta_max_K
+
+        def bil(F):
+            lo = (1.0 - s) * F[a, i] + s * F[a + 1, i]
+            hi = (1.0 - s) * F[a, i + 1] + s * F[a + 1, i + 1]
+            return lo, hi
+
+        m0, m1 = bil(M)
+        h0, h1 = bil(Th)
+        mu = (1.0 - t) * m0 + t * m1
+        dmu = np.where(inside, (m1 - m0) / dT, 0.0)
+        return mu, dmu, (1.0 - t) * h0 + t * h1
+
+
+def _profile(law: FrictionLaw, Tb: np.ndarray, flash0: np.ndarray, n_chunk: int = 20000):
+    """Profile-mean mu_T and largest flash temperature of bands at flank temperatures Tb with flash
+    temperatures per unit mu flash0 (the Volterra equation of the module docstring)."""
+    W, fm = _VOLTERRA.W, _VOLTERRA.f_mid
+    n = len(fm)
+    out_m, out_t = np.empty(len(Tb)), np.empty(len(Tb))
+    for c0 in range(0, len(Tb), n_chunk):
+        tb, K = Tb[c0 : c0 + n_chunk], flash0[c0 : c0 + n_chunk] / _VOLTERRA.i_max
+        theta = np.zeros((len(tb), n + 1))
+        mu = np.zeros((len(tb), n))
+        for k in range(1, n + 1):
+            mu[:, k - 1] = law.mu_of_T(tb + theta[:, k - 1])
+            theta[:, k] = K * (mu[:, :k] @ (W[k, :k] * fm[:k]))
+        out_m[c0 : c0 + n_chunk] = mu @ fm / np.sum(fm)
+        out_t[c0 : c0 + n_chunk] = theta.max(axis=1)
+    return out_m, out_t
 
 
 class FrictionFlux:
     """The flux of a friction law into a set of targets (see the module docstring).
 
-    ``comm``: the communicator across which the targets (and instances) are distributed (None:
-    all here). The group sums are reduced over it once per evaluation, so every rank solves the
-    same flash temperatures.
+    Each instance (a contact point feeding a target) takes the flank temperature of its target;
+    with flash temperatures the band's Volterra solution at that flank temperature comes from a
+    :class:`FlashTable`. A target's flux then depends on its own temperature only, and its
+    derivative is exact (up to the table's interpolation). ``comm``: the communicator across which
+    the instances are distributed (the group sums of the pressure/speed factors are reduced over
+    it once, at construction).
     """
 
     def __init__(
@@ -306,63 +421,40 @@ class FrictionFlux:
         s0 = np.bincount(inst.group, weights=self._hw, minlength=ng)
         s1 = np.bincount(inst.group, weights=self._hw * self._fpv, minlength=ng)
         s0, s1 = self._reduce(s0), self._reduce(s1)
-        self._s0 = s0
         safe = np.where(s0 > 0, s0, 1.0)
         fg = np.where(s0 > 0, s1 / safe, 0.0)
         gb = inst.group_band
-        # flash per unit mu_T of each group: theta = flash0 * mu_T(T_g + theta)
+        # flash temperature per unit mu_T of each group (the band's mean pressure/speed factor)
         self._flash0 = bands.flash_per_flux_K_m2_W[gb] * bands.q0_W_m2[gb] * fg
+        self.table = None
+        if self.flash and law.depends_on_temperature:
+            top = float(np.max(self._flash0)) if len(self._flash0) else 0.0
+            self.table = FlashTable.build(law, top)
+            a, s = self.table.weights(self._flash0)
+            self._row, self._sw = a[inst.group], s[inst.group]
 
     def _reduce(self, a: np.ndarray) -> np.ndarray:
         if self.comm is None or self.comm.size == 1:
             return a
         return self.comm.allreduce(a, op=MPI.SUM)
 
-    def _solve_flash(self, Tg: np.ndarray) -> np.ndarray:
-        """Smallest theta >= 0 with theta = flash0 mu_T(Tg + theta), per group."""
-        law, f0 = self.law, self._flash0
-        theta = np.zeros_like(Tg)
-        prev = theta
-        done = f0 == 0.0
-        for _ in range(200):
-            new = f0 * law.mu_of_T(Tg + theta)
-            if np.all((np.abs(new - theta) <= 1e-10 * (1.0 + np.abs(new))) | done):
-                return new
-            prev, theta = theta, new
-        # not converged (an oscillating iteration, mu falling steeply): bisection of
-        # f(t) = f0 mu_T(Tg + t) - t between a point below the root and f0 * max mu
-        rising = theta >= prev
-        lo = np.where(rising, theta, 0.0)
-        hi = f0 * 2.0 + 1e-12
-        for _ in range(80):
-            mid = 0.5 * (lo + hi)
-            above = f0 * law.mu_of_T(Tg + mid) - mid > 0.0
-            lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
-        return 0.5 * (lo + hi)
-
     def evaluate(self, T_target_K: np.ndarray) -> FluxState:
-        """Flux (and derivative) at the targets' flank temperatures ``T_target_K`` (collective when
-        a communicator was given)."""
+        """Flux (and derivative) at the targets' flank temperatures ``T_target_K``."""
         inst, law = self.inst, self.law
         T = np.asarray(T_target_K, dtype=float)[inst.target]
-        ng = self.num_groups
-        if self.flash:
-            sT = self._reduce(np.bincount(inst.group, weights=self._hw * T, minlength=ng))
-            Tg = np.where(self._s0 > 0, sT / np.where(self._s0 > 0, self._s0, 1.0), 0.0)
-            theta = self._solve_flash(Tg)
-            slope = self._flash0 * law.dmu_of_T_dT(Tg + theta)
-            # d theta / d T for a uniform shift of the band's flank temperature (the Jacobian;
-            # the residual is exact): slope / (1 - slope), kept finite near a band's own runaway
-            dtheta = slope / np.maximum(1.0 - slope, 0.1)
+        if self.table is not None:
+            muT, dmuT, theta = self.table.lookup(self._row, self._sw, T)
+        elif self.flash:  # mu independent of T: the flash temperature is flash0 mu
+            muT = law.mu_of_T(T)
+            dmuT = np.zeros_like(T)
+            theta = self._flash0[inst.group] * muT
         else:
-            Tg = theta = dtheta = np.zeros(ng)
-        Tc = T + theta[inst.group]
-        mu = law.mu_of_T(Tc) * self._fpv
-        dmu = law.dmu_of_T_dT(Tc) * self._fpv * (1.0 + dtheta[inst.group])
+            muT, dmuT, theta = law.mu_of_T(T), law.dmu_of_T_dT(T), np.zeros_like(T)
+        mu, dmu = muT * self._fpv, dmuT * self._fpv
         n = inst.num_targets
         q = np.bincount(inst.target, weights=mu * self._hw, minlength=n)
         dq = np.bincount(inst.target, weights=dmu * self._hw, minlength=n)
-        return FluxState(q, dq, mu, Tc, theta, Tg)
+        return FluxState(q, dq, mu, T + theta, theta)
 
 
 def reference_flux(

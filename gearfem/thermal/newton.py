@@ -62,6 +62,8 @@ class NewtonSolver:
         reuse_preconditioner: Keep the preconditioner while alpha changes little (see above).
         pre_residual: Called before every residual evaluation (collective): updates coefficients
             that are functions of the current T outside UFL (a surface flux model).
+        extra_jacobian: Called with the assembled Jacobian to add terms UFL cannot express (the
+            surface flux model's dependence on cell-mean temperatures; collective).
     """
 
     def __init__(
@@ -79,6 +81,7 @@ class NewtonSolver:
         max_it: int,
         reuse_preconditioner: bool,
         pre_residual=None,
+        extra_jacobian=None,
     ) -> None:
         from dolfinx.fem.petsc import assemble_matrix, create_matrix, create_vector
         from petsc4py import PETSc
@@ -112,6 +115,7 @@ class NewtonSolver:
         self._have_c = False
         self.reuse = reuse_preconditioner
         self.pre_residual = pre_residual
+        self.extra_jacobian = extra_jacobian
         self.prefix = prefix
         self.switched_to_general = False
         self.pc_builds = 0
@@ -224,6 +228,8 @@ class NewtonSolver:
         if self._J is not None:
             assemble_matrix(J, self._J)
         J.assemble()
+        if self.extra_jacobian is not None:
+            self.extra_jacobian(J)
 
     def _fail(self, reason: str, where: str, it: int, norm: float):
         raise ConvergenceError("thermal Newton", reason, step=where, iteration=it, residual=norm)

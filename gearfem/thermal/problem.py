@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.fem.petsc import assemble_vector
+from dolfinx.fem.petsc import assemble_matrix, assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -230,6 +230,9 @@ class ThermalProblem:
             surf["friction"].append((self._fscale * qf, ds(domain.tags(src.flux_surfaces))))
         self._flux_model = src.flank_flux_model
         if self._flux_model is not None:
+            # q = q(T̄) per cell, T̄ the cell's mean temperature over its facets on the model's
+            # surfaces: T̄ = (B T)_c / A_c with B_cj = ∫ φ_j ds over those facets; the Jacobian
+            # term -s Bᵀ diag(q'(T̄)/A) B is added as a matrix (_flux_jacobian), exactly
             m = self._flux_model
             dsm = ds(domain.tags(m.surfaces))
             Q0 = m.value.function_space
@@ -241,7 +244,9 @@ class ThermalProblem:
             self._tbar_area = area.array.copy()
             area.destroy()
             self._tbar_vec = assemble_vector(self._tbar_form)
-            qm = src.flux_scale * (m.value + m.slope * (T - self._flux_Tbar))
+            self._flux_B = assemble_matrix(fem.form(ufl.TrialFunction(self.V) * w0 * dsm))
+            self._flux_B.assemble()
+            qm = src.flux_scale * m.value
             self._friction_unscaled.append((qm, dsm))
             surf["friction"].append((self._fscale * qm, dsm))
         sigma = STEFAN_BOLTZMANN_W_m2K4
@@ -342,6 +347,29 @@ class ThermalProblem:
                 self._dofs(fdim, groups),
             )
 
+    def _flux_jacobian(self, J) -> None:
+        """Add the surface flux model's Jacobian, -s Bᵀ diag(q'(T̄)/A) B (after assembly)."""
+        m = self._flux_model
+        B = self._flux_B
+        n = len(self._tbar_area)
+        d = np.where(
+            self._tbar_area > 0,
+            m.slope.x.array[:n] / np.where(self._tbar_area > 0, self._tbar_area, 1.0),
+            0.0,
+        )
+        C = B.copy()
+        dv = C.createVecLeft()
+        dv.array[:] = d
+        C.diagonalScale(L=dv)
+        K = B.transposeMatMult(C)
+        J.axpy(
+            -float(self._fscale.value) * self.sources.flux_scale,
+            K,
+            PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN,
+        )
+        for obj in (K, C, dv):
+            obj.destroy()
+
     def _update_flux_model(self) -> None:
         """Hand the surface flux model the surface-mean temperature of every cell next to its
         surfaces (collective; before every residual evaluation)."""
@@ -374,7 +402,8 @@ class ThermalProblem:
                 setattr(self, name, None)
         if getattr(self, "_tbar_vec", None) is not None:
             self._tbar_vec.destroy()
-            self._tbar_vec = None
+            self._flux_B.destroy()
+            self._tbar_vec = self._flux_B = None
 
     def __enter__(self) -> ThermalProblem:
         return self
@@ -478,6 +507,7 @@ class ThermalProblem:
             max_it=o.newton_max_it,
             reuse_preconditioner=transient and o.linear_solver == "direct",
             pre_residual=self._update_flux_model if self._flux_model is not None else None,
+            extra_jacobian=self._flux_jacobian if self._flux_model is not None else None,
         )
 
     # ------------------------------------------------------------------------------------------
@@ -511,7 +541,6 @@ class ThermalProblem:
         """dF/d(friction scale) at the current T: minus the friction heat per test function
         (a new PETSc Vec; collective). The flux model must be current (call after
         :meth:`steady_system`)."""
-        from dolfinx.fem.petsc import assemble_vector
 
         b = assemble_vector(self._dF_dscale)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -519,7 +548,6 @@ class ThermalProblem:
 
     def heat_capacity_matrix(self):
         """M = rho c_p(T) (mass matrix at the current T), a new PETSc Mat (collective)."""
-        from dolfinx.fem.petsc import assemble_matrix
 
         M = assemble_matrix(self._capacity_form)
         M.assemble()
@@ -660,7 +688,15 @@ class ThermalProblem:
         if self._transient_solver is None:
             self._transient_solver = self._make_solver(transient=True)
         self._transient_solver.set_time_terms(a[0] / dt, self._hist.x.petsc_vec)
-        its = self._transient_solver.solve(f"t = {t_new:.6g} s (dt = {dt:.4g} s)", chord=True)
+        # a surface flux that may rise with T (a friction law switching across T_g) is steep and
+        # its Jacobian approximate (gearfem.coupling.friction_heat): full Newton steps with
+        # backtracking, no chord iterations
+        rising = self.sources.flank_flux_may_rise
+        its = self._transient_solver.solve(
+            f"t = {t_new:.6g} s (dt = {dt:.4g} s)",
+            linesearch="bt" if rising else "basic",
+            chord=not rising,
+        )
         err = math.nan
         if len(ts) >= 3:
             f = estimator_factor(dt, ts[0] - ts[1], ts[1] - ts[2])
@@ -702,13 +738,14 @@ class ThermalProblem:
             h = remaining if dt * 1.05 >= remaining else dt
             try:
                 its, err = self.try_step(h)
-            except ConvergenceError:
+            except ConvergenceError as err:
                 if not adaptive or h * 0.5 < o.dt_min_s:
                     raise
                 log.info(
-                    "Newton failed at t = %.6g s with dt = %.4g s; halving the step",
+                    "Newton failed at t = %.6g s with dt = %.4g s; halving the step (%s)",
                     self.time_s + h,
                     h,
+                    err.reason,
                 )
                 dt = 0.5 * h
                 continue

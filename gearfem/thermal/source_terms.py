@@ -14,10 +14,10 @@ Two physical sources (thesis 5.2.2, 5.2.3):
   :class:`SurfaceFluxModel` (the friction heat of a friction law evaluated at the contact
   temperature of every contact point, :mod:`gearfem.coupling.friction_heat`). Per cell next to
   its surfaces the solver hands it the cell's surface-mean temperature T̄ (the mean of T over the
-  cell's facets on those surfaces) and applies q = q(T̄) + q'(T̄)(T − T̄), which integrates to
-  exactly q(T̄) over the facets (the heat balance sees q(T̄)) and whose derivative q'(T̄) is the
-  Newton Jacobian's term. It is updated before every residual evaluation (every step, Newton
-  iteration and line-search trial): the source follows the temperature it produces.
+  cell's facets on those surfaces) and applies q(T̄) on those facets (DG0, like the cycle's flux);
+  the Newton Jacobian gets the exact term −∫φ_i q'(T̄) ∂T̄/∂T_j ds as a matrix. It is updated before
+  every residual evaluation (every step, Newton iteration and line-search trial): the source
+  follows the temperature it produces.
 
 ``volumetric_W_m3`` is an extra prescribed volumetric source (verification, user loads).
 Fields are a float, a ``dolfinx.fem.Function`` on the thermal mesh, or a callable
@@ -49,12 +49,12 @@ TemperatureFactor = Callable[[Any], Any]  # T (kelvin, UFL) -> dimensionless UFL
 
 @runtime_checkable
 class SurfaceFluxModel(Protocol):
-    """A heat flux into the body on ``surfaces`` that depends on the local surface temperature
-    (see the module docstring). ``value`` and ``slope`` are DG0 Functions on the thermal mesh
-    (W/m², W/(m² K)) that :meth:`update` fills from the surface-mean temperature of every local
+    """A heat flux into the body on ``surfaces`` that depends on the local surface temperature (see
+    the module docstring). ``value`` and ``slope`` are DG0 Functions on the thermal mesh (W/m²,
+    dq/dT̄ in W/(m² K)) that :meth:`update` fills from the surface-mean temperature of every local
     cell (an array over the local cells, owned and ghost, kelvin; 0 where a cell has no facet on
-    ``surfaces``). ``update`` is collective. ``may_rise_with_temperature`` says whether the flux
-    can grow with T anywhere (then the Jacobian may be indefinite)."""
+    ``surfaces``). ``update`` is collective. ``may_rise_with_temperature`` says whether the flux can
+    grow with T anywhere (then the Jacobian may be indefinite)."""
 
     surfaces: tuple[str, ...]
     value: Any
