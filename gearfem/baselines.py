@@ -991,6 +991,57 @@ def flash_temperature_along_path(
 
 
 # ------------------------------------------------------------------------------------------------
+# hysteresis: the viscoelastic loss of one load cycle
+# ------------------------------------------------------------------------------------------------
+
+
+def viscoelastic_loss_per_cycle(strain: np.ndarray, loss_modulus_Pa: float) -> float:
+    """Energy dissipated per unit volume over one period by a linear viscoelastic solid with a
+    frequency-independent loss modulus E'' under the periodic strain ``strain`` (uniform samples
+    of one period), J/m³:
+
+        W = pi E'' sum_n n |eps_n|²,
+
+    eps_n the amplitude of the n-th harmonic (each harmonic dissipates pi E'' eps_n² per cycle of
+    its own, and makes n of them per period). A sinusoid of amplitude eps0 gives pi E'' eps0²; a
+    pulse 0 -> eps0 -> 0 of raised-cosine shape gives pi E'' eps0² / 4 whatever its duration (the
+    constant-E'' solid dissipates by strain excursion, not by rate). The mean strain does not
+    dissipate."""
+    e = np.asarray(strain, dtype=float)
+    if e.ndim != 1 or len(e) < 4:
+        raise ParameterError("strain", e.shape, "uniform samples of one period, at least 4")
+    E2 = require_nonnegative("loss_modulus_Pa", loss_modulus_Pa)
+    c = np.fft.rfft(e) / len(e)
+    n = np.arange(len(c))
+    amp2 = 4.0 * np.abs(c) ** 2  # eps_n² = (2 |c_n|)², n >= 1
+    if len(e) % 2 == 0:
+        amp2[-1] = np.abs(c[-1]) ** 2  # the Nyquist term is not doubled
+    return float(math.pi * E2 * np.sum(n[1:] * amp2[1:]))
+
+
+def hysteresis_loss_ratio(strain_energy: np.ndarray) -> float:
+    """W / (H U_max): the viscoelastic loss per period of a proportionally loaded material point
+    whose strain energy density over one period is ``strain_energy`` (uniform samples), against
+    the loss H U_max the thesis (eq. 2.14) and gearfem assign to it, for a small loss angle
+    (H = E''/|E*| ~ E''/E'). With eps(t) = eps_max sqrt(U(t)/U_max) and U_max = E' eps_max²/2,
+
+        W / (H U_max) = 2 pi sum_n n |eps_n / eps_max|²:
+
+    pi/2 = 1.571 for a 0 -> max -> 0 pulse of raised-cosine shape over the whole period, 2.19 for
+    such a pulse much shorter than the period (a tooth loaded for a fraction of a turn). (A fully
+    reversed sinusoid, which the strain energy alone cannot tell from a pulse train, gives 2 pi:
+    H U_max is its loss over 2 pi.)"""
+    u = np.asarray(strain_energy, dtype=float)
+    if np.any(u < 0):
+        raise ParameterError("strain_energy", float(u.min()), ">= 0")
+    top = float(u.max())
+    if top <= 0:
+        return float("nan")
+    eps = np.sqrt(u / top)
+    return viscoelastic_loss_per_cycle(eps, 2.0)  # pi * 2 * sum n |eps_n|^2
+
+
+# ------------------------------------------------------------------------------------------------
 # tooth root stress: ISO 6336-3 method B / VDI 2736-2 (tip load)
 # ------------------------------------------------------------------------------------------------
 
@@ -1534,6 +1585,7 @@ __all__ = [
     "effusivity",
     "flash_temperature_along_path",
     "hertz_line_contact",
+    "hysteresis_loss_ratio",
     "involute_curvature_radii_m",
     "mao_bulk_temperature_rise_K",
     "max_rack_fillet_coef",
@@ -1546,4 +1598,5 @@ __all__ = [
     "tooth_loss_factor_from_load_share",
     "vdi2736_contact_ratio_factor",
     "vdi2736_temperature_C",
+    "viscoelastic_loss_per_cycle",
 ]

@@ -277,6 +277,7 @@ def thermal(
         if case.thermal.mode == "transient" and steady:
             rec = problem.solve_steady()  # the operating temperature if the run went on for ever
             out["steady_state_C"] = {k: v - ZERO_CELSIUS_K for k, v in rec.temperatures_K.items()}
+            out["steady_balance_W"] = rec.balance.as_dict()
         if friction is not None:
             friction.update(friction_branches(problem, case, end, steady))
             out["friction"] = friction
