@@ -385,8 +385,9 @@ class FrictionLaw:
             slopes = np.diff(m) / np.diff(t)
             i = np.clip(np.searchsorted(t, T, side="right") - 1, 0, len(slopes) - 1)
             return np.where((t[0] <= T) & (t[-1] > T), slopes[i], 0.0)
-        x = (T - self.tg_K) / self.width_K
-        return (self.mu_rubbery - self.mu_glassy) * 0.5 / np.cosh(x) ** 2 / self.width_K
+        e = np.exp(-2.0 * np.abs((T - self.tg_K) / self.width_K))
+        sech2 = 4.0 * e / (1.0 + e) ** 2  # 1/cosh² without overflow
+        return (self.mu_rubbery - self.mu_glassy) * 0.5 * sech2 / self.width_K
 
     def temperature_factor(self, T_K) -> np.ndarray:
         if self.beta == 0.0:

@@ -227,7 +227,8 @@ def continuation(
     the curve crosses a scale of ``targets``, the steady state there is solved by Newton from the
     interpolated field and its stability computed (``crossings``: every branch at that scale, the
     unstable ones included, which Newton from uniform starts does not find). The step grows up to
-    ``max_step`` (default 4 ``step``) while the corrector converges quickly (collective)."""
+    ``max_step`` (default 4 ``step``) while the corrector converges quickly. The friction scale
+    is restored at the end; T is left at the last point (collective)."""
     if not problem.has_friction:
         raise ParameterError("sources", "no friction heat", "a problem with a friction flux")
     lo, hi = scale_range
@@ -236,6 +237,7 @@ def continuation(
     comm = problem.comm
     n = problem.num_dofs
     w = 1.0 / (n * temperature_unit_K**2)
+    scale_before = problem.friction_scale
     problem.set_friction_scale(scale_start)
     problem.solve_steady()
     ksp = _ksp(comm, problem.petsc_prefix + "continuation_")
@@ -243,7 +245,9 @@ def continuation(
     a, b, z = T.duplicate(), T.duplicate(), T.duplicate()
     problem.steady_system()
     Fl0 = problem.friction_scale_derivative()
-    tol = newton_tol if newton_tol is not None else 1e-10 * Fl0.norm()
+    # residual tolerance relative to the friction heat per test function (a tighter one meets the
+    # round-off of hot states)
+    tol = newton_tol if newton_tol is not None else 1e-8 * Fl0.norm()
     Fl0.destroy()
 
     def tangent(prev: tuple[Any, float] | None):
@@ -360,6 +364,7 @@ def continuation(
         return Continuation(tuple(pts), tuple(turning), stopped, tuple(crossings))
     finally:
         ksp.destroy()
+        problem.set_friction_scale(scale_before)  # T stays at the last point
 
 
 __all__ = [
