@@ -272,7 +272,12 @@ def thermal(
         }
         end = problem.T.x.array.copy() if case.thermal.mode == "transient" else None
         friction = None
-        if cycle_result is not None and src.friction:
+        # the friction report (maps, contact temperatures) of gearfem run, or of any other law
+        if (
+            cycle_result is not None
+            and src.friction
+            and (write_plot or not case.friction.is_default)
+        ):
             friction = friction_outputs(problem, gm, case, cycle_result, out_dir, write_plot)
         if case.thermal.mode == "transient" and steady:
             rec = problem.solve_steady()  # the operating temperature if the run went on for ever

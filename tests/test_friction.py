@@ -375,3 +375,30 @@ def test_cg_meeting_an_indefinite_jacobian_switches_to_gmres_lu():
     prob2, _, _ = _lumped(prefix="zd_gm_")
     with prob2:
         assert not prob2._symmetric  # a law that may rise: GMRES/LU from the start
+
+
+def test_flash_table_matches_the_volterra_solution():
+    """The tabulated contact solution (bilinear in flank temperature and flash per unit mu) against
+    the Volterra equation solved directly; a constant mu_T is reproduced exactly, and for it the
+    largest flash temperature is theta0 mu (the band source's maximum)."""
+    from gearfem.coupling.friction_heat import FlashTable, _profile
+
+    law = FrictionOptions(law="glass_transition", mu_glassy=0.15).law_for(0.5)
+    tab = FlashTable.build(law, 400.0)
+    rng = np.random.default_rng(3)
+    T = rng.uniform(300.0, 600.0, 400)
+    th0 = rng.uniform(0.0, 400.0, 400)
+    a, s = tab.weights(th0)
+    mu, dmu, theta = tab.lookup(a, s, T)
+    mu_ref, theta_ref = _profile(law, T, th0)
+    assert np.max(np.abs(mu - mu_ref)) < 5e-3
+    assert np.max(np.abs(theta - theta_ref)) < 0.01 * 400.0
+    # mu rises with the flank temperature, and with the flash (heat feeds the glass transition)
+    assert np.all(dmu >= -1e-12)
+    lo = tab.lookup(*tab.weights(np.array([0.0])), np.array(400.0))[0]
+    hi = tab.lookup(*tab.weights(np.array([200.0])), np.array(400.0))[0]
+    assert float(hi[0]) > float(lo[0])
+    const = FrictionOptions(mu=0.4, law="constant").law_for(0.5)
+    m, t = _profile(const, np.full(3, 350.0), np.array([0.0, 50.0, 300.0]))
+    np.testing.assert_allclose(m, 0.4, rtol=1e-14)
+    np.testing.assert_allclose(t, 0.4 * np.array([0.0, 50.0, 300.0]), rtol=1e-12)

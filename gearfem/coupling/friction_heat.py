@@ -320,8 +320,9 @@ _VOLTERRA = _Volterra.build()
 class FlashTable:
     """The Volterra solution tabulated once per law: the profile-mean mu_T and the largest flash
     temperature of a band as functions of its flank temperature T (uniform grid) and its flash
-    temperature per unit mu, theta0 (0 and a geometric grid up to the largest band's), bilinear
-    interpolation. A constant mu_T is reproduced exactly (every entry equals it)."""
+    temperature per unit mu, theta0 (0, a geometric grid to 10 K, then steps of 4 K up to the
+    largest band's), bilinear interpolation; flank temperatures 200-1000 K in 0.5 K steps (constant
+    beyond). A constant mu_T is reproduced exactly (every entry equals it)."""
 
     T_K: np.ndarray
     theta0_K: np.ndarray
@@ -330,11 +331,20 @@ class FlashTable:
 
     @classmethod
     def build(
-        cls, law: FrictionLaw, theta0_max_K: float, T_range_K=(200.0, 1300.0), dT_K: float = 0.5
+        cls,
+        law: FrictionLaw,
+        theta0_max_K: float,
+        T_range_K=(200.0, 1000.0),
+        dT_K: float = 0.5,
+        dtheta0_K: float = 4.0,
     ) -> FlashTable:
         T = np.arange(T_range_K[0], T_range_K[1] + 0.5 * dT_K, dT_K)
         top = max(float(theta0_max_K), 1e-2) * 1.001
-        th = np.concatenate([[0.0], np.geomspace(1e-2, top, 47)])
+        # geometric near 0, then steps of at most dtheta0_K (a flash theta0 mu changes mu_T over
+        # a few kelvin in a steep law)
+        small = np.geomspace(1e-2, min(top, 10.0), 12)
+        big = np.linspace(10.0, top, max(2, int(np.ceil((top - 10.0) / dtheta0_K)) + 1))
+        th = np.unique(np.concatenate([[0.0], small, big[big > 10.0] if top > 10.0 else []]))
         Tg = np.tile(T, len(th))
         f0 = np.repeat(th, len(T))
         mbar, theta = _profile(law, Tg, f0)
