@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -321,8 +322,13 @@ def bench(out: Path, degree: int = 2) -> None:
             cyc, _, _ = pipeline.cycle(case, COMM)
             d = out / f"{len(rows):02d}"
             t0 = time.perf_counter()
-            s = pipeline.thermal(case, d, COMM, cyc, write_fields=False, write_plot=len(rows) < 2)
+            plot = name.startswith(("constant", "glass transition, mu_g 0.1")) and sp == 1000.0
+            s = pipeline.thermal(case, d, COMM, cyc, write_fields=False, write_plot=plot)
             wall = time.perf_counter() - t0
+            if plot:
+                IMAGES.mkdir(parents=True, exist_ok=True)
+                tag = "constant" if name.startswith("constant") else "glass_0.1"
+                shutil.copy(d / "friction_maps.png", IMAGES / f"maps_{tag}_1000rpm_8Nm.png")
             f = s.get("friction", {})
             ss = s.get("steady_state_C", {})
             br = f.get("distinct_steady_states")

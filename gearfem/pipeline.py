@@ -22,7 +22,7 @@ from mpi4py import MPI
 
 from gearfem.baselines import baseline_summary, max_rack_fillet_coef
 from gearfem.config import Case, load_case, write_case
-from gearfem.core.errors import ParameterError
+from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.io import prepare_output, read_json, write_json
 from gearfem.core.log import ProgressBar
 from gearfem.core.materials import ZERO_CELSIUS_K
@@ -280,9 +280,12 @@ def thermal(
         ):
             friction = friction_outputs(problem, gm, case, cycle_result, out_dir, write_plot)
         if case.thermal.mode == "transient" and steady:
-            rec = problem.solve_steady()  # the operating temperature if the run went on for ever
+            # the operating temperature if the run went on for ever
+            rec, end, settled_s = steady_after_transient(problem, case)
             out["steady_state_C"] = {k: v - ZERO_CELSIUS_K for k, v in rec.temperatures_K.items()}
             out["steady_balance_W"] = rec.balance.as_dict()
+            if settled_s is not None:
+                out["transient_continued_to_s"] = settled_s
         if friction is not None:
             friction.update(friction_branches(problem, case, end, steady))
             out["friction"] = friction
@@ -324,6 +327,35 @@ def friction_outputs(
     if write_plot and problem.comm.rank == 0:
         plot_flank_maps(maps, Path(out_dir) / "friction_maps.png", out["law"])
     return out
+
+
+def steady_after_transient(problem, case: Case):
+    """The steady state from the end of the transient: (record, the transient's end field, the
+    time the transient had to be continued to, or None). A friction law whose heat may rise with
+    temperature can leave the transient between branches (a runaway under way): Newton from there
+    may find no steady state, so the transient is continued (by its duration and at least 1800 s,
+    three times at most) until the steady solve from its end converges; the branch it reaches is
+    the physical one (collective)."""
+    end = problem.T.x.array.copy()
+    try:
+        return problem.solve_steady(), end, None
+    except ConvergenceError:
+        if not case.friction_law().may_rise_with_temperature:
+            raise
+    for _ in range(3):
+        # the failed solve changed T only; the transient's history is intact
+        log.info("no steady state from t = %g s yet: continuing the transient", problem.time_s)
+        problem.integrate(duration_s=problem.time_s + max(case.thermal.duration_s, 1800.0))
+        end = problem.T.x.array.copy()
+        try:
+            return problem.solve_steady(), end, problem.time_s
+        except ConvergenceError:
+            continue
+    raise ConvergenceError(
+        "thermal Newton",
+        "no steady state from the transient's end",
+        step=f"transient continued to t = {problem.time_s:g} s",
+    )
 
 
 def friction_branches(problem, case: Case, transient_end, steady: bool) -> dict[str, Any]:
