@@ -57,6 +57,7 @@ References
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from typing import Any, NamedTuple
@@ -673,6 +674,173 @@ def blok_flash_temperature_K(
     return out
 
 
+#: Flux distributions over a band source of half-width a: the mean over the band is 1.
+BAND_SHAPES = ("uniform", "semi_elliptic")
+#: Peclet range tabulated by :func:`band_source_rise`; beyond it the asymptotes are used.
+_PECLET_TABLE = (1e-3, 1e3)
+
+
+def _band_shape(shape: str):
+    if shape == "uniform":
+        return lambda x: np.ones_like(x)
+    if shape == "semi_elliptic":
+        return lambda x: 4.0 / math.pi * np.sqrt(np.clip(1.0 - x * x, 0.0, None))
+    raise ParameterError("band shape", shape, "one of " + ", ".join(BAND_SHAPES))
+
+
+def _band_surface_rise(L: float, shape: str, X: float) -> float:
+    """Dimensionless surface temperature k theta / (q_mean a) at X = x/a under a steady band source
+    on [-1, 1] moving at Peclet number L = V a / (2 kappa): the exact 2D solution
+
+        theta(x) = 1/(pi k) int q(xi) exp(-V (x - xi) / (2 kappa)) K0(V |x - xi| / (2 kappa)) dxi
+
+    (the moving line source on an insulated half-space, [Jae1942; Carslaw & Jaeger 10.7]), the
+    band moving towards +x (the trailing edge at X = -1)."""
+    from scipy import integrate, special
+
+    f = _band_shape(shape)
+
+    def kernel(xi):
+        u = X - xi
+        z = L * abs(u)
+        # exp(-L u) K0(L |u|) = exp(-L u - L |u|) k0e(L |u|)
+        return float(f(np.asarray(xi))) * math.exp(-L * u - z) * float(special.k0e(z))
+
+    pts = [X] if -1.0 < X < 1.0 else None
+    val = integrate.quad(kernel, -1.0, 1.0, points=pts, limit=400, epsabs=0, epsrel=1e-10)[0]
+    return val / math.pi
+
+
+@functools.cache
+def _clustered_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre on [0, 1] mapped by s = (1 - cos(pi t))/2: nodes and weights ds."""
+    t, w = np.polynomial.legendre.leggauss(n)
+    t, w = 0.5 * (t + 1.0), 0.5 * w
+    return 0.5 * (1.0 - np.cos(math.pi * t)), 0.5 * math.pi * np.sin(math.pi * t) * w
+
+
+def _band_surface_rise_fast(L: float, shape: str, X: np.ndarray, n: int = 200) -> np.ndarray:
+    """The integral of :func:`_band_surface_rise` for many X at once, by Gauss-Legendre on each side
+    of X with the map xi = X -+ d (1 - cos(pi t))/2, which clusters the nodes at X (log singularity
+    of K0) and at the band's edges (square-root edge of the semi-elliptic flux); agrees with the
+    adaptive quadrature to about 1e-7 (tests/test_friction.py)."""
+    from scipy import special
+
+    f = _band_shape(shape)
+    s, ds = _clustered_rule(n)
+    X = np.atleast_1d(np.asarray(X, dtype=float))
+    out = np.zeros_like(X)
+    for side, d in ((-1.0, X + 1.0), (1.0, 1.0 - X)):  # xi below X (u > 0), above X (u < 0)
+        xi = X[:, None] + side * d[:, None] * s[None, :]
+        u = X[:, None] - xi
+        z = L * np.abs(u)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kern = np.where(z > 0, np.exp(-L * u - z) * special.k0e(z), 0.0)
+        out += np.sum(f(xi) * kern * (d[:, None] * ds[None, :]), axis=1)
+    return out / math.pi
+
+
+@functools.cache
+def _band_table(shape: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(log L, max, mean) of k theta sqrt(L) / (q_mean a) on a log grid of Peclet numbers."""
+    logL = np.linspace(math.log(_PECLET_TABLE[0]), math.log(_PECLET_TABLE[1]), 61)
+    xg, wg = np.polynomial.legendre.leggauss(64)
+    xs = np.linspace(-1.0, 1.0, 401)
+    mx, mn = [], []
+    for lg in logL:
+        L = math.exp(lg)
+        mn.append(0.5 * float(_band_surface_rise_fast(L, shape, xg) @ wg))
+        vals = _band_surface_rise_fast(L, shape, xs)
+        i = int(np.argmax(vals))
+        fine = np.linspace(xs[max(i - 1, 0)], xs[min(i + 1, len(xs) - 1)], 101)
+        mx.append(float(max(vals.max(), _band_surface_rise_fast(L, shape, fine).max())))
+    s = np.sqrt(np.exp(logL))
+    return logL, np.asarray(mx) * s, np.asarray(mn) * s
+
+
+#: High-Peclet limits of k theta sqrt(L) / (q_mean a) for the band source: maximum and mean
+#: (uniform: 2/sqrt(pi) = 1.128 and 2/3 of it; Jaeger's 1.596 and 1.064 for theta k / (q
+#: sqrt(kappa a / V)) divided by sqrt(2); semi-elliptic: the 1D Duhamel integral's 1.1115 and its
+#: mean (computed once by the same integral).
+@functools.cache
+def band_source_high_peclet(shape: str, which: str = "max") -> float:
+    """k theta sqrt(L) / (q_mean a) as L -> infinity (the 1D, heat-normal-to-the-surface limit):
+    surface temperature of a semi-infinite solid passing under the flux for the time 2a/V."""
+    from scipy import integrate
+
+    f = _band_shape(shape)
+
+    def I(x):  # noqa: E743 - int_x^1 f(xi)/sqrt(xi - x) dxi (the band moves towards +x)
+        return integrate.quad(
+            lambda t: 2.0 * float(f(np.asarray(x + t * t))),
+            0.0,
+            math.sqrt(max(1.0 - x, 0.0)),
+            limit=200,
+        )[0]
+
+    # theta(X) = 1/pi sqrt(pi / (2L)) I(X) (K0 asymptote) in units of q a / k
+    scale = 1.0 / math.pi * math.sqrt(math.pi / 2.0)
+    if which == "mean":
+        xg, wg = np.polynomial.legendre.leggauss(64)
+        return scale * 0.5 * float(sum(w * I(x) for x, w in zip(xg, wg)))
+    from scipy import optimize
+
+    res = optimize.minimize_scalar(
+        lambda x: -I(x), bounds=(-1.0, 0.5), method="bounded", options={"xatol": 1e-10}
+    )
+    return scale * max(-float(res.fun), I(-1.0))
+
+
+def band_source_low_peclet_uniform(peclet: float, which: str = "max") -> float:
+    """k theta / (q a) of a uniform band source as L -> 0: the small-argument expansion
+    K0(z) = -ln(z/2) - gamma of the exact solution gives (2/pi)(1 - gamma + ln 2 - ln L) at the
+    centre (the maximum) and (2/pi)(3/2 - gamma - ln L) for the mean over the band [Jae1942]. A
+    band (2D) source has no stationary limit: the temperature grows like ln(1/L)."""
+    g = 0.5772156649015329
+    if which == "mean":
+        return 2.0 / math.pi * (1.5 - g - math.log(peclet))
+    return 2.0 / math.pi * (1.0 - g + math.log(2.0) - math.log(peclet))
+
+
+def band_source_rise(
+    peclet: float | np.ndarray, shape: str = "semi_elliptic", which: str = "max"
+) -> np.ndarray:
+    """Dimensionless flash temperature g(L) = k theta / (q_mean a) of a band heat source of
+    half-width a and mean flux q_mean moving at Peclet number L = V a / (2 kappa) over a
+    semi-infinite body, for any L (exact 2D steady solution, tabulated once on 1e-3 <= L <= 1e3 and
+    interpolated in log L; beyond: the high-Peclet asymptote, and the low-Peclet expansion for the
+    uniform band). ``which``: ``"max"`` (the surface maximum, Blok's flash temperature) or
+    ``"mean"`` (over the band). Regimes: L < 0.1 low (heat spreads ahead of the source), L > 5
+    high (Blok's formula, eq. 2.1, is within a few per cent)."""
+    require_choice("which", which, ("max", "mean"))
+    L = np.asarray(peclet, dtype=float)
+    if np.any(~np.isfinite(L)) or np.any(L <= 0):
+        raise ParameterError("peclet", "non-positive or non-finite", "> 0")
+    from scipy.interpolate import CubicSpline
+
+    logL, mx, mn = _band_table(shape)
+    tab = mx if which == "max" else mn
+    lg = np.log(L)
+    out = CubicSpline(logL, tab)(np.clip(lg, logL[0], logL[-1])) / np.sqrt(L)
+    hi = lg > logL[-1]
+    if np.any(hi):
+        out = np.where(hi, band_source_high_peclet(shape, which) / np.sqrt(L), out)
+    lo = lg < logL[0]
+    if np.any(lo):
+        if shape != "uniform":
+            raise ParameterError(
+                "peclet", float(L.min()), f">= {_PECLET_TABLE[0]:g} for a {shape} band"
+            )
+        low = np.vectorize(lambda v: band_source_low_peclet_uniform(v, which))(np.where(lo, L, 1.0))
+        out = np.where(lo, low, out)
+    return out
+
+
+def peclet_regime(peclet: float) -> str:
+    """'low' (L < 0.1), 'intermediate' or 'high' (L > 5) for a band source (Jaeger's ranges)."""
+    return "low" if peclet < 0.1 else ("high" if peclet > 5.0 else "intermediate")
+
+
 @dataclasses.dataclass(frozen=True)
 class FlashTemperatureCurve:
     """Blok flash temperature along the path of contact (arrays over the positions ``s_m``).
@@ -820,6 +988,57 @@ def flash_temperature_along_path(
         peclet1=v1 * a / (2.0 * kappa1),
         peclet2=v2 * a / (2.0 * kappa2),
     )
+
+
+# ------------------------------------------------------------------------------------------------
+# hysteresis: the viscoelastic loss of one load cycle
+# ------------------------------------------------------------------------------------------------
+
+
+def viscoelastic_loss_per_cycle(strain: np.ndarray, loss_modulus_Pa: float) -> float:
+    """Energy dissipated per unit volume over one period by a linear viscoelastic solid with a
+    frequency-independent loss modulus E'' under the periodic strain ``strain`` (uniform samples
+    of one period), J/m³:
+
+        W = pi E'' sum_n n |eps_n|²,
+
+    eps_n the amplitude of the n-th harmonic (each harmonic dissipates pi E'' eps_n² per cycle of
+    its own, and makes n of them per period). A sinusoid of amplitude eps0 gives pi E'' eps0²; a
+    pulse 0 -> eps0 -> 0 of raised-cosine shape gives pi E'' eps0² / 4 whatever its duration (the
+    constant-E'' solid dissipates by strain excursion, not by rate). The mean strain does not
+    dissipate."""
+    e = np.asarray(strain, dtype=float)
+    if e.ndim != 1 or len(e) < 4:
+        raise ParameterError("strain", e.shape, "uniform samples of one period, at least 4")
+    E2 = require_nonnegative("loss_modulus_Pa", loss_modulus_Pa)
+    c = np.fft.rfft(e) / len(e)
+    n = np.arange(len(c))
+    amp2 = 4.0 * np.abs(c) ** 2  # eps_n² = (2 |c_n|)², n >= 1
+    if len(e) % 2 == 0:
+        amp2[-1] = np.abs(c[-1]) ** 2  # the Nyquist term is not doubled
+    return float(math.pi * E2 * np.sum(n[1:] * amp2[1:]))
+
+
+def hysteresis_loss_ratio(strain_energy: np.ndarray) -> float:
+    """W / (H U_max): the viscoelastic loss per period of a proportionally loaded material point
+    whose strain energy density over one period is ``strain_energy`` (uniform samples), against
+    the loss H U_max the thesis (eq. 2.14) and gearfem assign to it, for a small loss angle
+    (H = E''/|E*| ~ E''/E'). With eps(t) = eps_max sqrt(U(t)/U_max) and U_max = E' eps_max²/2,
+
+        W / (H U_max) = 2 pi sum_n n |eps_n / eps_max|²:
+
+    pi/2 = 1.571 for a 0 -> max -> 0 pulse of raised-cosine shape over the whole period, 2.19 for
+    such a pulse much shorter than the period (a tooth loaded for a fraction of a turn). (A fully
+    reversed sinusoid, which the strain energy alone cannot tell from a pulse train, gives 2 pi:
+    H U_max is its loss over 2 pi.)"""
+    u = np.asarray(strain_energy, dtype=float)
+    if np.any(u < 0):
+        raise ParameterError("strain_energy", float(u.min()), ">= 0")
+    top = float(u.max())
+    if top <= 0:
+        return float("nan")
+    eps = np.sqrt(u / top)
+    return viscoelastic_loss_per_cycle(eps, 2.0)  # pi * 2 * sum n |eps_n|^2
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1346,6 +1565,7 @@ def temperature_rise_ratio(summary_a: dict[str, Any], summary_b: dict[str, Any],
 
 
 __all__ = [
+    "BAND_SHAPES",
     "BLOK_FORM_FACTOR_SEMI_ELLIPTIC",
     "BLOK_FORM_FACTOR_UNIFORM",
     "VDI2736_K_THETA",
@@ -1356,15 +1576,20 @@ __all__ = [
     "RootFormFactors",
     "agma_pitch_contact_stress_Pa",
     "band_source_flash_K",
+    "band_source_high_peclet",
+    "band_source_low_peclet_uniform",
+    "band_source_rise",
     "baseline_summary",
     "blok_flash_temperature_K",
     "effective_modulus_Pa",
     "effusivity",
     "flash_temperature_along_path",
     "hertz_line_contact",
+    "hysteresis_loss_ratio",
     "involute_curvature_radii_m",
     "mao_bulk_temperature_rise_K",
     "max_rack_fillet_coef",
+    "peclet_regime",
     "profile_shift_from_thickness",
     "root_form_factors",
     "root_stress_Pa",
@@ -1373,4 +1598,5 @@ __all__ = [
     "tooth_loss_factor_from_load_share",
     "vdi2736_contact_ratio_factor",
     "vdi2736_temperature_C",
+    "viscoelastic_loss_per_cycle",
 ]

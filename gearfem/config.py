@@ -9,6 +9,8 @@ A case file has one table per stage, each a frozen dataclass of the module that 
     [material]       # gearfem.core.materials.Material (both gears; [material_wheel] overrides
                      # the wheel)
     [contact]        # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5)
+    [friction]       # gearfem.contact.friction.FrictionOptions: the friction law of the heat
+                     # sources (default: the contact's constant mu)
     [cycle]          # gearfem.cycle.options.CycleOptions
     [operating]      # OperatingPoint: speed_rpm (pinion), torque_Nm (resisting torque, wheel)
     [sources]        # gearfem.coupling.options.SourceOptions
@@ -31,11 +33,12 @@ from typing import Any
 import tomli_w
 
 from gearfem.baselines import BaselineOptions
+from gearfem.contact.friction import FrictionOptions
 from gearfem.contact.options import ContactOptions
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import Material, data_text
 from gearfem.core.params import from_dict, require_nonnegative, require_positive, to_dict
-from gearfem.coupling.options import SourceOptions
+from gearfem.coupling.options import REMOVED_KEYS, SourceOptions
 from gearfem.cycle.options import CycleOptions
 from gearfem.geometry.involute import GearPairGeometry
 from gearfem.geometry.options import MeshOptions
@@ -69,11 +72,20 @@ class Case:
     material: Material = dataclasses.field(default_factory=Material)
     material_wheel: Material | None = None
     contact: ContactOptions = dataclasses.field(default_factory=_thesis_contact)
+    friction: FrictionOptions = dataclasses.field(default_factory=FrictionOptions)
     cycle: CycleOptions = dataclasses.field(default_factory=CycleOptions)
     operating: OperatingPoint = dataclasses.field(default_factory=OperatingPoint)
     sources: SourceOptions = dataclasses.field(default_factory=SourceOptions)
     thermal: ThermalOptions = dataclasses.field(default_factory=ThermalOptions)
     baselines: BaselineOptions = dataclasses.field(default_factory=BaselineOptions)
+
+    def __post_init__(self) -> None:
+        # the friction law resolved against the cycle's mu (mu within [0, 2] everywhere)
+        self.friction_law()
+
+    def friction_law(self):
+        """The ``[friction]`` law with the contact's friction coefficient as its default mu."""
+        return self.friction.law_for(self.contact.friction_coefficient)
 
     @property
     def thermal_mesh_options(self) -> MeshOptions:
@@ -100,6 +112,14 @@ class Case:
 
 
 def case_from_dict(data: dict[str, Any]) -> Case:
+    for key, replacement in REMOVED_KEYS.items():
+        if isinstance(data.get("sources"), dict) and key in data["sources"]:
+            raise ParameterError(
+                f"sources.{key}",
+                data["sources"][key],
+                f"removed: use {replacement}",
+                "mu(T) is a friction law now (docs/friction.md)",
+            )
     return from_dict(Case, data)
 
 

@@ -22,12 +22,20 @@ from mpi4py import MPI
 
 from gearfem.baselines import baseline_summary, max_rack_fillet_coef
 from gearfem.config import Case, load_case, write_case
-from gearfem.core.errors import ParameterError
+from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.io import prepare_output, read_json, write_json
 from gearfem.core.log import ProgressBar
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.core.provenance import versions
 from gearfem.core.results import JsonRecord
+from gearfem.coupling.friction_report import (
+    branch_starts,
+    evaluate_at,
+    flank_maps,
+    friction_model,
+    plot_flank_maps,
+)
+from gearfem.coupling.friction_report import summary as friction_summary
 from gearfem.coupling.heat_sources import cycle_heat_sources
 from gearfem.cycle.cache import (
     cache_root,
@@ -43,6 +51,7 @@ from gearfem.geometry.involute import GearPair
 from gearfem.geometry.mesh import build_gear_mesh
 from gearfem.geometry.options import BODIES
 from gearfem.thermal.boundary import ThermalBoundary
+from gearfem.thermal.branches import steady_states
 from gearfem.thermal.domain import ThermalDomain
 from gearfem.thermal.lumped import gear_radii, lumped_estimate
 from gearfem.thermal.outputs import solve_and_write
@@ -125,6 +134,10 @@ class Headline(JsonRecord):
     # numerical standard uncertainty (K, W, -) of the fields above that have one, by field name,
     # from the refinement studies stored for the case's resolution (gearfem.uncertainty)
     u_num: dict[str, float] | None = None
+    # the friction law's heat into the modelled gear at the end of the run (W per gear) and the
+    # steady states the branch search found (None: not searched, the heat cannot rise with T)
+    friction_heat_per_gear_W: float | None = None
+    steady_states_found: int | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -246,7 +259,9 @@ def thermal(
                 "cycle",
                 "a cycle result (run `gearfem cycle` or `gearfem run`) or mode = 'prescribed'",
             )
-        sources = cycle_heat_sources(domain, gm, body, cycle_result, src, case.materials, n1)
+        sources = cycle_heat_sources(
+            domain, gm, body, cycle_result, src, case.materials, n1, case.friction
+        )
         title = (
             f"{body}, {n1:g} rpm, {case.operating.torque_Nm:g} N m (sources from the contact cycle)"
         )
@@ -277,9 +292,25 @@ def thermal(
             for r in records
             if any(abs(r.time_s - t) <= 1e-6 * max(1.0, t) for t in wanted)
         }
+        end = problem.T.x.array.copy() if case.thermal.mode == "transient" else None
+        friction = None
+        # the friction report (maps, contact temperatures) of gearfem run, or of any other law
+        if (
+            cycle_result is not None
+            and src.friction
+            and (write_plot or not case.friction.is_default)
+        ):
+            friction = friction_outputs(problem, gm, case, cycle_result, out_dir, write_plot)
         if case.thermal.mode == "transient" and steady:
-            rec = problem.solve_steady()  # the operating temperature if the run went on for ever
+            # the operating temperature if the run went on for ever
+            rec, end, settled_s = steady_after_transient(problem, case)
             out["steady_state_C"] = {k: v - ZERO_CELSIUS_K for k, v in rec.temperatures_K.items()}
+            out["steady_balance_W"] = rec.balance.as_dict()
+            if settled_s is not None:
+                out["transient_continued_to_s"] = settled_s
+        if friction is not None:
+            friction.update(friction_branches(problem, case, end, steady))
+            out["friction"] = friction
         return out
 
     with problem:  # frees the solvers collectively, also on failure
@@ -292,6 +323,93 @@ def thermal(
             write_plot=write_plot,
         )
     return summary
+
+
+def friction_outputs(
+    problem, gear_mesh, case: Case, cyc, out_dir: str | Path, write_plot: bool
+) -> dict[str, Any]:
+    """The friction of the run at its last state (any law): heat, mu, contact and flash
+    temperatures, Peclet numbers; the flank maps (``friction_maps.png``, when plotting)."""
+    src, body = case.sources, case.thermal.body
+    model = friction_model(
+        problem,
+        gear_mesh,
+        body,
+        cyc,
+        case.friction_law(),
+        case.materials,
+        case.operating.speed_rpm,
+        src.heat_partition,
+        src.heat_fractions(case.materials)[body],
+        case.friction.contact_temperature,
+    )
+    state = evaluate_at(problem, model)
+    out = friction_summary(model, state)
+    maps = flank_maps(model, state, gear_mesh.center(body))
+    if write_plot and problem.comm.rank == 0:
+        plot_flank_maps(maps, Path(out_dir) / "friction_maps.png", out["law"])
+    return out
+
+
+def steady_after_transient(problem, case: Case):
+    """The steady state from the end of the transient: (record, the transient's end field, the
+    time the transient had to be continued to, or None). A friction law whose heat may rise with
+    temperature can leave the transient between branches (a runaway under way): Newton from there
+    may find no steady state, so the transient is continued (by its duration and at least 1800 s,
+    three times at most) until the steady solve from its end converges; the branch it reaches is
+    the physical one (collective)."""
+    end = problem.T.x.array.copy()
+    try:
+        return problem.solve_steady(), end, None
+    except ConvergenceError:
+        if not case.friction_law().may_rise_with_temperature:
+            raise
+    for _ in range(3):
+        # the failed solve changed T only; the transient's history is intact
+        log.info("no steady state from t = %g s yet: continuing the transient", problem.time_s)
+        problem.integrate(duration_s=problem.time_s + max(case.thermal.duration_s, 1800.0))
+        end = problem.T.x.array.copy()
+        try:
+            return problem.solve_steady(), end, problem.time_s
+        except ConvergenceError:
+            continue
+    raise ConvergenceError(
+        "thermal Newton",
+        "no steady state from the transient's end",
+        step=f"transient continued to t = {problem.time_s:g} s",
+    )
+
+
+def friction_branches(problem, case: Case, transient_end, steady: bool) -> dict[str, Any]:
+    """Where the law's heat may rise with temperature: the steady states from a cold, the
+    transient's and a hot start, with their stability, and which one the transient picked."""
+    law = case.friction_law()
+    if not (steady and law.may_rise_with_temperature):
+        return {"branch_search": "not needed: the friction heat cannot rise with temperature"}
+    found = steady_states(problem, branch_starts(problem, law, transient_end))
+    distinct = [s for s in found if s.converged and s.same_as is None]
+    picked = next((s for s in found if s.start == "transient"), None)
+    if picked is not None and picked.converged:
+        picked_name = picked.same_as or picked.start
+    else:
+        picked_name = None
+    if len(distinct) > 1:
+        log.warning(
+            "several steady states at %g rpm / %g N m: %s; the transient from ambient picked %s",
+            case.operating.speed_rpm,
+            case.operating.torque_Nm,
+            ", ".join(
+                f"{s.start} ({s.temperatures_C['max_surface']:.1f} C, "
+                f"{'stable' if s.stable else 'unstable'})"
+                for s in distinct
+            ),
+            picked_name,
+        )
+    return {
+        "branches": [s.to_json() for s in found],
+        "distinct_steady_states": len(distinct),
+        "transient_branch": picked_name,
+    }
 
 
 def baselines(case: Case) -> dict[str, Any]:
@@ -443,7 +561,15 @@ def headline(
         mao_bulk1_C=baselines.get("mao_bulk1_C"),
         flash_max_K=baselines.get("flash_max_K"),
         u_num=u_num,
+        friction_heat_per_gear_W=_per_gear(thermal, "friction_W"),
+        steady_states_found=thermal.get("friction", {}).get("distinct_steady_states"),
     )
+
+
+def _per_gear(thermal: dict[str, Any], key: str) -> float | None:
+    val = thermal.get("final_balance_W", {}).get(key)
+    frac = thermal.get("model_fraction")
+    return val / frac if val is not None and frac else None
 
 
 def read_case(path: str | Path | None):

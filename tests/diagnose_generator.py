@@ -42,17 +42,19 @@ def synthetic(
     torque_Nm: float = TORQUE_NM,
     quantities=QUANTITIES,
     end_only: bool = False,
+    points: tuple[tuple[float, float], ...] | None = None,
 ) -> Dataset:
+    """``points`` (speed, torque) pairs replace ``speeds`` at ``torque_Nm``."""
     rows = []
-    for sp in speeds:
+    for sp, tq in points or tuple((s, torque_Nm) for s in speeds):
         amb = float(np.round(rng.uniform(*ambient_C), 1))
-        res = full.evaluate(sp, torque_Nm, amb, effects)
+        res = full.evaluate(sp, tq, amb, effects)
         for q in quantities:
             for t in (None,) if end_only else (*full.times_s, None):
                 rows.append(
                     Measurement(
                         sp,
-                        torque_Nm,
+                        tq,
                         t,
                         q,
                         float(res[(q, t)] + rng.normal(0.0, noise_K)),

@@ -620,3 +620,52 @@ def test_summary_of_the_thesis_bench_points():
     )
     assert a["agma_pitch_sigma_H_Pa"] == pytest.approx(a["hertz_pitch_p0_Pa"], rel=1e-12)
     assert all(math.isfinite(v) for v in a.values())
+
+
+# ------------------------------------------------------------------------------------------------
+# hysteresis: the viscoelastic loss of one load cycle against H U_max
+# ------------------------------------------------------------------------------------------------
+
+
+def test_viscoelastic_loss_of_one_cycle():
+    """A sinusoid of amplitude eps0 dissipates pi E'' eps0² per cycle (the ellipse of the
+    stress-strain loop); a mean strain dissipates nothing; a raised-cosine pulse 0 -> eps0 -> 0
+    over the whole period is a sinusoid of amplitude eps0/2 about eps0/2."""
+    t = np.arange(720) / 720
+    E2, eps0 = 1.1e8, 2e-3
+    assert B.viscoelastic_loss_per_cycle(eps0 * np.sin(2 * np.pi * t), E2) == pytest.approx(
+        math.pi * E2 * eps0**2, rel=1e-12
+    )
+    assert B.viscoelastic_loss_per_cycle(eps0 + 0 * t, E2) == pytest.approx(0.0, abs=1e-20)
+    pulse = eps0 * (0.5 - 0.5 * np.cos(2 * np.pi * t))
+    assert B.viscoelastic_loss_per_cycle(pulse, E2) == pytest.approx(
+        math.pi * E2 * eps0**2 / 4, rel=1e-12
+    )
+    # the third harmonic makes three cycles per period
+    three = eps0 * np.sin(6 * np.pi * t)
+    assert B.viscoelastic_loss_per_cycle(three, E2) == pytest.approx(
+        3 * math.pi * E2 * eps0**2, rel=1e-12
+    )
+
+
+def test_hysteresis_loss_ratio_of_pulses():
+    """W / (H U_max) = 2 pi for a fully reversed sinusoid, pi/2 for a full-period pulse, and a
+    pulse shorter than the period (a tooth loaded for a tenth of a turn) dissipates more than
+    pi/2 (2.19 in the limit): H U_max understates the loss of the tooth's load cycle."""
+    t = np.arange(3600) / 3600
+    E1, E2, eps0 = 3.7e9, 1.1e8, 2e-3
+    w = B.viscoelastic_loss_per_cycle(eps0 * np.sin(2 * np.pi * t), E2)  # reversed: from strain
+    assert w / ((E2 / E1) * 0.5 * E1 * eps0**2) == pytest.approx(2 * math.pi, rel=1e-12)
+    assert B.hysteresis_loss_ratio((0.5 - 0.5 * np.cos(2 * np.pi * t)) ** 2) == pytest.approx(
+        math.pi / 2, rel=1e-12
+    )
+    short = [
+        B.hysteresis_loss_ratio(
+            np.where(t < tau, (0.5 - 0.5 * np.cos(2 * np.pi * t / tau)), 0) ** 2
+        )
+        for tau in (0.2, 0.1, 0.05)
+    ]
+    assert all(math.pi / 2 < r < 2.3 for r in short)
+    assert short[2] == pytest.approx(short[1], rel=0.01)  # independent of the pulse's duration
+    with pytest.raises(ParameterError):
+        B.hysteresis_loss_ratio(-t)

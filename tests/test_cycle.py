@@ -23,14 +23,20 @@ from mpi4py import MPI
 from gearfem import pipeline
 from gearfem.config import Case, load_case
 from gearfem.contact import ContactOptions
+from gearfem.contact.friction import FrictionOptions
 from gearfem.core.errors import ParameterError
+from gearfem.core.materials import ZERO_CELSIUS_K
+from gearfem.coupling.friction_heat import reference_flux
 from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE, cycle_heat_sources
 from gearfem.coupling.options import SourceOptions
 from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
 from gearfem.cycle.cache import load, save
 from gearfem.geometry.mesh import build_gear_mesh
-from gearfem.geometry.options import MeshOptions
+from gearfem.geometry.options import BODIES, MeshOptions
+from gearfem.thermal import ThermalBoundary, ThermalProblem
+from gearfem.thermal.branches import steady_states
 from gearfem.thermal.domain import ThermalDomain
+from gearfem.thermal.lumped import gear_radii
 
 TINY = MeshOptions(
     teeth_in_model=4,
@@ -184,6 +190,9 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     np.testing.assert_array_equal(
         back.fields["wheel"].u_max_J_m3, loaded.fields["wheel"].u_max_J_m3
     )
+    for k, v in loaded.history.arrays().items():  # the contact history is cached with the cycle
+        np.testing.assert_array_equal(getattr(back.history, k), v)
+    assert back.history.z_bin_m == loaded.history.z_bin_m
     assert back.tooth_load_N.keys() == loaded.tooth_load_N.keys()
     assert back.effective_contact_ratio() == loaded.effective_contact_ratio()
     # the flank heat on the thermal mesh of one gear: (teeth modelled) × (heat per tooth) × ω
@@ -243,6 +252,96 @@ def _assert_same_cycle(a, b, rtol: float) -> None:
         assert np.abs(ub - ua).max() <= 10 * rtol * np.abs(ua).max()
 
 
+@pytest.mark.slow
+def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
+    """The contact history gives the cycle's friction power per position and, for the cycle's own
+    constant mu, its revolution-averaged flux to round-off; another constant mu scales it
+    exactly (first order: the pressures are the cycle's); the energy balance closes."""
+    r, h = loaded, loaded.history
+    n = len(r.phi_rad)
+    np.testing.assert_allclose(
+        h.friction_power_W_per_rad_s(0.5, n), r.friction_power_W_per_rad_s, rtol=1e-12
+    )
+    mats, speed = Case().materials, 1000.0
+    omega = 2 * math.pi * speed / 60
+    for b in BODIES:
+        f = r.fields[b]
+        q, _, bands = reference_flux(r, b, FrictionOptions().law_for(0.5), mats, speed, 300.0)
+        ref = f.generated_flux_W_m2_per_rad_s * omega
+        assert np.max(np.abs(q - ref)) <= 1e-12 * np.max(ref)
+        # each gear's flanks carry the friction power generated in the mesh (30 teeth)
+        assert 30 * np.sum(q * f.facet_area_m2) == pytest.approx(
+            r.mean_friction_power_W_per_rad_s() * omega, rel=1e-12
+        )
+        q3, _, _ = reference_flux(r, b, FrictionOptions(mu=0.3).law_for(0.5), mats, speed, 0.0)
+        np.testing.assert_allclose(q3, 0.6 * q, rtol=1e-13)
+        # the profile half-width of the loaded bands agrees with Hertz on the same load (the
+        # corner contacts of the tip rounds are narrower than the involute radii say)
+        hw = np.bincount(bands.band, weights=bands.heat * bands.weight_m2)
+        ratio = np.sum(hw * bands.half_width_m / bands.hertz_half_width_m) / np.sum(hw)
+        assert 0.6 < ratio < 1.4, ratio
+        # Peclet numbers of a gear at 1000 rpm: high (Blok's regime) wherever heat is made
+        pe = np.minimum(bands.peclet, bands.mate_peclet)
+        assert np.sum(hw[pe > 5.0]) > 0.999 * np.sum(hw)
+        # Blok's partition at high Peclet numbers: b1 sqrt(v1) / (b1 sqrt(v1) + b2 sqrt(v2))
+        blok = reference_flux(r, b, FrictionOptions().law_for(0.5), mats, speed, 300.0, "blok")[2]
+        hi = (blok.peclet > 200) & (blok.mate_peclet > 200)
+        v1, v2 = blok.peclet[hi], blok.mate_peclet[hi]  # equal materials: b equal, L ~ v
+        np.testing.assert_allclose(
+            blok.fraction[hi], np.sqrt(v1) / (np.sqrt(v1) + np.sqrt(v2)), rtol=5e-3
+        )
+
+
+def _thermal_tiny(cycle, friction: FrictionOptions, comm=MPI.COMM_WORLD, prefix="tiny_fr_"):
+    case = dataclasses.replace(Case(mesh=TINY), friction=friction)
+    gm = build_gear_mesh(case.geometry, TINY, comm, bodies=("pinion",))
+    dom = ThermalDomain.from_gear_mesh(gm, "pinion")
+    src = cycle_heat_sources(
+        dom, gm, "pinion", cycle, SourceOptions(), case.materials, 1000.0, friction
+    )
+    opts = dataclasses.replace(case.thermal, mode="steady", degree=1)
+    bnd = ThermalBoundary.from_options(
+        opts, case.material, 1000.0, gear_radii(gm.pair.profile("pinion"))
+    )
+    return ThermalProblem(dom, case.material, src, bnd, opts, petsc_options_prefix=prefix)
+
+
+@pytest.mark.slow
+def test_temperature_dependent_law_on_the_gear(loaded):
+    """Through the temperature-dependent path (a surface flux model updated at every residual):
+    a glass-transition law with equal plateaus is the constant law (the points left out carry
+    < 1e-12 each); with mu_glassy = 0.15 at the flank temperature the gear has a cool and a hot
+    steady state, both stable, and the transient from ambient ends on the cool one."""
+    with _thermal_tiny(loaded, FrictionOptions(), prefix="tiny_c_") as p:
+        ref = p.solve_steady()
+    same = FrictionOptions(law="glass_transition", mu_glassy=0.5)
+    with _thermal_tiny(loaded, same, prefix="tiny_s_") as p:
+        rec = p.solve_steady()
+        assert p.sources.flank_flux_model is not None
+    assert rec.balance.friction_W == pytest.approx(ref.balance.friction_W, rel=1e-8)
+    assert rec.temperatures_K["max_surface"] == pytest.approx(
+        ref.temperatures_K["max_surface"], abs=1e-5
+    )
+    glass = FrictionOptions(law="glass_transition", mu_glassy=0.15, contact_temperature="flank")
+    with _thermal_tiny(loaded, glass, prefix="tiny_g_") as p:
+        hot = ref.temperatures_K["max_surface"] + 100.0
+        found = steady_states(p, {"cold": p.initial_K, "hot": hot})
+        cold, warm = found
+        assert cold.converged and warm.converged and cold.stable and warm.stable
+        assert cold.same_as is None and warm.same_as is None
+        assert (
+            cold.temperatures_C["max_surface"] + ZERO_CELSIUS_K
+            < p.sources.flank_flux_model.law.tg_K
+        )
+        assert warm.friction_W > 3 * cold.friction_W
+        assert abs(warm.generated_W - warm.friction_W) < 0.1 * warm.generated_W
+        # the transient from ambient picks the cool branch
+        p.set_initial(p.initial_K)
+        p.integrate(duration_s=4000.0)
+        end = p.temperatures_K()["max_surface"] - ZERO_CELSIUS_K
+        assert end == pytest.approx(cold.temperatures_C["max_surface"], abs=2.0)
+
+
 @pytest.mark.mpi
 def test_cycle_one_and_two_ranks_agree(comms):
     """Two positions at 2 N m with friction on 1 rank and on all ranks, with both contact solvers;
@@ -262,6 +361,36 @@ def test_cycle_one_and_two_ranks_agree(comms):
         _assert_same_cycle(out[solver, 1], out[solver, n], rtol=1e-6)
     _assert_same_cycle(out["full", 1], out["condensed", 1], rtol=1e-6)
     assert out["condensed", n].info["back_substitution_error"] < 1e-9
+    # the contact history and what is recomputed from it (a pressure law, Blok's partition)
+    out = [out["condensed", 1], out["condensed", n]]
+    a, b = out
+    assert a.history.num_points == b.history.num_points
+    n = len(a.phi_rad)
+    np.testing.assert_allclose(
+        b.history.friction_power_W_per_rad_s(0.5, n),
+        a.history.friction_power_W_per_rad_s(0.5, n),
+        rtol=1e-5,
+    )
+    law = FrictionOptions(
+        pressure="power", pressure_exponent=-0.2, pressure_reference_MPa=30.0
+    ).law_for(0.5)
+    mats = Case().materials
+    for body in BODIES:
+        heats = []
+        for r in out:
+            q, _, _ = reference_flux(r, body, law, mats, 1000.0, 300.0, "blok")
+            heats.append(float(np.sum(q * r.fields[body].facet_area_m2)))
+        assert heats[1] == pytest.approx(heats[0], rel=1e-5)
+    # a temperature-dependent law on the thermal mesh (flash temperatures, group sums reduced)
+    glass = FrictionOptions(law="glass_transition", mu_glassy=0.2)
+    temps = []
+    for comm, r in zip(comms, out):
+        with _thermal_tiny(r, glass, comm, prefix=f"tiny_mpi{comm.size}_") as p:
+            p.set_initial(p.initial_K + 150.0)
+            rec = p.solve_steady()
+            temps.append((rec.temperatures_K["max_surface"], rec.balance.friction_W))
+    assert temps[1][0] == pytest.approx(temps[0][0], abs=1e-6)
+    assert temps[1][1] == pytest.approx(temps[0][1], rel=1e-8)
 
 
 @pytest.mark.slow

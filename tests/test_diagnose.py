@@ -19,15 +19,14 @@ import pytest
 from mpi4py import MPI
 
 import gearfem  # noqa: F401
+from gearfem.config import Case
 from gearfem.core.errors import ParameterError
 from gearfem.diagnose import data as ddata
 from gearfem.diagnose import vv20
-from gearfem.diagnose.candidates import LIBRARY, by_name
+from gearfem.diagnose.candidates import CLASSIC_LIBRARY, FRICTION_LAWS, LIBRARY, by_name
 
 sys.path.insert(0, str(Path(__file__).parent))
 import diagnose_generator as G
-
-from gearfem.coupling.heat_sources import friction_temperature_factor
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -125,10 +124,17 @@ def models():
     from gearfem.cycle.cache import cache_root
     from gearfem.diagnose.forward import FullModel, Surrogate
 
+    # one torque: the classic library (the friction laws' pressure law would act like
+    # friction_scale there; they have their own two-torque design, friction_models)
     case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
     case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, time_error_K=0.25))
-    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S)
-    sur = Surrogate(full, [(s, G.TORQUE_NM) for s in G.SPEEDS_RPM], cache_dir=cache_root())
+    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S, library=CLASSIC_LIBRARY)
+    sur = Surrogate(
+        full,
+        [(s, G.TORQUE_NM) for s in G.SPEEDS_RPM],
+        candidates=CLASSIC_LIBRARY,
+        cache_dir=cache_root(),
+    )
     return full, sur
 
 
@@ -136,14 +142,15 @@ def _diagnose(sur, data, full=None, final_check=False):
     """Surrogate diagnosis; with ``full``, the chosen model is refined on the full model."""
     from gearfem.diagnose.select import diagnose, refine
 
-    r = diagnose(sur.predict, data)
+    lib = sur.candidates
+    r = diagnose(sur.predict, data, library=lib)
     if full is not None:
-        r = refine(full.predict, sur.predict, data, r, final_check=final_check)
+        r = refine(full.predict, sur.predict, data, r, final_check=final_check, library=lib)
     return r
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [c.name for c in LIBRARY])
+@pytest.mark.parametrize("name", [c.name for c in CLASSIC_LIBRARY])
 def test_hidden_effect_found(models, name):
     full, sur = models
     seed = 1000 + [c.name for c in LIBRARY].index(name)
@@ -200,17 +207,76 @@ def test_pair_found_and_confirmed_on_full_model(models):
     assert r.refined.full_rmse_K < 1.0 + 3.0 / math.sqrt(2 * n)
 
 
+# ---------------------------------------------------------------- friction laws (issue 15)
+
+#: Two torques (the pressure law is told from a friction scale only across loads) and two speeds
+#: at the lower one (the sliding-speed law from convection), the bench points among them.
+FRICTION_POINTS = ((600.0, 8.0), (1000.0, 8.0), (1000.0, 4.0), (2000.0, 4.0))
+FRICTION_RIVALS = ("friction_scale", "friction_temperature", "convection_scale", "ambient_offset")
+
+
+@pytest.fixture(scope="session")
+def friction_models():
+    from gearfem.config import load_case
+    from gearfem.cycle.cache import cache_root
+    from gearfem.diagnose.forward import FullModel, Surrogate
+
+    lib = FRICTION_LAWS + tuple(by_name(n) for n in FRICTION_RIVALS)
+    case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
+    case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, time_error_K=0.25))
+    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S, library=lib)
+    sur = Surrogate(full, FRICTION_POINTS, candidates=lib, cache_dir=cache_root())
+    return full, sur
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [c.name for c in FRICTION_LAWS])
+def test_friction_law_hidden_effect_found(friction_models, name):
+    full, sur = friction_models
+    seed = 1000 + [c.name for c in LIBRARY].index(name)
+    rng = np.random.default_rng(seed)
+    truth = G.draw(name, rng)
+    data = G.synthetic(full, {name: truth}, rng, points=FRICTION_POINTS)
+    r = _diagnose(sur, data, full)
+    assert r.verdict.kind == "identified", (truth, r.verdict.text)
+    assert r.chosen == (name,)
+    lo, hi = r.refined.intervals[name]
+    assert lo <= truth <= hi, (truth, lo, hi)
+    assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
+
+
+@pytest.mark.slow
+def test_forward_state_returns_friction_heat_and_branch(friction_models):
+    """The forward model returns the friction heat and, for a law whose heat may rise with T, the
+    steady states and the branch the transient picked; the heat lies between the glassy and the
+    rubbery plateaus' heats."""
+    full, _ = friction_models
+    base = full.evaluate_state(1000.0, 8.0, 23.0)
+    assert base.steady_states is None and base.friction_per_gear_W > 0
+    st = full.evaluate_state(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
+    assert st.steady_states is not None and st.steady_states >= 1
+    assert st.transient_branch is not None
+    assert 0.2 * base.friction_per_gear_W - 1e-9 <= st.friction_per_gear_W
+    assert st.friction_per_gear_W <= base.friction_per_gear_W * (1 + 1e-6)
+    assert {b["start"] for b in st.branches} >= {"cold", "transient", "hot"}
+    assert st.temperatures_C == full.evaluate(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
+
+
 # ---------------------------------------------------------------- mu(T) on the friction flux
 
 
 def test_friction_temperature_options():
-    from gearfem.coupling.options import SourceOptions
+    from gearfem.config import case_from_dict
 
-    assert friction_temperature_factor(SourceOptions()) is None
-    with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):
-        SourceOptions(friction_temperature_coefficient_per_K=-0.001)
-    with pytest.raises(ParameterError, match="friction_temperature_coefficient_per_K"):
-        SourceOptions(mode="prescribed", friction_temperature_coefficient_per_K=0.001)
+    # the mu(T) of earlier versions is a friction law now: old case files are refused by name,
+    # with the replacement spelled out
+    with pytest.raises(ParameterError, match="sources.friction_temperature_coefficient_per_K"):
+        case_from_dict({"sources": {"friction_temperature_coefficient_per_K": 0.004}})
+    with pytest.raises(ParameterError, match=r"friction_reference_C.*\[friction\] reference_C"):
+        case_from_dict({"sources": {"friction_reference_C": 25.0}})
+    case = by_name("friction_temperature").apply(Case(), -0.002)
+    assert case.friction.temperature_coefficient_per_K == -0.002
+    assert case.friction_law().may_rise_with_temperature
 
 
 @pytest.mark.slow
@@ -227,7 +293,10 @@ def test_friction_temperature_reduces_friction_heat_within_bounds(models, tmp_pa
     for b in (0.0, beta):
         case = full.point_case(1000.0, 8.0, 23.0, {"friction_temperature": b} if b else {})
         case = dataclasses.replace(
-            case, thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=())
+            case,
+            thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=()),
+            # the factor on the flank temperature (the bounds below are those of the flank)
+            friction=dataclasses.replace(case.friction, contact_temperature="flank"),
         )
         runs[b] = pipeline.thermal(
             case,

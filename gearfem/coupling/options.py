@@ -10,6 +10,17 @@ from gearfem.core.materials import Material
 from gearfem.core.params import require_choice, require_nonnegative, require_range
 from gearfem.thermal.options import LOADING_FREQUENCIES, PrescribedSources
 
+HEAT_PARTITIONS = ("fixed", "blok")
+#: Keys of earlier versions and what replaces them (a case file that has them is refused by name).
+REMOVED_KEYS = {
+    "friction_temperature_coefficient_per_K": (
+        "[friction] temperature_coefficient_per_K = beta (mu = mu_T exp(-beta (T - reference_C)),"
+        " beta > 0 falls with T; contact_temperature = 'flank' applies it to the flank "
+        "temperature as before)"
+    ),
+    "friction_reference_C": "[friction] reference_C",
+}
+
 
 @dataclasses.dataclass(frozen=True)
 class SourceOptions:
@@ -23,13 +34,14 @@ class SourceOptions:
             ``"tooth_pass"`` (z n/60).
         heat_fraction_pinion: Share of the friction heat into the pinion (None: by thermal
             effusivity, ½ for equal materials, thesis 5.2.3).
+        heat_partition: How the friction heat of each contact is shared between the gears:
+            ``"fixed"`` (``heat_fraction_pinion`` or the effusivity ratio, everywhere alike; the
+            thesis) or ``"blok"`` (per contact band, the share that makes both flanks' flash
+            temperatures equal, Blok's postulate: f1 = (k1/g1)/(k1/g1 + k2/g2), with g the band
+            source solution at each flank's Peclet number; at high Peclet numbers
+            b1 sqrt(v1)/(b1 sqrt(v1) + b2 sqrt(v2)), so the faster-rolling flank takes more).
+            Mode "cycle" only (:mod:`gearfem.coupling.friction_heat`).
         hysteresis_scale, flux_scale: Multipliers (model-discrepancy hooks).
-        friction_temperature_coefficient_per_K: beta of a friction coefficient that falls with the
-            local flank temperature, mu(T) = mu_ref exp(-beta (T - friction_reference_C)) (thesis
-            4.3.5: PEEK-PEEK mu fell from 0.55 to 0.40 between 50 and 75 C, about 0.013 /K at its
-            steepest). Applied to the friction flux at the temperature of each flank point, at
-            every step and Newton iteration (mode "cycle" only). 0 (default): mu independent of T.
-        friction_reference_C: Temperature at which mu = mu_ref (the cycle's friction coefficient).
         flank_heat_per_gear_W, u_max_J_m3, flanks: Prescribed mode only (see
             :class:`gearfem.thermal.source_terms.PrescribedSources`).
     """
@@ -41,8 +53,7 @@ class SourceOptions:
     heat_fraction_pinion: float | None = None
     hysteresis_scale: float = 1.0
     flux_scale: float = 1.0
-    friction_temperature_coefficient_per_K: float = 0.0
-    friction_reference_C: float = 25.0
+    heat_partition: str = "fixed"
     flank_heat_per_gear_W: float = 0.0
     u_max_J_m3: float = 0.0
     flanks: str = "drive"
@@ -54,27 +65,13 @@ class SourceOptions:
             require_range("sources.heat_fraction_pinion", self.heat_fraction_pinion, 0.0, 1.0)
         require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
         require_nonnegative("sources.flux_scale", self.flux_scale)
-        require_range(
-            "sources.friction_temperature_coefficient_per_K",
-            self.friction_temperature_coefficient_per_K,
-            0.0,
-            0.1,
-            unit="1/K",
-        )
-        require_range(
-            "sources.friction_reference_C",
-            self.friction_reference_C,
-            -273.15,
-            1000.0,
-            lo_open=True,
-            unit="C",
-        )
-        if self.mode == "prescribed" and self.friction_temperature_coefficient_per_K > 0.0:
+        require_choice("sources.heat_partition", self.heat_partition, HEAT_PARTITIONS)
+        if self.mode == "prescribed" and self.heat_partition != "fixed":
             raise ParameterError(
-                "sources.friction_temperature_coefficient_per_K",
-                self.friction_temperature_coefficient_per_K,
-                "0 in mode 'prescribed'",
-                "mu(T) acts on the friction flux of the contact cycle (mode 'cycle')",
+                "sources.heat_partition",
+                self.heat_partition,
+                "'fixed' in mode 'prescribed'",
+                "Blok's partition needs the contact history of the cycle (mode 'cycle')",
             )
         self.prescribed()  # validates the prescribed fields
 

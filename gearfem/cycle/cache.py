@@ -27,6 +27,7 @@ from gearfem.contact.compliance import ComplianceStore
 from gearfem.core.io import jsonable
 from gearfem.core.params import to_dict
 from gearfem.core.provenance import source_hash
+from gearfem.cycle.history import ContactHistory
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
 from gearfem.geometry.mesh import cache_key as mesh_cache_key
@@ -129,12 +130,16 @@ def save(result: CycleResult, directory: str | Path) -> Path:
             val = getattr(f, name)
             if isinstance(val, np.ndarray):
                 arrays[f"fields__{b}__{name}"] = val
+    if result.history is not None:
+        for k, v in result.history.arrays().items():
+            arrays[f"history__{k}"] = v
     np.savez_compressed(tmp / "cycle.npz", **arrays)
     meta: dict[str, Any] = {k: getattr(result, k) for k in _SCALARS}
     meta.update(
         reference_tooth=result.reference_tooth,
         info=result.info,
         periodicity=jsonable(result.periodicity),
+        history_z_bin_m=None if result.history is None else result.history.z_bin_m,
         fields={
             b: {"tooth_angle_rad": f.tooth_angle_rad, "pitch_angle_rad": f.pitch_angle_rad}
             for b, f in result.fields.items()
@@ -163,6 +168,7 @@ def load(directory: str | Path) -> CycleResult:
             tooth_angle_rad=fm["tooth_angle_rad"], pitch_angle_rad=fm["pitch_angle_rad"], **kw
         )
     teeth = sorted(int(k.split("__")[1]) for k in arr if k.startswith("tooth_load_N__"))
+    hist = {k.split("__", 1)[1]: v for k, v in arr.items() if k.startswith("history__")}
     return CycleResult(
         **{k: meta[k] for k in _SCALARS},
         **{k: arr[k] for k in _ARRAYS},
@@ -175,6 +181,7 @@ def load(directory: str | Path) -> CycleResult:
         reference_tooth=meta["reference_tooth"],
         periodicity=meta.get("periodicity"),
         info=meta.get("info", {}),
+        history=ContactHistory.from_arrays(hist, meta["history_z_bin_m"]) if hist else None,
     )
 
 

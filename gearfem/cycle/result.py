@@ -7,6 +7,8 @@ import dataclasses
 
 import numpy as np
 
+from gearfem.cycle.history import ContactHistory
+
 
 @dataclasses.dataclass
 class BodyFields:
@@ -33,6 +35,11 @@ class BodyFields:
         np.ndarray
     )  # (n_images * n_positions, n) strain energy of each sector cell over the engagement
     history_angle_rad: np.ndarray  # pinion angle of each history sample, relative to the start
+    # the contact-surface facet (gathered order, -1: outside the model) at each tooth image
+    # (rows: images -1, 0, +1 pitch) of every sector facet, and its area: the revolution average
+    # of a facet sums what its images carry over one pitch of positions
+    facet_image_index: np.ndarray
+    facet_image_area_m2: np.ndarray
 
 
 @dataclasses.dataclass
@@ -63,6 +70,7 @@ class CycleResult:
     base_pitch_m: float
     periodicity: dict | None = None
     info: dict = dataclasses.field(default_factory=dict)
+    history: ContactHistory | None = None  # the contact points of every position
 
     # derived ----------------------------------------------------------------------------------
     @property

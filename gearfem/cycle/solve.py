@@ -29,6 +29,7 @@ from mpi4py import MPI
 from gearfem.contact.elasticity import elastic_stress
 from gearfem.contact.kinematics import evaluate
 from gearfem.core.facets import FacetReference
+from gearfem.cycle.history import HistoryRecorder
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.periodic import (
     SHIFT_SIGN,
@@ -271,8 +272,10 @@ def solve_cycle(
     se = _StrainEnergy(model)
     probe = _PositionProbe(model, se)
     records: list[PositionRecord] = []
+    recorder = HistoryRecorder(model)
     for i, phi in enumerate(phis):
         records.append(probe.solve(phi))
+        recorder.record(i)
         _log_position(i, n, phi, records[-1])
         if progress is not None:
             progress(i + 1, n, f"{math.degrees(phi):.2f} deg")
@@ -316,6 +319,7 @@ def solve_cycle(
         balance[f"{b}_flank_heat_raw_over_total"] = raw / target if target > 0 else float("nan")
     if periodicity is not None:
         periodicity.update(_periodicity_of_cells(model, se, w_cells[0], shifted_cells, pitch))
+    history = recorder.finish()
 
     return CycleResult(
         torque_Nm=model.torque_Nm,
@@ -354,6 +358,7 @@ def solve_cycle(
             "slip_regularization_m_s": model.contact.slip_regularization_m_s,
             **balance,
         },
+        history=history,
     )
 
 
@@ -427,6 +432,8 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[s
             pmax,
             u_hist,
             hist_phi,
+            np.stack([np.where(fmap.valid[m], fmap.index[m], -1) for m in fmap.images]),
+            np.stack([np.where(fmap.valid[m], area[fmap.index[m]], 0.0) for m in fmap.images]),
         )
     return out
 

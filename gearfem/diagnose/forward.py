@@ -46,6 +46,21 @@ log = logging.getLogger(__name__)
 Request = tuple[str, float | None]  # (quantity, time_s or None = end value)
 
 
+@dataclasses.dataclass(frozen=True)
+class ForwardState:
+    """What one forward run gives: the temperatures (C) of every request, the friction heat into the
+    modelled gear (W per gear, at the end value: the steady state), and, when the friction law's
+    heat may rise with temperature, the number of distinct steady states found, the start whose
+    state the transient from ambient reached ("transient", or the start it equals) and every start's
+    state (:class:`gearfem.thermal.branches.SteadyState` as JSON)."""
+
+    temperatures_C: dict[Request, float]
+    friction_per_gear_W: float
+    steady_states: int | None = None
+    transient_branch: str | None = None
+    branches: tuple[dict, ...] = ()
+
+
 class FullModel:
     """The real gearfem forward model (collective over ``comm``).
 
@@ -120,6 +135,19 @@ class FullModel:
 
         ``transform(case) -> case`` changes the thermal run only (input-uncertainty studies); the
         structural cycle stays that of the unchanged case."""
+        return self.evaluate_state(speed_rpm, torque_Nm, ambient_C, model, transform).temperatures_C
+
+    def evaluate_state(
+        self,
+        speed_rpm: float,
+        torque_Nm: float,
+        ambient_C: float,
+        model: dict[str, float] | None = None,
+        transform=None,
+    ) -> ForwardState:
+        """As :meth:`evaluate`, with the friction heat and, where the friction law's heat may rise
+        with temperature, the steady states found and the one the transient from ambient picked
+        (:class:`ForwardState`)."""
 
         case = self.point_case(speed_rpm, torque_Nm, ambient_C, model or {})
         if transform is not None:
@@ -151,7 +179,16 @@ class FullModel:
                 rec = summ["final_temperatures_C"]
             for q in QUANTITIES:
                 res[(q, t)] = float(rec[q])
-        return res
+        fr = summ.get("friction", {})
+        frac = summ.get("model_fraction") or 1.0
+        balance = summ.get("steady_balance_W") or summ["final_balance_W"]
+        return ForwardState(
+            temperatures_C=res,
+            friction_per_gear_W=float(balance["friction_W"]) / frac,
+            steady_states=fr.get("distinct_steady_states"),
+            transient_branch=fr.get("transient_branch"),
+            branches=tuple(fr.get("branches", ())),
+        )
 
     def predict(
         self, data: Dataset, model: dict[str, float] | None = None, transform=None
@@ -330,4 +367,4 @@ def confirm(full: FullModel, surrogate: Surrogate, data: Dataset, model: dict[st
     }
 
 
-__all__ = ["FullModel", "Request", "Surrogate", "confirm"]
+__all__ = ["ForwardState", "FullModel", "Request", "Surrogate", "confirm"]

@@ -28,6 +28,7 @@ Newton iteration stays exact: the residual and the Jacobian are always the curre
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import Any
 
@@ -37,9 +38,14 @@ from gearfem.core.errors import ConvergenceError
 from gearfem.core.newton import NewtonSettings, newton_solve
 from gearfem.core.petsc import ksp_reason, set_options
 
+log = logging.getLogger(__name__)
+
 REBUILD_RATIO = 1.25
 ARMIJO = 1e-4
 MAX_HALVINGS = 12
+#: KSP reasons of an indefinite operator or preconditioner (DIVERGED_INDEFINITE_PC,
+#: DIVERGED_INDEFINITE_MAT): CG needs a positive definite Jacobian.
+INDEFINITE_REASONS = (-8, -10)
 
 
 class NewtonSolver:
@@ -54,6 +60,10 @@ class NewtonSolver:
         options: KSP/PC options (under the prefix).
         rtol, atol_W, max_it: Newton tolerances.
         reuse_preconditioner: Keep the preconditioner while alpha changes little (see above).
+        pre_residual: Called before every residual evaluation (collective): updates coefficients
+            that are functions of the current T outside UFL (a surface flux model).
+        extra_jacobian: Called with the assembled Jacobian to add terms UFL cannot express (the
+            surface flux model's dependence on cell-mean temperatures; collective).
     """
 
     def __init__(
@@ -70,6 +80,8 @@ class NewtonSolver:
         atol_W: float,
         max_it: int,
         reuse_preconditioner: bool,
+        pre_residual=None,
+        extra_jacobian=None,
     ) -> None:
         from dolfinx.fem.petsc import assemble_matrix, create_matrix, create_vector
         from petsc4py import PETSc
@@ -102,6 +114,10 @@ class NewtonSolver:
         self._alpha_pc: float | None = None
         self._have_c = False
         self.reuse = reuse_preconditioner
+        self.pre_residual = pre_residual
+        self.extra_jacobian = extra_jacobian
+        self.prefix = prefix
+        self.switched_to_general = False
         self.pc_builds = 0
         self.linear_iterations = 0
 
@@ -152,11 +168,38 @@ class NewtonSolver:
         if self._have_c:
             self.M.mult(history, self._c)
 
+    def use_general_solver(self) -> bool:
+        """Switch a CG/Cholesky (or ICC) solver to GMRES/LU (ILU): the Jacobian turned out not to be
+        positive definite. Returns False when it already was general (collective)."""
+        from petsc4py import PETSc
+
+        ksp = self.ksp
+        pc = ksp.getPC()
+        if ksp.getType() != PETSc.KSP.Type.CG:
+            return False
+        new = {"ksp_type": "gmres"}
+        if pc.getType() == PETSc.PC.Type.CHOLESKY:
+            new["pc_type"] = "lu"
+        elif pc.getType() == PETSc.PC.Type.BJACOBI:
+            new["sub_pc_type"] = "ilu"
+        elif pc.getType() == PETSc.PC.Type.ICC:
+            new["pc_type"] = "ilu"
+        scope = set_options(self.prefix, {}, new)
+        self._options.keys.extend(k for k in scope.keys if k not in self._options.keys)
+        ksp.reset()
+        ksp.setOperators(self.A)
+        ksp.setFromOptions()
+        self._alpha_pc = None
+        self.switched_to_general = True
+        return True
+
     def _residual(self) -> float:
         """F at the current T into self.b; returns ||F||_2."""
         from dolfinx.fem.petsc import assemble_vector
         from petsc4py import PETSc
 
+        if self.pre_residual is not None:
+            self.pre_residual()
         x = self.T.x.petsc_vec
         with self.b.localForm() as bl:
             bl.set(0.0)
@@ -185,6 +228,8 @@ class NewtonSolver:
         if self._J is not None:
             assemble_matrix(J, self._J)
         J.assemble()
+        if self.extra_jacobian is not None:
+            self.extra_jacobian(J)
 
     def _fail(self, reason: str, where: str, it: int, norm: float):
         raise ConvergenceError("thermal Newton", reason, step=where, iteration=it, residual=norm)
@@ -257,6 +302,19 @@ class _ThermalSystem:
         s.ksp.solve(s.b, s.dx)
         s.linear_iterations += s.ksp.getIterationNumber()
         kr = s.ksp.getConvergedReason()
+        if kr in INDEFINITE_REASONS and s.use_general_solver():
+            # CG met a Jacobian that is not positive definite (a heat source rising with T): the
+            # solver follows the physics, GMRES with an LU factorisation from now on
+            log.warning(
+                "thermal Newton at %s: KSP %s, switching to GMRES/LU", self.where, ksp_reason(kr)
+            )
+            s._jacobian()
+            s.ksp.setOperators(s.A)
+            s._alpha_pc = s.alpha
+            s.pc_builds += 1
+            s.ksp.solve(s.b, s.dx)
+            s.linear_iterations += s.ksp.getIterationNumber()
+            kr = s.ksp.getConvergedReason()
         if kr < 0:
             if s.reuse and s._alpha_pc is not None:
                 s._alpha_pc = None  # a stale preconditioner may be the cause: rebuild next time

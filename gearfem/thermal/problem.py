@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.fem.petsc import assemble_vector
+from dolfinx.fem.petsc import assemble_matrix, assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -171,13 +171,25 @@ class ThermalProblem:
         self._rho_cp = rho * float(cp.values[0])
         self._balance_forms, self._fast_conv = self._balance_forms_of(v, vol, surf, stored)
 
-        self._symmetric = kT.is_constant
+        # CG/Cholesky needs a symmetric positive definite Jacobian: constant k (else the k'(T)
+        # grad T term is not symmetric) and no surface flux model whose heat can rise with T
+        # (which can make it indefinite). A rising H(T) is checked at run time: CG that meets an
+        # indefinite Jacobian switches to GMRES/LU (NewtonSolver.use_general_solver).
+        self._symmetric = kT.is_constant and not sources.flank_flux_may_rise
         self._hist = fem.Function(self.V)  # (a1 T^n + a2 T^{n-1}) / dt
         self._transient_solver: NewtonSolver | None = None  # built on first use
         self._steady_solver: NewtonSolver | None = None
 
         self._probes(v)
         self._controller = StepController(options.time_error_K, options.dt_min_s, options.dt_max_s)
+        self._dF_dscale = (
+            fem.form(-sum(q * v * m for q, m in self._friction_unscaled))
+            if self._friction_unscaled
+            else None
+        )
+        self._capacity_form = fem.form(
+            rho * table_ufl(cp, T) * ufl.TrialFunction(self.V) * v * self._dx
+        )
 
     # --- the forms, one builder per part ----------------------------------------------------------
     def _volume_sources(self, T, x) -> dict[str, Any]:
@@ -206,11 +218,37 @@ class ThermalProblem:
             "radiated": [],
             "bore": [],
         }
+        # the friction heat times a scale (1; continuation in the heat input changes it,
+        # gearfem.thermal.branches); the unscaled terms give dF/d(scale)
+        self._fscale = fem.Constant(domain.mesh, 1.0)
+        self._friction_unscaled: list[tuple[Any, Any]] = []
         if src.flank_flux_W_m2 is not None:
             qf = src.flux_scale * field_ufl(src.flank_flux_W_m2, x, self._t)
             if src.flux_temperature_factor is not None:
                 qf = qf * src.flux_temperature_factor(T)
-            surf["friction"].append((qf, ds(domain.tags(src.flux_surfaces))))
+            self._friction_unscaled.append((qf, ds(domain.tags(src.flux_surfaces))))
+            surf["friction"].append((self._fscale * qf, ds(domain.tags(src.flux_surfaces))))
+        self._flux_model = src.flank_flux_model
+        if self._flux_model is not None:
+            # q = q(T̄) per cell, T̄ the cell's mean temperature over its facets on the model's
+            # surfaces: T̄ = (B T)_c / A_c with B_cj = ∫ φ_j ds over those facets; the Jacobian
+            # term -s Bᵀ diag(q'(T̄)/A) B is added as a matrix (_flux_jacobian), exactly
+            m = self._flux_model
+            dsm = ds(domain.tags(m.surfaces))
+            Q0 = m.value.function_space
+            self._flux_Tbar = fem.Function(Q0, name="surface_mean_temperature_K")
+            w0 = ufl.TestFunction(Q0)
+            self._tbar_form = fem.form(T * w0 * dsm)
+            area = assemble_vector(fem.form(w0 * dsm))
+            area.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            self._tbar_area = area.array.copy()
+            area.destroy()
+            self._tbar_vec = assemble_vector(self._tbar_form)
+            self._flux_B = assemble_matrix(fem.form(ufl.TrialFunction(self.V) * w0 * dsm))
+            self._flux_B.assemble()
+            qm = src.flux_scale * m.value
+            self._friction_unscaled.append((qm, dsm))
+            surf["friction"].append((self._fscale * qm, dsm))
         sigma = STEFAN_BOLTZMANN_W_m2K4
         for role, ex in self.boundary.exchanges().items():
             names = getattr(domain, role)
@@ -309,6 +347,46 @@ class ThermalProblem:
                 self._dofs(fdim, groups),
             )
 
+    def _flux_jacobian(self, J) -> None:
+        """Add the surface flux model's Jacobian, -s Bᵀ diag(q'(T̄)/A) B (after assembly)."""
+        m = self._flux_model
+        B = self._flux_B
+        n = len(self._tbar_area)
+        d = np.where(
+            self._tbar_area > 0,
+            m.slope.x.array[:n] / np.where(self._tbar_area > 0, self._tbar_area, 1.0),
+            0.0,
+        )
+        C = B.copy()
+        dv = C.createVecLeft()
+        dv.array[:] = d
+        C.diagonalScale(L=dv)
+        K = B.transposeMatMult(C)
+        J.axpy(
+            -float(self._fscale.value) * self.sources.flux_scale,
+            K,
+            PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN,
+        )
+        for obj in (K, C, dv):
+            obj.destroy()
+
+    def _update_flux_model(self) -> None:
+        """Hand the surface flux model the surface-mean temperature of every cell next to its
+        surfaces (collective; before every residual evaluation)."""
+        if self._flux_model is None:
+            return
+        b = self._tbar_vec
+        with b.localForm() as bl:
+            bl.set(0.0)
+        assemble_vector(b, self._tbar_form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        area = self._tbar_area
+        n = len(area)
+        f = self._flux_Tbar
+        f.x.array[:n] = np.where(area > 0, b.array / np.where(area > 0, area, 1.0), 0.0)
+        f.x.scatter_forward()
+        self._flux_model.update(f.x.array)
+
     # ------------------------------------------------------------------------------------------
     def close(self) -> None:
         """Free the solvers' PETSc objects (collective; also ``with ThermalProblem(...) as p:``).
@@ -322,6 +400,10 @@ class ThermalProblem:
             if solver is not None:
                 solver.destroy()
                 setattr(self, name, None)
+        if getattr(self, "_tbar_vec", None) is not None:
+            self._tbar_vec.destroy()
+            self._flux_B.destroy()
+            self._tbar_vec = self._flux_B = None
 
     def __enter__(self) -> ThermalProblem:
         return self
@@ -424,13 +506,63 @@ class ThermalProblem:
             atol_W=o.newton_atol_W,
             max_it=o.newton_max_it,
             reuse_preconditioner=transient and o.linear_solver == "direct",
+            pre_residual=self._update_flux_model if self._flux_model is not None else None,
+            extra_jacobian=self._flux_jacobian if self._flux_model is not None else None,
         )
+
+    # ------------------------------------------------------------------------------------------
+    # the steady system, for branch tracing and stability (gearfem.thermal.branches)
+    # ------------------------------------------------------------------------------------------
+    @property
+    def friction_scale(self) -> float:
+        """Multiplier of the friction heat (1: as given)."""
+        return float(self._fscale.value)
+
+    def set_friction_scale(self, value: float) -> None:
+        self._fscale.value = float(value)
+
+    @property
+    def has_friction(self) -> bool:
+        return self._dF_dscale is not None
+
+    def steady_system(self):
+        """(J, F) of the steady residual at the current T (PETSc Mat and Vec owned by the problem's
+        steady solver; collective)."""
+        if self._steady_solver is None:
+            self._steady_solver = self._make_solver(transient=False)
+        s = self._steady_solver
+        s.set_time_terms(0.0, None)
+        self._t.value = self.time_s
+        s._residual()
+        s._jacobian()
+        return s.A, s.b
+
+    def friction_scale_derivative(self):
+        """dF/d(friction scale) at the current T: minus the friction heat per test function
+        (a new PETSc Vec; collective). The flux model must be current (call after
+        :meth:`steady_system`)."""
+
+        b = assemble_vector(self._dF_dscale)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return b
+
+    def heat_capacity_matrix(self):
+        """M = rho c_p(T) (mass matrix at the current T), a new PETSc Mat (collective)."""
+
+        M = assemble_matrix(self._capacity_form)
+        M.assemble()
+        return M
+
+    @property
+    def petsc_prefix(self) -> str:
+        return self._prefix
 
     # ------------------------------------------------------------------------------------------
     # quantities
     # ------------------------------------------------------------------------------------------
     def heat_balance(self) -> HeatBalance:
         """Heat flows of the current step (as last solved), W."""
+        self._update_flux_model()  # the flux of the current T (as the last residual had it)
 
         vals = {
             k: self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
@@ -556,7 +688,15 @@ class ThermalProblem:
         if self._transient_solver is None:
             self._transient_solver = self._make_solver(transient=True)
         self._transient_solver.set_time_terms(a[0] / dt, self._hist.x.petsc_vec)
-        its = self._transient_solver.solve(f"t = {t_new:.6g} s (dt = {dt:.4g} s)", chord=True)
+        # a surface flux that may rise with T (a friction law switching across T_g) is steep and
+        # its Jacobian approximate (gearfem.coupling.friction_heat): full Newton steps with
+        # backtracking, no chord iterations
+        rising = self.sources.flank_flux_may_rise
+        its = self._transient_solver.solve(
+            f"t = {t_new:.6g} s (dt = {dt:.4g} s)",
+            linesearch="bt" if rising else "basic",
+            chord=not rising,
+        )
         err = math.nan
         if len(ts) >= 3:
             f = estimator_factor(dt, ts[0] - ts[1], ts[1] - ts[2])
@@ -598,13 +738,14 @@ class ThermalProblem:
             h = remaining if dt * 1.05 >= remaining else dt
             try:
                 its, err = self.try_step(h)
-            except ConvergenceError:
+            except ConvergenceError as err:
                 if not adaptive or h * 0.5 < o.dt_min_s:
                     raise
                 log.info(
-                    "Newton failed at t = %.6g s with dt = %.4g s; halving the step",
+                    "Newton failed at t = %.6g s with dt = %.4g s; halving the step (%s)",
                     self.time_s + h,
                     h,
+                    err.reason,
                 )
                 dt = 0.5 * h
                 continue

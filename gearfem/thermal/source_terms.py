@@ -9,7 +9,15 @@ Two physical sources (thesis 5.2.2, 5.2.3):
   frequency n/60; tooth-pass frequency z n/60 is the alternative);
 * friction, on the flank surfaces: the rotation-averaged flux into this body (W/m^2), already
   scaled by speed and split between the two gears, optionally multiplied by a temperature factor
-  (e.g. mu(T)/mu_ref) and a scale.
+  (e.g. mu(T)/mu_ref) and a scale;
+* a surface flux that depends on the local surface temperature through any (numpy) function, a
+  :class:`SurfaceFluxModel` (the friction heat of a friction law evaluated at the contact
+  temperature of every contact point, :mod:`gearfem.coupling.friction_heat`). Per cell next to
+  its surfaces the solver hands it the cell's surface-mean temperature T̄ (the mean of T over the
+  cell's facets on those surfaces) and applies q(T̄) on those facets (DG0, like the cycle's flux);
+  the Newton Jacobian gets the exact term −∫φ_i q'(T̄) ∂T̄/∂T_j ds as a matrix. It is updated before
+  every residual evaluation (every step, Newton iteration and line-search trial): the source
+  follows the temperature it produces.
 
 ``volumetric_W_m3`` is an extra prescribed volumetric source (verification, user loads).
 Fields are a float, a ``dolfinx.fem.Function`` on the thermal mesh, or a callable
@@ -23,8 +31,9 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
+import numpy as np
 import ufl
 from dolfinx import fem
 from mpi4py import MPI
@@ -36,6 +45,23 @@ from gearfem.thermal.options import PrescribedSources, loading_frequency_Hz
 
 SourceField = Any  # float | fem.Function | Callable[[x, t], ufl.core.expr.Expr]
 TemperatureFactor = Callable[[Any], Any]  # T (kelvin, UFL) -> dimensionless UFL expression
+
+
+@runtime_checkable
+class SurfaceFluxModel(Protocol):
+    """A heat flux into the body on ``surfaces`` that depends on the local surface temperature (see
+    the module docstring). ``value`` and ``slope`` are DG0 Functions on the thermal mesh (W/m²,
+    dq/dT̄ in W/(m² K)) that :meth:`update` fills from the surface-mean temperature of every local
+    cell (an array over the local cells, owned and ghost, kelvin; 0 where a cell has no facet on
+    ``surfaces``). ``update`` is collective. ``may_rise_with_temperature`` says whether the flux can
+    grow with T anywhere (then the Jacobian may be indefinite)."""
+
+    surfaces: tuple[str, ...]
+    value: Any
+    slope: Any
+    may_rise_with_temperature: bool
+
+    def update(self, surface_mean_K: np.ndarray) -> None: ...
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -52,6 +78,9 @@ class HeatSources:
         hysteresis_scale: Multiplies q_h (model-discrepancy hook).
         flux_scale: Multiplies the flank flux (model-discrepancy hook).
         flux_temperature_factor: Optional T -> UFL factor on the flank flux (e.g. mu(T)/mu_ref).
+        flank_flux_model: A :class:`SurfaceFluxModel` (temperature-dependent surface flux, e.g.
+            the friction heat of a friction law at the contact temperature); ``flux_scale``
+            multiplies it too.
         volumetric_W_m3: Extra prescribed volumetric source.
     """
 
@@ -63,6 +92,7 @@ class HeatSources:
     hysteresis_scale: float = 1.0
     flux_scale: float = 1.0
     flux_temperature_factor: TemperatureFactor | None = None
+    flank_flux_model: SurfaceFluxModel | None = None
     volumetric_W_m3: SourceField | None = None
 
     def __post_init__(self) -> None:
@@ -84,12 +114,30 @@ class HeatSources:
             raise ParameterError(
                 "sources.flux_surfaces", self.flux_surfaces, "facet groups for the flank flux"
             )
+        if self.flank_flux_model is not None:
+            if not isinstance(self.flank_flux_model, SurfaceFluxModel):
+                raise ParameterError(
+                    "sources.flank_flux_model",
+                    type(self.flank_flux_model).__name__,
+                    "a SurfaceFluxModel (surfaces, value, slope, update)",
+                )
+            if not self.flank_flux_model.surfaces:
+                raise ParameterError(
+                    "sources.flank_flux_model.surfaces", (), "facet groups for the flux"
+                )
         if self.flux_temperature_factor is not None and not callable(self.flux_temperature_factor):
             raise ParameterError(
                 "sources.flux_temperature_factor",
                 self.flux_temperature_factor,
                 "a callable T -> factor",
             )
+
+    @property
+    def flank_flux_may_rise(self) -> bool:
+        """Whether the surface flux model can grow with temperature somewhere (a friction law
+        rising with T): then the Jacobian need not be positive definite."""
+        model = self.flank_flux_model
+        return model is not None and bool(model.may_rise_with_temperature)
 
 
 def field_ufl(field: SourceField, x: Any, t: Any) -> Any:

@@ -1,0 +1,377 @@
+"""Several steady states of one thermal problem: finding them, their stability, and continuation.
+
+A heat source that grows with temperature (friction whose mu rises across the glass transition at
+the contact temperature) can give the steady problem F(T) = 0 several solutions: a cool branch, a
+hot branch and, between them, an unstable one. Which one a gear runs on depends on its history;
+the transient from a cold start picks the physical one.
+
+* **Starts** (:func:`steady_states`): Newton's method for the steady state from several initial
+  temperature fields (ambient, the end of the transient, a hot uniform field); the distinct
+  solutions are the branches found at this operating point. A start from which Newton fails
+  (no solution nearby, the heating runs away) is reported, not raised.
+* **Stability** (:func:`stability_eigenvalue`): the linearised transient M dδT/dt = -J δT is stable
+  when every eigenvalue of J v = λ M v (M = ρ c_p(T) mass matrix, J the steady Jacobian) has a
+  positive real part. The eigenvalue nearest zero decides (it is the one that crosses zero where
+  a branch turns): SLEPc, shift-and-invert at 0 with an LU factorisation (MUMPS). Its inverse is
+  the slowest time constant of the state (s); negative: the state is unstable.
+* **Continuation** (:func:`continuation`): pseudo-arclength continuation in the friction-heat scale
+  λ (:meth:`ThermalProblem.set_friction_scale`; heat input proportional to λ, as the load p·v of a
+  lumped model, or to first order the torque), with Keller's bordering of the Jacobian: through
+  turning points, so that every branch between λ_min and λ_max is traced and the turning points
+  (where dλ/ds changes sign) are located.
+
+The solver for these systems is GMRES preconditioned by an LU factorisation (MUMPS): the Jacobian
+is not positive definite on an unstable branch.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from typing import Any
+
+import numpy as np
+
+from gearfem.core.errors import ConvergenceError, ParameterError
+from gearfem.core.materials import ZERO_CELSIUS_K
+from gearfem.core.results import JsonRecord
+
+log = logging.getLogger(__name__)
+
+#: Largest angle between the tangents at the two ends of a continuation step (rad): a step that
+#: turns more is retaken at half the length (the curve's folds are resolved).
+MAX_TURN_RAD = 0.2
+
+
+@dataclasses.dataclass(frozen=True)
+class SteadyState(JsonRecord):
+    """One steady state found from one start (``converged`` False: Newton failed from there;
+    ``same_as`` names an earlier start that reached the same state)."""
+
+    start: str
+    converged: bool
+    temperatures_C: dict[str, float]
+    friction_W: float | None
+    generated_W: float | None
+    newton_iterations: int
+    eigenvalue_per_s: float | None
+    stable: bool | None
+    same_as: str | None = None
+    message: str = ""
+
+
+def _ksp(comm, prefix: str):
+    from petsc4py import PETSc
+
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOptionsPrefix(prefix)
+    ksp.setType("gmres")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    ksp.setTolerances(rtol=1e-12, atol=1e-30, max_it=200)
+    ksp.setFromOptions()
+    return ksp
+
+
+def stability_eigenvalue(problem) -> float:
+    """Real part of the eigenvalue of J v = λ M v nearest zero at the current T (1/s; collective).
+    Positive: stable."""
+    from slepc4py import SLEPc
+
+    J, _ = problem.steady_system()
+    M = problem.heat_capacity_matrix()
+    eps = SLEPc.EPS().create(problem.comm)
+    try:
+        eps.setOptionsPrefix(problem.petsc_prefix + "stability_")
+        eps.setOperators(J, M)
+        eps.setProblemType(SLEPc.EPS.ProblemType.GNHEP)
+        eps.setDimensions(nev=1)
+        eps.setTarget(0.0)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+        st = eps.getST()
+        st.setType(SLEPc.ST.Type.SINVERT)
+        ksp = st.getKSP()
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        eps.setTolerances(1e-10, 200)
+        eps.setFromOptions()
+        eps.solve()
+        if eps.getConverged() < 1:
+            raise ConvergenceError("SLEPc EPS", "no eigenvalue converged", "stability")
+        vals = [eps.getEigenvalue(i) for i in range(eps.getConverged())]
+        lam = min(vals, key=abs)
+        return float(lam.real)
+    finally:
+        eps.destroy()
+        M.destroy()
+
+
+def _record(problem, start: str, its: int, message: str = "") -> SteadyState:
+    bal = problem.heat_balance()
+    lam = stability_eigenvalue(problem)
+    return SteadyState(
+        start=start,
+        converged=True,
+        temperatures_C={k: v - ZERO_CELSIUS_K for k, v in problem.temperatures_K().items()},
+        friction_W=float(bal.friction_W),
+        generated_W=float(bal.generated_W),
+        newton_iterations=its,
+        eigenvalue_per_s=lam,
+        stable=lam > 0.0,
+        message=message,
+    )
+
+
+def steady_states(
+    problem, starts: dict[str, Any], same_tolerance_K: float = 0.05
+) -> list[SteadyState]:
+    """The steady state reached by Newton from each start (name -> kelvin value, Function or
+    callable as :meth:`ThermalProblem.set_initial` takes), with its stability. Two states whose
+    nodal temperatures differ by less than ``same_tolerance_K`` are the same (``same_as``). The
+    problem's temperature is left at the last state found (collective)."""
+    out: list[SteadyState] = []
+    fields: list[tuple[str, np.ndarray]] = []
+    for name, T0 in starts.items():
+        problem.set_initial(T0)
+        try:
+            rec = problem.solve_steady()
+        except ConvergenceError as err:
+            out.append(SteadyState(name, False, {}, None, None, 0, None, None, message=str(err)))
+            continue
+        arr = problem.T.x.array.copy()
+        n = problem.V.dofmap.index_map.size_local
+        same = None
+        for other, a in fields:
+            d = float(np.max(np.abs(arr[:n] - a[:n]))) if n else 0.0
+            if problem.comm.allreduce(d, op=_max()) < same_tolerance_K:
+                same = other
+                break
+        st = _record(problem, name, rec.newton_iterations)
+        out.append(dataclasses.replace(st, same_as=same))
+        if same is None:
+            fields.append((name, arr))
+    return out
+
+
+def _crossing(problem, T_prev, lam_prev: float, lam: float, target: float, k: int) -> SteadyState:
+    """Newton at the scale ``target`` from the field interpolated between the last two points of
+    the curve (the current T at ``lam``, ``T_prev`` at ``lam_prev``); T is restored after."""
+    T = problem.T.x.petsc_vec
+    keep = T.copy()
+    s = (target - lam_prev) / (lam - lam_prev) if lam != lam_prev else 1.0
+    T.scale(s)
+    T.axpy(1.0 - s, T_prev)
+    problem.T.x.scatter_forward()
+    problem.set_friction_scale(target)
+    name = f"continuation {k + 1} at scale {target:g}"
+    try:
+        rec = problem.solve_steady()
+        out = _record(problem, name, rec.newton_iterations)
+    except ConvergenceError as err:
+        out = SteadyState(name, False, {}, None, None, 0, None, None, message=str(err))
+    keep.copy(T)
+    keep.destroy()
+    problem.T.x.scatter_forward()
+    return out
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+@dataclasses.dataclass(frozen=True)
+class ContinuationPoint(JsonRecord):
+    """A point of a traced branch: friction scale, temperatures (C), friction heat (W), the
+    λ-component of the unit tangent (its sign change marks a turning point)."""
+
+    scale: float
+    temperatures_C: dict[str, float]
+    friction_W: float
+    tangent_scale: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Continuation(JsonRecord):
+    """A traced solution curve, its turning points (λ, max surface temperature C) and the steady
+    states where it crosses the target scales (every branch there, with its stability)."""
+
+    points: tuple[ContinuationPoint, ...]
+    turning_points: tuple[tuple[float, float], ...]
+    stopped: str
+    crossings: tuple[SteadyState, ...] = ()
+
+
+def continuation(
+    problem,
+    scale_start: float,
+    scale_range: tuple[float, float],
+    step: float = 0.05,
+    max_steps: int = 400,
+    temperature_unit_K: float = 100.0,
+    newton_tol: float | None = None,
+    refine_turning_points: float = 1e-4,
+    targets: tuple[float, ...] = (),
+    max_step: float | None = None,
+) -> Continuation:
+    """Pseudo-arclength continuation of the steady state in the friction scale λ from
+    ``scale_start`` (converged there first from the problem's current T), until λ leaves
+    ``scale_range`` or ``max_steps``. Arclength in the norm sqrt(|δT|²/(n T_u²) + δλ²) with
+    T_u = ``temperature_unit_K`` (n: number of dofs). Turning points are located to
+    ``refine_turning_points`` in arclength by reducing the step where dλ/ds changes sign. Where
+    the curve crosses a scale of ``targets``, the steady state there is solved by Newton from the
+    interpolated field and its stability computed (``crossings``: every branch at that scale, the
+    unstable ones included, which Newton from uniform starts does not find). The step grows up to
+    ``max_step`` (default 4 ``step``) while the corrector converges quickly. The friction scale
+    is restored at the end; T is left at the last point (collective)."""
+    if not problem.has_friction:
+        raise ParameterError("sources", "no friction heat", "a problem with a friction flux")
+    lo, hi = scale_range
+    if not lo <= scale_start <= hi:
+        raise ParameterError("scale_start", scale_start, f"[{lo:g}, {hi:g}]")
+    comm = problem.comm
+    n = problem.num_dofs
+    w = 1.0 / (n * temperature_unit_K**2)
+    scale_before = problem.friction_scale
+    problem.set_friction_scale(scale_start)
+    problem.solve_steady()
+    ksp = _ksp(comm, problem.petsc_prefix + "continuation_")
+    T = problem.T.x.petsc_vec
+    a, b, z = T.duplicate(), T.duplicate(), T.duplicate()
+    problem.steady_system()
+    Fl0 = problem.friction_scale_derivative()
+    # residual tolerance relative to the friction heat per test function (a tighter one meets the
+    # round-off of hot states)
+    tol = newton_tol if newton_tol is not None else 1e-8 * Fl0.norm()
+    Fl0.destroy()
+
+    def tangent(prev: tuple[Any, float] | None):
+        J, _ = problem.steady_system()
+        Fl = problem.friction_scale_derivative()
+        ksp.setOperators(J)
+        ksp.solve(Fl, z)  # J z = F_lambda  ->  dT/dlambda = -z
+        Fl.destroy()
+        tT = z.copy()
+        tT.scale(-1.0)
+        tl = 1.0
+        nrm = math.sqrt(w * tT.dot(tT) + tl * tl)
+        tT.scale(1.0 / nrm)
+        tl /= nrm
+        if prev is not None and w * tT.dot(prev[0]) + tl * prev[1] < 0.0:
+            tT.scale(-1.0)
+            tl = -tl
+        return tT, tl
+
+    def point(tl: float) -> ContinuationPoint:
+        bal = problem.heat_balance()
+        return ContinuationPoint(
+            problem.friction_scale,
+            {k: v - ZERO_CELSIUS_K for k, v in problem.temperatures_K().items()},
+            float(bal.friction_W),
+            float(tl),
+        )
+
+    try:
+        t_prev = tangent(None)
+        pts = [point(t_prev[1])]
+        turning: list[tuple[float, float]] = []
+        T0 = T.copy()
+        lam0 = problem.friction_scale
+        ds = step
+        ds_max = max_step if max_step is not None else 4.0 * step
+        stopped = "max_steps"
+        steps = 0
+        crossings: list[SteadyState] = []
+        while steps < max_steps:
+            tT, tl = t_prev
+            ok = False
+            its = 0
+            for _ in range(12):  # corrector, halving ds on failure
+                T0.copy(T)
+                T.axpy(ds, tT)
+                problem.T.x.scatter_forward()
+                lam = lam0 + ds * tl
+                for its in range(25):  # noqa: B007 - the count sets the next step
+                    problem.set_friction_scale(lam)
+                    J, F = problem.steady_system()
+                    Fl = problem.friction_scale_derivative()
+                    dT = T.copy()
+                    dT.axpy(-1.0, T0)
+                    N = w * tT.dot(dT) + tl * (lam - lam0) - ds
+                    fn = F.norm()
+                    if fn <= tol and abs(N) <= 1e-12:
+                        Fl.destroy()
+                        dT.destroy()
+                        ok = True
+                        break
+                    ksp.setOperators(J)
+                    ksp.solve(F, a)
+                    ksp.solve(Fl, b)
+                    Fl.destroy()
+                    dT.destroy()
+                    denom = tl - w * tT.dot(b)
+                    dl = (w * tT.dot(a) - N) / denom
+                    T.axpy(-1.0, a)
+                    T.axpy(-dl, b)
+                    problem.T.x.scatter_forward()
+                    lam += dl
+                if ok:
+                    break
+                ds *= 0.5
+            if not ok:
+                stopped = "corrector failed"
+                break
+            steps += 1
+            t_new = tangent(t_prev)
+            cos = w * t_new[0].dot(tT) + t_new[1] * tl
+            if cos < math.cos(MAX_TURN_RAD) and ds > refine_turning_points:
+                # the curve turns too much over this step: retake it shorter
+                T0.copy(T)
+                problem.T.x.scatter_forward()
+                problem.set_friction_scale(lam0)
+                ds *= 0.5
+                continue
+            if t_new[1] * t_prev[1] < 0.0 and ds > refine_turning_points:
+                # a turning point between the last two points: go back and take a smaller step
+                T0.copy(T)
+                problem.T.x.scatter_forward()
+                problem.set_friction_scale(lam0)
+                ds *= 0.25
+                continue
+            if t_new[1] * t_prev[1] < 0.0:
+                turning.append((0.5 * (lam0 + lam), pts[-1].temperatures_C["max_surface"]))
+                ds = step
+            pts.append(point(t_new[1]))
+            for tgt in targets:
+                if (lam0 - tgt) * (lam - tgt) < 0.0 or lam == tgt:
+                    crossings.append(_crossing(problem, T0, lam0, lam, tgt, len(crossings)))
+                    problem.set_friction_scale(lam)
+            T.copy(T0)
+            lam0 = lam
+            t_prev = t_new
+            if not lo <= lam <= hi:
+                stopped = "left the range"
+                break
+            smooth = its <= 3 and cos > math.cos(0.25 * MAX_TURN_RAD)
+            ds = min(ds_max, ds * (1.5 if smooth else 1.0))
+        for v in (a, b, z, T0, t_prev[0]):
+            v.destroy()
+        return Continuation(tuple(pts), tuple(turning), stopped, tuple(crossings))
+    finally:
+        ksp.destroy()
+        problem.set_friction_scale(scale_before)  # T stays at the last point
+
+
+__all__ = [
+    "Continuation",
+    "ContinuationPoint",
+    "SteadyState",
+    "continuation",
+    "stability_eigenvalue",
+    "steady_states",
+]
