@@ -33,9 +33,10 @@ from gearfem.instruments.options import (
     ProbeOptions,
     TorqueMeterOptions,
 )
+from gearfem.instruments.probes import read_probe
 from gearfem.instruments.radiometry import Band, directional_emissivity, refractive_index
 from gearfem.instruments.scene import Surface, gear_surface
-from gearfem.instruments.snapshot import KINDS, CycleTorques
+from gearfem.instruments.snapshot import KINDS, CycleTorques, FieldSnapshot
 from gearfem.instruments.torque import read_torque
 from gearfem.thermal.options import ThermalOptions
 
@@ -494,3 +495,272 @@ def test_ring_at_rest_or_short_integration_resolves_teeth_and_gaps(ring):
     _, fs = slow.render()
     seq = fs[0, :, row, col]
     assert np.ptp(seq) < 0.1 * (100.0 - 21.0) and 21.0 + 5.0 < seq.mean() < 100.0 - 5.0
+
+
+# ---------------------------------------------------------- snapshots and probes (DOLFINx)
+
+
+def _quadratic(x):
+    """A quadratic field (K): P2 represents it exactly."""
+    return 300.0 + 2000.0 * x[0] + 5.0e4 * x[1] ** 2 + 800.0 * x[2]
+
+
+def _recorded(comm, body: str, cache: Path, field=_quadratic, degree: int = 2):
+    """The snapshot of ``field`` on the SMALL mesh of ``body`` (collective; rank 0 gets it)."""
+    from dolfinx import fem
+
+    from gearfem.geometry.mesh import build_gear_mesh
+    from gearfem.geometry.placement import placement
+    from gearfem.instruments.gather import FieldRecorder, dof_coordinates
+    from gearfem.thermal.domain import ThermalDomain
+
+    case = Case(mesh=SMALL)
+    gm = build_gear_mesh(case.geometry, SMALL, comm, cache_dir=cache, bodies=(body,))
+    dom = ThermalDomain.from_gear_mesh(gm, body)
+    T = fem.Function(fem.functionspace(dom.mesh, ("Lagrange", degree)))
+    # at the mesh's own node coordinates: the same values whatever the partition
+    T.x.array[:] = field(dof_coordinates(T.function_space).T)
+    rec = FieldRecorder(T, dom)
+    rec.record("end", None, {"mean_bulk": 42.0})
+    pl = placement(gm.pair, SMALL, body)
+    sense = 1 if body == "pinion" else -1
+    teeth = case.geometry.teeth(body)
+    return rec.body_field(body, pl.center_m, pl.tooth_angles_rad, teeth, sense, 1000.0, 0.9)
+
+
+@pytest.fixture(scope="module")
+def mesh_cache(tmp_path_factory):
+    comm = MPI.COMM_WORLD
+    return Path(comm.bcast(str(tmp_path_factory.mktemp("meshes")) if comm.rank == 0 else None))
+
+
+def test_probes_read_the_field_at_their_points(mesh_cache):
+    comm = MPI.COMM_WORLD
+    field = comm.bcast(_recorded(comm, "pinion", mesh_cache), root=0)
+    b = Case().geometry.face_width_mm * 1e-3
+    theta = float(field.tooth_angles_rad[field.central_tooth])
+    # thermocouple in the web, 5 deg off the central tooth's centre line, 4 mm deep
+    tc = ProbeOptions(kind="thermocouple", radius_mm=22.0, angle_deg=5.0, z_mm=4.0)
+    (r,) = read_probe("tc", tc, field, [0], ["end"], b)
+    a = theta + math.radians(5.0)
+    x = np.array([0.022 * math.cos(a), 0.022 * math.sin(a), 0.004])
+    assert r.value_C + ZERO_CELSIUS_K == pytest.approx(_quadratic(x), abs=1e-9)
+    assert r.point_mm == pytest.approx(tuple(x * 1e3), abs=1e-12)
+    # side face z = 0 at 22 mm: the mean over one pitch of the field on that circle
+    sf = ProbeOptions(kind="side_face", radius_mm=22.0, side="front")
+    (s,) = read_probe("sf", sf, field, [0], ["end"], b)
+    p = field.pitch_rad
+    t1, t2 = theta - p / 2, theta + p / 2
+    mean_x = 0.022 * (math.sin(t2) - math.sin(t1)) / p
+    mean_y2 = 0.022**2 * (0.5 - (math.sin(2 * t2) - math.sin(2 * t1)) / (4 * p))
+    exact = 300.0 + 2000.0 * mean_x + 5.0e4 * mean_y2
+    assert s.value_C + ZERO_CELSIUS_K == pytest.approx(exact, abs=1e-7)
+    # field values as the thermal model reported them
+    fp = ProbeOptions(kind="field", quantity="mean_bulk")
+    assert read_probe("f", fp, field, [0], ["end"], b)[0].value_C == 42.0
+    # a thermocouple outside the gear is an error naming the probe's key
+    with pytest.raises(ParameterError, match=r"instruments\.probes\.tc\.radius_mm"):
+        read_probe("tc", dataclasses.replace(tc, radius_mm=40.0), field, [0], ["end"], b)
+    with pytest.raises(ParameterError, match=r"instruments\.probes\.sf\.radius_mm"):
+        read_probe("sf", dataclasses.replace(sf, radius_mm=10.0), field, [0], ["end"], b)
+
+
+def test_snapshot_file_round_trip(mesh_cache, tmp_path):
+    comm = MPI.COMM_WORLD
+    fields = {b: _recorded(comm, b, mesh_cache) for b in ("pinion", "wheel")}
+    if comm.rank != 0:
+        return
+    snap = FieldSnapshot(("end",), (None,), fields, 1000.0, 0.012934, 23.0, None, "test")
+    again = FieldSnapshot.load(snap.save(tmp_path / "s.npz"))
+    assert again.labels == ("end",) and again.times_s == (None,) and again.case == "test"
+    for b, f in fields.items():
+        g = again.bodies[b]
+        for key in ("nodes_m", "cells", "faces", "face_kind", "temperature_K", "tooth_angles_rad"):
+            assert np.array_equal(getattr(f, key), getattr(g, key)), key
+        assert (g.teeth, g.rotation_sense, g.temperatures_C) == (
+            30,
+            f.rotation_sense,
+            f.temperatures_C,
+        )
+    # the whole gear from the sector: by the divergence theorem the triangles enclose the whole
+    # gear's volume only if they close the surface and face outwards. The linear sub-triangles
+    # replace curved arcs by chords; on the bore (5 mm elements, half-chords of 2.5 mm on a 15 mm
+    # radius: sagitta 0.05 mm) that adds about 1.4e-3 of the volume, the outline takes a little.
+    s = gear_surface(fields["pinion"])
+    assert s.count % 30 == 0
+    p = s.points_m
+    vol = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0
+    prof = GearPair(Case().geometry).pinion
+    exact = 30 * prof.tooth_sector_area_m2(prof.bore_radius_m) * 0.012934
+    assert vol == pytest.approx(exact, rel=2e-3)
+
+
+@pytest.mark.mpi
+def test_snapshot_and_readings_are_the_same_on_one_and_two_ranks(comms, mesh_cache):
+    serial, world = comms
+    w = {b: _recorded(world, b, mesh_cache) for b in ("pinion", "wheel")}
+    s = {b: _recorded(serial, b, mesh_cache) for b in ("pinion", "wheel")}
+    if world.rank != 0:
+        return
+    for b in w:
+        for key in ("nodes_m", "cells", "faces", "face_kind", "temperature_K"):
+            assert np.array_equal(getattr(w[b], key), getattr(s[b], key)), (b, key)
+    ins = InstrumentOptions(
+        camera=CameraOptions(phases=4),
+        probes={"tc": ProbeOptions(kind="thermocouple", radius_mm=22.0, body="wheel")},
+    )
+    rw = evaluate(ins, FieldSnapshot(("end",), (None,), w, 1000.0, 0.012934, 23.0))
+    rs = evaluate(ins, FieldSnapshot(("end",), (None,), s, 1000.0, 0.012934, 23.0))
+    assert rw.to_json() == rs.to_json()
+
+
+# ------------------------------------------------------------------------ gearfem run / observe
+
+
+def _prescribed_run_case() -> Case:
+    return Case(
+        name="prescribed pair",
+        mesh=SMALL,
+        sources=SourceOptions(mode="prescribed", flank_heat_per_gear_W=15.0, u_max_J_m3=0.0),
+        thermal=ThermalOptions(duration_s=120.0, output_times_s=(60.0,), degree=1),
+        instruments=InstrumentOptions(
+            camera=CameraOptions(phases=4),
+            probes={
+                "web": ProbeOptions(kind="thermocouple", radius_mm=22.0, body="wheel"),
+                "side": ProbeOptions(kind="side_face", radius_mm=30.0),
+                "bulk": ProbeOptions(kind="field", quantity="mean_bulk"),
+            },
+        ),
+    )
+
+
+@pytest.mark.mpi
+def test_run_writes_every_reading_and_observe_reads_them_again(comms, tmp_path_factory):
+    serial, world = comms
+    base = Path(world.bcast(str(tmp_path_factory.mktemp("runs")) if world.rank == 0 else None))
+    case = _prescribed_run_case()
+    out = base / "world"
+    summ = pipeline.run(case, out, world, progress=False)
+    ins = summ.instruments
+    assert ins is not None and ins.labels == ("60", "end", "steady")
+    assert ins.torque is None  # prescribed sources: no cycle, no torques
+    # the camera sees both gears; its hottest pixel reads below the hottest surface node and
+    # above the ambient; the probes read at every label
+    for lab in ins.labels:
+        cam = ins.camera[lab]
+        assert 23.0 < cam.max_C < cam.hottest_node_C
+        assert set(ins.probes[lab]) == {"web", "side", "bulk"}
+    assert ins.probes["end"]["bulk"].value_C == pytest.approx(
+        summ.thermal["final_temperatures_C"]["mean_bulk"], abs=1e-12
+    )
+    assert summ.thermal_other is not None and summ.thermal_other["body"] == "wheel"
+    assert summ.headline.camera_max_C == ins.camera["end"].max_C
+    assert summ.headline.camera_max_at_times_C == {"60": ins.camera["60"].max_C}
+    again = pipeline.RunSummary.read(out / "summary.json")
+    assert again.instruments == ins
+    for name in ins.files:
+        assert (out / "instruments" / name).is_file()
+    img = np.loadtxt(out / "instruments" / "thermogram_end.csv", delimiter=",")
+    assert img.shape == (120, 160) and img.max() == pytest.approx(
+        ins.camera["end"].pixel_C, abs=1e-3
+    )
+    # observe: the same readings without solving; another view reads differently
+    obs = pipeline.observe(out, world, out_dir=base / "obs")
+    assert obs == ins
+    radial = InstrumentOptions(camera=CameraOptions(view="radial", phases=4))
+    other = pipeline.observe(out, world, instruments=radial, only=("camera",), out_dir=base / "r")
+    assert other.camera["end"].max_C != ins.camera["end"].max_C and not other.probes["end"]
+    if world.rank == 0:
+        assert (base / "r" / "readings.json").is_file()
+    # 1 rank against all ranks: the same readings to the thermal solver's tolerance
+    if world.size > 1:
+        alone = pipeline.run(case, base / f"serial{world.rank}", serial, progress=False)
+        for lab in ins.labels:
+            assert alone.instruments.camera[lab].max_C == pytest.approx(
+                ins.camera[lab].max_C, abs=1e-6
+            )
+            assert alone.instruments.camera[lab].pixel == ins.camera[lab].pixel
+            for name, p in ins.probes[lab].items():
+                assert alone.instruments.probes[lab][name].value_C == pytest.approx(
+                    p.value_C, abs=1e-6
+                )
+
+
+def test_observe_needs_a_finished_run(tmp_path):
+    with pytest.raises(ParameterError, match="result directory"):
+        pipeline.observe(tmp_path)
+    with pytest.raises(ParameterError, match="--instrument"):
+        (tmp_path / "summary.json").write_text("{}")
+        pipeline.observe(tmp_path, only=("sonar",))
+
+
+# ------------------------------------------------- torque meters and the forward model (cycles)
+
+TINY = MeshOptions(
+    teeth_in_model=4,
+    refined_teeth=3,
+    layers=2,
+    size_flank_mm=0.35,
+    size_tip_mm=0.35,
+    size_root_mm=0.45,
+    size_tooth_mm=1.5,
+    size_body_mm=5.0,
+)
+
+
+@pytest.mark.slow
+def test_torque_loss_is_the_friction_power_over_the_pinion_speed():
+    """The torque meters' loss times the pinion speed is the cycle's friction power, to the
+    cycle's energy-balance tolerance (1.5 % at 12 positions, tests/test_cycle.py); without
+    friction the loss vanishes to that same tolerance."""
+    from gearfem.contact import ContactOptions
+    from gearfem.cycle import CycleOptions
+
+    readings = {}
+    for mu in (0.5, 0.0):
+        case = Case(
+            mesh=TINY,
+            contact=ContactOptions(friction_coefficient=mu),
+            cycle=CycleOptions(positions_per_pitch=12),
+        )
+        cyc, _, _ = pipeline.cycle(case, MPI.COMM_WORLD)
+        readings[mu] = read_torque(TorqueMeterOptions(), CycleTorques.of(cyc), 1000.0)
+    r = readings[0.5]
+    assert r.torque_loss_Nm > 0.0 and r.efficiency < 1.0
+    assert r.friction_power_W == pytest.approx(r.cycle_friction_power_W, rel=0.015)
+    assert r.efficiency == pytest.approx(1.0 - r.torque_loss_Nm / r.input_torque_Nm, rel=1e-12)
+    f = readings[0.0]
+    assert f.cycle_friction_power_W == 0.0
+    assert abs(f.torque_loss_Nm) <= 0.015 * r.torque_loss_Nm
+    assert f.efficiency == pytest.approx(1.0, abs=0.015 * r.torque_loss_Nm / f.input_torque_Nm)
+
+
+@pytest.mark.slow
+def test_forward_model_predicts_instrument_readings():
+    """The diagnosis' full model returns what the instruments read: camera_max between the
+    ambient and the hottest node, the torque meters' loss of the cycle, probes by name; an
+    instrument the case does not have is an error naming the quantity."""
+    from gearfem.config import load_case
+    from gearfem.diagnose.forward import FullModel
+
+    root = Path(__file__).resolve().parent.parent
+    case = load_case(root / "tests" / "cases" / "coarse.toml")
+    case = dataclasses.replace(
+        case,
+        instruments=dataclasses.replace(
+            case.instruments,
+            camera=dataclasses.replace(case.instruments.camera, phases=6),
+            probes={"web": ProbeOptions(kind="thermocouple", radius_mm=22.0)},
+        ),
+    )
+    with pytest.raises(ParameterError, match="probe:rim"):
+        FullModel(case, MPI.COMM_WORLD, quantities=("probe:rim",))
+    q = ("camera_max", "probe:web", "torque_loss_Nm", "max_surface")
+    full = FullModel(case, MPI.COMM_WORLD, quantities=q)
+    res = full.evaluate(1000.0, 8.0, 21.0)
+    assert 21.0 < res[("camera_max", None)] < res[("max_surface", None)]
+    assert res[("mean_bulk", None)] - 5.0 < res[("probe:web", None)] < res[("max_surface", None)]
+    cyc = full.cycle(8.0)
+    assert res[("torque_loss_Nm", None)] == pytest.approx(
+        float(np.mean(cyc.pinion_torque_Nm)) - 8.0 * cyc.info["speed_ratio"], rel=1e-12
+    )

@@ -25,6 +25,24 @@ def _gather(comm, arr: np.ndarray) -> np.ndarray | None:
     return np.concatenate(parts) if comm.rank == 0 else None
 
 
+def dof_coordinates(V) -> np.ndarray:
+    """Coordinates of the dofs of a scalar Lagrange space (local, ghosts included). When the
+    space is the mesh's coordinate element (same degree), these are the mesh's own node
+    coordinates, exactly as read (so the same on every partition); otherwise the tabulated ones
+    (computed per cell, equal across partitions to rounding)."""
+    mesh = V.mesh
+    tab = V.tabulate_dof_coordinates()
+    if V.element.basix_element.degree != mesh.geometry.cmaps[0].degree:
+        return tab
+    node = np.empty(tab.shape[0], dtype=np.int64)
+    node[V.dofmap.list.ravel()] = mesh.geometry.dofmaps[0].ravel()
+    x = mesh.geometry.x[node]
+    scale = float(np.max(np.abs(x))) if len(x) else 1.0
+    if len(x) and np.max(np.abs(x - tab)) > 1e-9 * scale:
+        raise RuntimeError("the Lagrange dof layout differs from the coordinate element's")
+    return x
+
+
 class FieldRecorder:
     """Snapshots of ``T`` (a Function on ``domain.mesh``) gathered on rank 0 (collective).
 
@@ -47,7 +65,7 @@ class FieldRecorder:
         im = V.dofmap.index_map
         n_owned = im.size_local
         self._n_owned = n_owned
-        coords = V.tabulate_dof_coordinates()[:n_owned]
+        coords = dof_coordinates(V)[:n_owned]
         gdofs = im.local_to_global(np.arange(n_owned, dtype=np.int32))
         # cells (owned) as global dofs
         n_cells = mesh.topology.index_map(tdim).size_local
@@ -163,4 +181,4 @@ class FieldRecorder:
         )
 
 
-__all__ = ["FieldRecorder"]
+__all__ = ["FieldRecorder", "dof_coordinates"]
