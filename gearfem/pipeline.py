@@ -412,7 +412,7 @@ def run(
     )
     times["thermal_s"] = time.perf_counter() - t1
     readings = None
-    if snapshot is not None or comm.rank != 0:
+    if comm.bcast(snapshot is not None, root=0):  # the snapshot lives on rank 0
         t2 = time.perf_counter()
         readings = on_root(
             comm, lambda: _read_and_keep(case.instruments, snapshot, out / "instruments")

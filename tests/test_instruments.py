@@ -764,3 +764,21 @@ def test_forward_model_predicts_instrument_readings():
     assert res[("torque_loss_Nm", None)] == pytest.approx(
         float(np.mean(cyc.pinion_torque_Nm)) - 8.0 * cyc.info["speed_ratio"], rel=1e-12
     )
+
+
+@pytest.mark.mpi
+def test_run_without_instruments_reads_nothing(tmp_path_factory):
+    comm = MPI.COMM_WORLD
+    base = Path(comm.bcast(str(tmp_path_factory.mktemp("bare")) if comm.rank == 0 else None))
+    case = dataclasses.replace(
+        _prescribed_run_case(),
+        thermal=ThermalOptions(mode="steady", degree=1),
+        instruments=InstrumentOptions(
+            camera=CameraOptions(enabled=False), torque=TorqueMeterOptions(enabled=False)
+        ),
+    )
+    summ = pipeline.run(case, base / "run", comm, progress=False)
+    assert summ.instruments is None and summ.thermal_other is None
+    assert summ.headline.camera_max_C is None
+    if comm.rank == 0:
+        assert not (base / "run" / "instruments").exists()

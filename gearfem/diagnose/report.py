@@ -26,6 +26,15 @@ def _replace_thermal(**kw):
     return lambda c: dataclasses.replace(c, thermal=dataclasses.replace(c.thermal, **kw))
 
 
+def _replace_camera(**kw):
+    def change(c: Case) -> Case:
+        ins = c.instruments
+        cam = dataclasses.replace(ins.camera, **kw)
+        return dataclasses.replace(c, instruments=dataclasses.replace(ins, camera=cam))
+
+    return change
+
+
 def _replace_material(**kw):
     return lambda c: dataclasses.replace(
         c, material=dataclasses.replace(c.material, **kw), material_wheel=None
@@ -80,6 +89,14 @@ def run_diagnosis(
             1.0 / math.sqrt(3.0),
         ),
     }
+    if "camera_max" in quantities:
+        # the camera's optics are known only roughly: blur FWHM 1 +- 0.5 px (uniform); its
+        # reading of a hot spot two pixels wide moves by kelvins with it (docs/instruments.md)
+        cam = case.instruments.camera
+        pert["camera blur FWHM (1 +- 0.5 px, uniform)"] = (
+            _replace_camera(blur_fwhm_px=cam.blur_fwhm_px + 0.5),
+            1.0 / math.sqrt(3.0),
+        )
     u_in, parts = input_uncertainty(lambda tr: full.predict(data, {}, transform=tr), S, pert)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
