@@ -49,7 +49,7 @@ from gearfem.core.results import JsonRecord
 from gearfem.instruments.options import CameraOptions
 from gearfem.instruments.radiometry import Band, camera_temperature, directional_emissivity
 from gearfem.instruments.raster import rasterize
-from gearfem.instruments.scene import Surface
+from gearfem.instruments.scene import Surface, rotate_xy
 from gearfem.instruments.snapshot import KINDS
 
 
@@ -302,7 +302,7 @@ class Camera:
         for b, name in enumerate(names):
             s = self.surfaces[name]
             idx = self._candidates(b, s.rotation_sense * s.pitch_rad * frac)
-            P = _rotate(s.points_m[idx], s.center_m, s.rotation_sense * s.pitch_rad * frac)
+            P = rotate_xy(s.points_m[idx], s.center_m, s.rotation_sense * s.pitch_rad * frac)
             col, row, depth = g.project(P.reshape(-1, 3))
             sc = np.stack([(col - c0) * n - 0.5, (row - r0) * n - 0.5, depth], axis=1).reshape(
                 -1, 3, 3
@@ -401,7 +401,6 @@ class Camera:
         rows, cols of the window) in C."""
         o = self.options
         r0, r1, c0, c1 = self.window
-        n = o.subsamples
         signals, ids = [], []
         for j in range(self.phases):
             S, sid = self._phase(j)
@@ -458,7 +457,6 @@ class Camera:
                 frame_phases=self.frame_phases(),
             )
             out.append(Thermogram(image, reading, self.window, ""))
-        del n
         return out, readings
 
     def _fractions(self, ids: np.ndarray, r: int, c: int) -> dict[str, float]:
@@ -481,17 +479,3 @@ class Camera:
             return 0
         ratio = Fraction(1.0 / (self.period_s * self.options.frame_rate_Hz)).limit_denominator(1000)
         return ratio.denominator
-
-
-def _rotate(points: np.ndarray, center: np.ndarray, angle: float) -> np.ndarray:
-    """Points turned by ``angle`` (counter-clockwise about +z) about the axis through
-    ``center``."""
-    if angle == 0.0:
-        return points
-    c, s = math.cos(angle), math.sin(angle)
-    p = points - center
-    out = np.empty_like(p)
-    out[..., 0] = c * p[..., 0] - s * p[..., 1]
-    out[..., 1] = s * p[..., 0] + c * p[..., 1]
-    out[..., 2] = p[..., 2]
-    return out + center

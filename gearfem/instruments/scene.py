@@ -59,19 +59,6 @@ class Surface:
     def count(self) -> int:
         return len(self.points_m)
 
-    def rotated(self, angle_rad: float) -> np.ndarray:
-        """Vertices after a rotation by ``angle_rad`` (counter-clockwise about +z) about the
-        surface's axis."""
-        if angle_rad == 0.0:
-            return self.points_m
-        c, s = math.cos(angle_rad), math.sin(angle_rad)
-        p = self.points_m - self.center_m
-        out = np.empty_like(p)
-        out[..., 0] = c * p[..., 0] - s * p[..., 1]
-        out[..., 1] = s * p[..., 0] + c * p[..., 1]
-        out[..., 2] = p[..., 2]
-        return out + self.center_m
-
     def area_m2(self) -> float:
         p = self.points_m
         return float(
@@ -140,12 +127,17 @@ def clip_half_space(
     return np.concatenate(out_p), np.concatenate(out_v, axis=1), np.concatenate(out_k)
 
 
-def _rotate_xy(points: np.ndarray, center: np.ndarray, angle: float) -> np.ndarray:
+def rotate_xy(points: np.ndarray, center: np.ndarray, angle: float) -> np.ndarray:
+    """Points turned by ``angle`` (rad, counter-clockwise about +z) about the axis through
+    ``center``."""
+    if angle == 0.0:
+        return points
     c, s = math.cos(angle), math.sin(angle)
     p = points - center
-    out = p.copy()
+    out = np.empty_like(p)
     out[..., 0] = c * p[..., 0] - s * p[..., 1]
     out[..., 1] = s * p[..., 0] + c * p[..., 1]
+    out[..., 2] = p[..., 2]
     return out + center
 
 
@@ -171,7 +163,7 @@ def gear_surface(field: BodyField, emissivity: float | None = None) -> Surface:
         ):
             points, values, kind = clip_half_space(points, values, kind, n, center)
         copies = [
-            _rotate_xy(points, center, k * pitch) for k in range(field.teeth)
+            rotate_xy(points, center, k * pitch) for k in range(field.teeth)
         ]  # tooth k of the gear
         points = np.concatenate(copies)
         values = np.tile(values, (1, field.teeth, 1))
