@@ -126,6 +126,13 @@ def main() -> None:
             replace_block(ROOT / "docs" / "reproduction.md", "bench_camera", table + note)
 
 
+def _relative(path: Path) -> str:
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
 def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
     """``gearfem diagnose`` of the bench file (as camera_max) against a case; its V&V 20 table
     and verdict into docs/diagnosis.md."""
@@ -174,7 +181,7 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
         f"**Verdict: {r.diagnosis.verdict.text}** Chosen: {fit.label} ({ps}); held-out RMS "
         f"error {fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after. Measured by "
         f"`mpirun -n {comm.size} python demos/bench_camera.py --diagnose {case_path} --skip-runs`"
-        f" (report: {out}/report.md)."
+        f" (report: {_relative(out)}/report.md)."
     )
     if comm.rank == 0:
         print(text)
