@@ -172,7 +172,57 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"mean bulk {h.mean_bulk_temperature_C:.1f} C; VDI 2736 flank "
         f"{h.vdi2736_flank1_C or nan:.1f} C, root {h.vdi2736_root1_C or nan:.1f} C"
     )
-    _say(f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/")
+    if h.camera_max_C is not None and summary.instruments is not None:
+        end = summary.instruments.camera["end"]
+        _say(
+            f"IR camera ({case.instruments.camera.view} view): camera_max {h.camera_max_C:.1f} C "
+            f"at the end (steady {h.camera_max_steady_C or nan:.1f} C), at pixel {end.pixel} on "
+            f"{end.body} {end.surface}; the hottest model node of the pair is "
+            f"{end.hottest_node_C:.1f} C"
+        )
+    if h.torque_loss_Nm is not None:
+        _say(f"torque meters: torque loss {h.torque_loss_Nm:.4f} N m")
+    _say(
+        f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/"
+        + (", instruments/ (snapshot.npz, thermograms)" if summary.instruments else "")
+    )
+    return 0
+
+
+def _cmd_observe(args: argparse.Namespace) -> int:
+    """Read the instruments again on a finished run (no solve)."""
+    from mpi4py import MPI
+
+    instruments = load_case(args.case).instruments if args.case else None
+    r = pipeline.observe(
+        args.result_dir,
+        MPI.COMM_WORLD,
+        instruments=instruments,
+        only=tuple(args.instrument) if args.instrument else None,
+        out_dir=args.out,
+    )
+    for lab in r.labels:
+        t = r.times_s[r.labels.index(lab)]
+        when = "steady state" if t is None else f"t = {t:g} s"
+        if lab in r.camera:
+            c = r.camera[lab]
+            _say(
+                f"{when}: camera_max {c.max_C:.1f} C (frames {c.frame_max_range_C[0]:.1f}-"
+                f"{c.frame_max_range_C[1]:.1f} C) at pixel {c.pixel} on {c.body} {c.surface}; "
+                f"hottest model node {c.hottest_node_C:.1f} C"
+            )
+        for name, p in r.probes.get(lab, {}).items():
+            _say(f"{when}: probe:{name} ({p.kind}, {p.body}) {p.value_C:.1f} C")
+    if r.torque is not None:
+        q = r.torque
+        _say(
+            f"torque meters: input {q.input_torque_Nm:.4f} N m, output "
+            f"{q.output_torque_Nm:.4f} N m, loss {q.torque_loss_Nm:.4f} +- "
+            f"{q.u_torque_loss_Nm:.4f} N m, efficiency "
+            f"{q.efficiency:.4f} +- {q.u_efficiency:.4f}"
+        )
+    out = args.out or f"{args.result_dir}/instruments"
+    _say(f"results in {out}: readings.json" + (", thermogram_*.png/.csv" if r.files else ""))
     return 0
 
 
@@ -379,6 +429,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
     s.set_defaults(func=_cmd_run)
+
+    s = sub.add_parser(
+        "observe",
+        help="read the instruments (camera, probes, torque meters) again on a finished run",
+    )
+    s.add_argument("result_dir", help="output directory of a finished `gearfem run`")
+    s.add_argument(
+        "--instrument",
+        action="append",
+        choices=("camera", "probes", "torque"),
+        help="only this instrument (repeatable; default: all configured)",
+    )
+    s.add_argument(
+        "--case",
+        default=None,
+        help="take the [instruments] table from this case file instead of the run's case.toml",
+    )
+    s.add_argument("--out", default=None, help="output directory (default: RESULT_DIR/instruments)")
+    s.set_defaults(func=_cmd_observe)
 
     s = sub.add_parser(
         "study", help="speed x torque study (resumable): one cycle per torque, table and plots"

@@ -16,6 +16,8 @@ A case file has one table per stage, each a frozen dataclass of the module that 
     [sources]        # gearfem.coupling.options.SourceOptions
     [thermal]        # gearfem.thermal.options.ThermalOptions (duration_s, convection, ...)
     [baselines]      # gearfem.baselines.BaselineOptions
+    [instruments]    # gearfem.instruments.options.InstrumentOptions: [instruments.camera] (default:
+                     # the bench's FLIR E40), [instruments.probes.NAME], [instruments.torque]
 
 Every table and key is optional; missing ones take the defaults, which are the thesis case
 (Doll 2015: PEEK 450G 30/30 teeth, m = 2 mm, 30°, bench point 1000 rpm / 8 N·m). Unknown keys and
@@ -42,6 +44,7 @@ from gearfem.coupling.options import REMOVED_KEYS, SourceOptions
 from gearfem.cycle.options import CycleOptions
 from gearfem.geometry.involute import GearPairGeometry
 from gearfem.geometry.options import MeshOptions
+from gearfem.instruments.options import InstrumentOptions
 from gearfem.thermal.options import ThermalOptions
 
 
@@ -78,6 +81,7 @@ class Case:
     sources: SourceOptions = dataclasses.field(default_factory=SourceOptions)
     thermal: ThermalOptions = dataclasses.field(default_factory=ThermalOptions)
     baselines: BaselineOptions = dataclasses.field(default_factory=BaselineOptions)
+    instruments: InstrumentOptions = dataclasses.field(default_factory=InstrumentOptions)
 
     def __post_init__(self) -> None:
         # the friction law resolved against the cycle's mu (mu within [0, 2] everywhere)

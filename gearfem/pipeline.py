@@ -5,7 +5,9 @@ torque (``cache/cycles``; speed-independent), and the thermal run per operating 
 the output directory). :func:`run` is what ``gearfem run`` and ``./dev.sh run`` execute; it writes
 ``summary.json`` (last, so a failed run leaves none), the resolved case and versions
 (``case.toml``, ``versions.json``), the cycle histories and plots, the thermal history, plots and
-fields.
+fields, and the instruments' readings: the gears' fields kept for them
+(``instruments/snapshot.npz``) and the camera's thermograms. :func:`observe` reads the
+instruments again on a finished run (``gearfem observe``).
 """
 
 from __future__ import annotations
@@ -50,6 +52,12 @@ from gearfem.cycle.report import write_cycle_outputs
 from gearfem.geometry.involute import GearPair
 from gearfem.geometry.mesh import build_gear_mesh
 from gearfem.geometry.options import BODIES
+from gearfem.geometry.placement import placement
+from gearfem.instruments.camera import CameraGeometry, gear_window
+from gearfem.instruments.evaluate import INSTRUMENTS, InstrumentReadings, evaluate
+from gearfem.instruments.gather import FieldRecorder
+from gearfem.instruments.options import InstrumentOptions
+from gearfem.instruments.snapshot import BodyField, CycleTorques, FieldSnapshot
 from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.branches import steady_states
 from gearfem.thermal.domain import ThermalDomain
@@ -138,14 +146,21 @@ class Headline(JsonRecord):
     # steady states the branch search found (None: not searched, the heat cannot rise with T)
     friction_heat_per_gear_W: float | None = None
     steady_states_found: int | None = None
+    camera_max_C: float | None = None  # the IR camera's reading at the end of the run
+    camera_max_steady_C: float | None = None
+    camera_max_at_times_C: dict[str, float] | None = None
+    torque_loss_Nm: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
 class RunSummary(JsonRecord):
     """What ``gearfem run`` computes for one operating point (``summary.json``, written last).
 
-    ``thermal`` is the thermal stage's summary (``thermal/thermal_summary.json``) and
-    ``baselines`` the analytic estimates (:func:`gearfem.baselines.baseline_summary`).
+    ``thermal`` is the thermal stage's summary of ``[thermal] body``
+    (``thermal/thermal_summary.json``), ``thermal_other`` that of the other gear when the
+    instruments need both (``thermal_<body>/``), ``baselines`` the analytic estimates
+    (:func:`gearfem.baselines.baseline_summary`) and ``instruments`` every configured
+    instrument's reading (:class:`gearfem.instruments.evaluate.InstrumentReadings`).
     """
 
     case: str
@@ -158,6 +173,8 @@ class RunSummary(JsonRecord):
     cycle: CycleAtSpeed | None
     headline: Headline
     numerical_uncertainty: RunUncertainty | None = None
+    instruments: InstrumentReadings | None = None
+    thermal_other: dict[str, Any] | None = None
 
     @classmethod
     def read(cls, path: str | Path) -> RunSummary:
@@ -230,6 +247,249 @@ def thermal(
 ) -> dict[str, Any]:
     """Thermal run of ``case.thermal.body`` with sources from ``cycle_result`` (mode "cycle") or
     prescribed ([sources] mode "prescribed"); writes the thermal outputs to ``out_dir``."""
+    summary, _ = thermal_field(
+        case, out_dir, comm, cycle_result, mesh_cache, write_fields, extra, steady, write_plot
+    )
+    return summary
+
+
+def reported_quantities(
+    thermal: dict[str, Any], cycle: CycleAtSpeed | None
+) -> dict[str, tuple[float, str]]:
+    """The quantities a run reports and a refinement study follows, name -> (value, unit): every
+    temperature of the thermal summary at the end of the run and, with a cycle, its friction
+    power, effective contact ratio, pitch-point and largest pressures and mean transmission
+    error."""
+    out = {q: (v, "C") for q, v in thermal.get("final_temperatures_C", {}).items()}
+    if cycle is not None:
+        out.update(
+            friction_power_W=(cycle.friction_power_W, "W"),
+            effective_contact_ratio=(cycle.effective_contact_ratio, "-"),
+            pitch_point_pressure_MPa=(cycle.pitch_point_pressure_MPa, "MPa"),
+            max_contact_pressure_MPa=(cycle.max_contact_pressure_MPa, "MPa"),
+            transmission_error_mean_um=(cycle.transmission_error_um["mean"], "um"),
+        )
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# instruments
+# ------------------------------------------------------------------------------------------------
+
+
+def instrument_bodies(case: Case) -> tuple[str, ...]:
+    """The gears whose fields the case's instruments read (the camera sees both)."""
+    ins = case.instruments
+    wanted = {case.thermal.body}
+    if ins.camera.enabled:
+        wanted |= set(BODIES)
+    wanted |= {p.body for p in ins.probes.values()}
+    return tuple(b for b in BODIES if b in wanted)
+
+
+def needs_fields(instruments: InstrumentOptions) -> bool:
+    """True when an instrument reads temperature fields (camera or probes)."""
+    return instruments.camera.enabled or bool(instruments.probes)
+
+
+def check_instruments(case: Case) -> None:
+    """Checks of the instruments against the geometry, before anything is solved: the camera
+    must see the gears (an error names ``instruments.camera.view``)."""
+    cam = case.instruments.camera
+    if not cam.enabled:
+        return
+    pair = GearPair(case.geometry)
+    centers = [np.zeros(3), np.array([pair.center_distance_m, 0.0, 0.0])]
+    radii = [pair.pinion.tip_radius_m, pair.wheel.tip_radius_m]
+    b = case.geometry.face_width_mm * 1e-3
+    target = (
+        np.asarray(cam.target_mm) * 1e-3
+        if cam.target_mm is not None
+        else np.array([0.5 * pair.center_distance_m, 0.0, 0.5 * b])
+    )
+    gear_window(cam, CameraGeometry.of(cam, target), centers, radii, (0.0, b))
+
+
+def on_root(comm: MPI.Comm, fn):
+    """``fn()`` evaluated on rank 0 and its result broadcast (collective); an exception raised
+    there is raised on every rank (the other ranks must not wait for a result that never comes)."""
+    result, error = None, None
+    if comm.rank == 0:
+        try:
+            result = fn()
+        except Exception as err:  # re-raised below on every rank
+            error = err
+    result, error = comm.bcast((result, error), root=0)
+    if error is not None:
+        raise error
+    return result
+
+
+def observed_thermal(
+    case: Case,
+    out: Path,
+    comm: MPI.Comm,
+    cycle_result=None,
+    mesh_cache: Path | None = None,
+    write_fields: bool = True,
+    steady: bool = True,
+    write_plot: bool = True,
+) -> tuple[dict[str, Any], dict[str, dict[str, Any]], FieldSnapshot | None]:
+    """The thermal runs the instruments need: ``[thermal] body`` into ``out/thermal`` and, when
+    the instruments read the other gear too, that gear into ``out/thermal_<body>``. Returns the
+    main summary, the other summaries by body, and the fields' snapshot (rank 0; None on the other
+    ranks and when no instrument reads a field)."""
+    record = needs_fields(case.instruments)
+    main = case.thermal.body
+    th, field = thermal_field(
+        case,
+        out / "thermal",
+        comm,
+        cycle_result,
+        mesh_cache,
+        write_fields=write_fields,
+        steady=steady,
+        write_plot=write_plot,
+        record=record,
+    )
+    fields = {main: field}
+    others: dict[str, dict[str, Any]] = {}
+    if record:
+        for body in instrument_bodies(case):
+            if body == main:
+                continue
+            c = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, body=body))
+            others[body], fields[body] = thermal_field(
+                c,
+                out / f"thermal_{body}",
+                comm,
+                cycle_result,
+                mesh_cache,
+                write_fields=write_fields,
+                steady=steady,
+                write_plot=write_plot,
+                record=True,
+            )
+    snapshot = None
+    if comm.rank == 0 and (record or case.instruments.torque.enabled):
+        labels, times_s = _labels(fields.get(main), th, case)
+        snapshot = FieldSnapshot(
+            labels=labels,
+            times_s=times_s,
+            bodies={b: f for b, f in fields.items() if f is not None},
+            pinion_speed_rpm=case.operating.speed_rpm,
+            face_width_m=case.geometry.face_width_mm * 1e-3,
+            ambient_C=case.thermal.ambient_C,
+            torques=CycleTorques.of(cycle_result) if cycle_result is not None else None,
+            case=case.name,
+        )
+    return th, others, snapshot
+
+
+def _labels(field: BodyField | None, th: dict[str, Any], case: Case):
+    """Labels and times of a snapshot: the recorded ones, or (no field kept) the end value."""
+    if field is not None:
+        return tuple(field.temperatures_C), tuple(
+            _time_of(lab, case) for lab in field.temperatures_C
+        )
+    lab = "steady" if "steady_state_C" in th else "end"
+    return (lab,), (_time_of(lab, case),)
+
+
+def _time_of(label: str, case: Case) -> float | None:
+    if label == "steady" or (label == "end" and case.thermal.mode == "steady"):
+        return None
+    if label == "end":
+        return case.thermal.duration_s
+    return float(label)
+
+
+def _read_and_keep(
+    instruments: InstrumentOptions, snapshot: FieldSnapshot, out: Path
+) -> InstrumentReadings:
+    """Save the snapshot and read the instruments on it, writing the thermograms (rank 0)."""
+    out.mkdir(parents=True, exist_ok=True)
+    if snapshot.bodies:
+        snapshot.save(out / SNAPSHOT_NAME)
+    return evaluate(instruments, snapshot, out)
+
+
+SNAPSHOT_NAME = "snapshot.npz"
+READINGS_NAME = "readings.json"
+
+
+def observe(
+    result_dir: str | Path,
+    comm: MPI.Comm | None = None,
+    instruments: InstrumentOptions | None = None,
+    only: tuple[str, ...] | None = None,
+    out_dir: str | Path | None = None,
+) -> InstrumentReadings:
+    """Read the instruments again on a finished run (``gearfem observe``), without solving: the
+    case's instruments (or ``instruments``, e.g. another camera view) on the run's
+    ``instruments/snapshot.npz``; ``only`` restricts to some of camera, probes, torque. Writes the
+    thermograms and ``readings.json`` (last) into ``out_dir`` (default
+    ``RESULT_DIR/instruments``). Collective; the work is done on rank 0."""
+    comm = comm or MPI.COMM_WORLD
+    result = Path(result_dir)
+    if not comm.bcast((result / "summary.json").is_file(), root=0):
+        raise ParameterError(
+            "result directory", str(result), "the output directory of a finished gearfem run"
+        )
+    out = Path(out_dir) if out_dir is not None else result / "instruments"
+    for name in only or ():
+        if name not in INSTRUMENTS:
+            raise ParameterError("--instrument", name, "one of " + ", ".join(INSTRUMENTS))
+
+    def read() -> InstrumentReadings:
+        case = load_case(result / "case.toml")
+        ins = instruments if instruments is not None else case.instruments
+        path = result / "instruments" / SNAPSHOT_NAME
+        snapshot = FieldSnapshot.load(path)
+        (out / READINGS_NAME).unlink(missing_ok=True)
+        readings = evaluate(ins, snapshot, out, only=only)
+        write_json(out / READINGS_NAME, readings)  # last: marks a complete observation
+        return readings
+
+    return on_root(comm, read)
+
+
+class _Recording:
+    """Observer of a thermal run that keeps the field at the output times, the end (and, from
+    :meth:`steady`, the steady state) for the instruments."""
+
+    def __init__(self, recorder: FieldRecorder, options) -> None:
+        self.recorder, self.options = recorder, options
+
+    def on_step(self, problem, record, write_field: bool) -> None:
+        if not write_field:
+            return
+        temps = {k: v - ZERO_CELSIUS_K for k, v in record.temperatures_K.items()}
+        if self.options.mode == "steady":
+            self.recorder.record("end", None, temps)
+            return
+        t = record.time_s
+        if t <= 0.0:
+            return
+        end = abs(t - self.options.duration_s) <= 1e-9 * max(1.0, t)
+        self.recorder.record("end" if end else f"{t:g}", t, temps)
+
+
+def thermal_field(
+    case: Case,
+    out_dir: str | Path,
+    comm: MPI.Comm,
+    cycle_result=None,
+    mesh_cache: Path | None = None,
+    write_fields: bool = True,
+    extra: dict[str, Any] | None = None,
+    steady: bool = True,
+    write_plot: bool = True,
+    record: bool = False,
+) -> tuple[dict[str, Any], BodyField | None]:
+    """:func:`thermal`, and with ``record`` the body's field at the reported times gathered for
+    the instruments (a :class:`~gearfem.instruments.snapshot.BodyField` on rank 0, None on the
+    other ranks and without ``record``)."""
 
     body = case.thermal.body
     if body not in ("pinion", "wheel"):
@@ -280,6 +540,8 @@ def thermal(
         info["friction_heat_fraction"] = src.heat_fractions(case.materials)[body]
     info.update(extra or {})
 
+    recording = _Recording(FieldRecorder(problem.T, domain), case.thermal) if record else None
+
     def more(records) -> dict[str, Any]:
         gen = records[-1].balance.generated_W
         out = {
@@ -308,6 +570,8 @@ def thermal(
             out["steady_balance_W"] = rec.balance.as_dict()
             if settled_s is not None:
                 out["transient_continued_to_s"] = settled_s
+            if recording is not None:  # problem.T holds the steady state
+                recording.recorder.record("steady", None, out["steady_state_C"])
         if friction is not None:
             friction.update(friction_branches(problem, case, end, steady))
             out["friction"] = friction
@@ -321,8 +585,21 @@ def thermal(
             more=more,
             write_fields=write_fields,
             write_plot=write_plot,
+            observers=() if recording is None else (recording,),
         )
-    return summary
+    field = None
+    if recording is not None:
+        pl = placement(gm.pair, case.thermal_mesh_options, body)
+        field = recording.recorder.body_field(
+            body,
+            pl.center_m,
+            pl.tooth_angles_rad,
+            profile.teeth,
+            1 if body == "pinion" else -1,
+            speed,
+            boundary.exchanges()["teeth"].emissivity,
+        )
+    return summary, field
 
 
 def friction_outputs(
@@ -456,6 +733,7 @@ def run(
 
     ``write_fields``: write the VTX temperature fields (studies switch them off)."""
     comm = comm or MPI.COMM_WORLD
+    check_instruments(case)  # a camera that cannot see the gears fails before any solve
     out = prepare_output(out_dir, "summary.json", comm)
     times: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -470,8 +748,17 @@ def run(
             write_cycle_outputs(cyc, out / "cycle")
         comm.barrier()
     t1 = time.perf_counter()
-    th = thermal(case, out / "thermal", comm, cyc, mesh_cache, write_fields=write_fields)
+    th, others, snapshot = observed_thermal(
+        case, out, comm, cyc, mesh_cache, write_fields=write_fields
+    )
     times["thermal_s"] = time.perf_counter() - t1
+    readings = None
+    if comm.bcast(snapshot is not None, root=0):  # the snapshot lives on rank 0
+        t2 = time.perf_counter()
+        readings = on_root(
+            comm, lambda: _read_and_keep(case.instruments, snapshot, out / "instruments")
+        )
+        times["instruments_s"] = time.perf_counter() - t2
     base = baselines(case)
     times["total_s"] = time.perf_counter() - t0
     at_speed = None
@@ -487,8 +774,10 @@ def run(
         wall_time_s=times,
         mpi_size=comm.size,
         cycle=at_speed,
-        headline=headline(th, base, at_speed, unc, case.thermal.ambient_C),
+        headline=headline(th, base, at_speed, unc, case.thermal.ambient_C, readings),
         numerical_uncertainty=unc,
+        instruments=readings,
+        thermal_other=next(iter(others.values()), None),
     )
     vers = versions(comm)
     if comm.rank == 0:
@@ -499,31 +788,13 @@ def run(
     return summary
 
 
-def reported_quantities(
-    thermal: dict[str, Any], cycle: CycleAtSpeed | None
-) -> dict[str, tuple[float, str]]:
-    """The quantities a run reports and a refinement study follows, name -> (value, unit): every
-    temperature of the thermal summary at the end of the run and, with a cycle, its friction
-    power, effective contact ratio, pitch-point and largest pressures and mean transmission
-    error."""
-    out = {q: (v, "C") for q, v in thermal.get("final_temperatures_C", {}).items()}
-    if cycle is not None:
-        out.update(
-            friction_power_W=(cycle.friction_power_W, "W"),
-            effective_contact_ratio=(cycle.effective_contact_ratio, "-"),
-            pitch_point_pressure_MPa=(cycle.pitch_point_pressure_MPa, "MPa"),
-            max_contact_pressure_MPa=(cycle.max_contact_pressure_MPa, "MPa"),
-            transmission_error_mean_um=(cycle.transmission_error_um["mean"], "um"),
-        )
-    return out
-
-
 def headline(
     thermal: dict[str, Any],
     baselines: dict[str, Any],
     cycle: CycleAtSpeed | None,
     uncertainty: RunUncertainty | None = None,
     ambient_C: float | None = None,
+    readings: InstrumentReadings | None = None,
 ) -> Headline:
     """The headline numbers of a run from its stage summaries (with u_num where a refinement
     study of the case's resolution is stored)."""
@@ -546,6 +817,7 @@ def headline(
                 if v.get("max_surface") is not None:
                     rise = v["max_surface"] - (ambient_C or 0.0)
                     u_num[f"at_times_max_surface_C[{t}]"] = u_end * abs(rise) / rise_end
+    cam = readings.camera if readings is not None else {}
     return Headline(
         time_s=thermal.get("time_s"),
         max_surface_temperature_C=final.get("max_surface"),
@@ -563,6 +835,15 @@ def headline(
         u_num=u_num,
         friction_heat_per_gear_W=_per_gear(thermal, "friction_W"),
         steady_states_found=thermal.get("friction", {}).get("distinct_steady_states"),
+        camera_max_C=cam["end"].max_C if "end" in cam else None,
+        camera_max_steady_C=cam["steady"].max_C if "steady" in cam else None,
+        camera_max_at_times_C={k: v.max_C for k, v in cam.items() if k not in ("end", "steady")}
+        or None,
+        torque_loss_Nm=(
+            readings.torque.torque_loss_Nm
+            if readings is not None and readings.torque is not None
+            else None
+        ),
     )
 
 

@@ -48,9 +48,9 @@ def test_csv_reader_roundtrip_and_errors(tmp_path):
     assert ddata.read_csv(p) == dataclasses.replace(d, source=str(p))
     bad = {
         "quantity": text.replace("mean_bulk", "bulk"),
-        "uncertainty_K": text.replace(",3,21\n1000", ",0,21\n1000"),
+        "uncertainty": text.replace(",3,21\n1000", ",0,21\n1000"),
         "header": text.replace("ambient_C", "ambient"),
-        "value_C": text.replace("110", "hot"),
+        "value": text.replace("110", "hot"),
         "time_s": text.replace(",300,", ",,"),  # duplicate end value of one curve
     }
     for name, t in bad.items():
@@ -71,11 +71,36 @@ def test_curve_weights_count_at_most_two():
 def test_thesis_bench_conversion(shared_data):
     d = ddata.read_csv(shared_data / "testbench" / "thesis_testbench.csv")
     assert [
-        (m.speed_rpm, m.torque_Nm, m.value_C, m.ambient_C, m.time_s) for m in d.measurements
-    ] == [(1000.0, 8.0, 110.0, 21.0, None), (2000.0, 4.0, 49.0, 21.0, None)]
-    # FLIR E40: max(2 K, 2 %) combined with 2 K
-    assert d.measurements[0].uncertainty_K == pytest.approx(math.hypot(2.2, 2.0))
-    assert d.measurements[1].uncertainty_K == pytest.approx(math.hypot(2.0, 2.0))
+        (m.speed_rpm, m.torque_Nm, m.quantity, m.value, m.ambient_C, m.time_s)
+        for m in d.measurements
+    ] == [
+        (1000.0, 8.0, "camera_max", 110.0, 21.0, None),
+        (2000.0, 4.0, "camera_max", 49.0, 21.0, None),
+    ]
+    # FLIR E40 stated accuracy max(2 K, 2 % of reading) combined with 2 K (judged equilibrium)
+    assert d.measurements[0].uncertainty == pytest.approx(math.hypot(2.2, 2.0))
+    assert d.measurements[1].uncertainty == pytest.approx(math.hypot(2.0, 2.0))
+
+
+def test_instrument_quantities_in_data_files(tmp_path):
+    text = (
+        "speed_rpm,torque_Nm,time_s,quantity,value,uncertainty,ambient_C\n"
+        "1000,8,,camera_max,110,3,21\n1000,8,900,probe:web,80,1,21\n"
+        "1000,8,,torque_loss_Nm,0.05,0.06,21\n1000,8,,efficiency,0.99,0.01,21\n"
+    )
+    d = ddata.parse_csv(text)
+    assert [m.quantity for m in d.measurements] == [
+        "camera_max",
+        "probe:web",
+        "torque_loss_Nm",
+        "efficiency",
+    ]
+    assert [m.unit for m in d.measurements] == ["C", "C", "N m", "1"]
+    assert ddata.read_csv(ddata.write_csv(d, tmp_path / "d.csv")).measurements == d.measurements
+    for bad in ("camera", "probe:", "probe:1x", "torque_loss"):
+        with pytest.raises(ParameterError, match="quantity") as err:
+            ddata.parse_csv(text.replace("camera_max", bad))
+        assert "camera_max" in err.value.allowed and "probe:NAME" in err.value.allowed
 
 
 def test_vv20_arithmetic():

@@ -104,7 +104,7 @@ def _synthetic():
     }
     values = predict(Dataset(ms, "synthetic"), truth)
     data = Dataset(
-        tuple(dataclasses.replace(m, value_C=float(v)) for m, v in zip(ms, values)), "synthetic"
+        tuple(dataclasses.replace(m, value=float(v)) for m, v in zip(ms, values)), "synthetic"
     )
     return predict, data
 

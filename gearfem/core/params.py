@@ -123,6 +123,11 @@ def _convert(tp: Any, value: Any, name: str) -> Any:
                 _convert(a, v, f"{name}[{i}]") for i, (a, v) in enumerate(zip(args, value))
             )
         return list(value)
+    if origin is dict:  # a table of named entries (e.g. [instruments.probes.NAME])
+        _, value_t = typing.get_args(tp) or (str, Any)
+        if not isinstance(value, Mapping):
+            raise ParameterError(name, value, "a table of named entries")
+        return {str(k): _convert(value_t, v, f"{name}.{k}") for k, v in value.items()}
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ParameterError(name, value, "a number")
@@ -166,9 +171,10 @@ def from_dict[T](cls: type[T], data: Mapping[str, Any], prefix: str = "") -> T:
         return cls(**kwargs)
     except ParameterError as err:
         # a table reused under another name ([thermal_mesh] is a MeshOptions, which names its
-        # keys "mesh.*"): name the key as the user wrote it
-        table, _, key = err.name.partition(".")
-        if prefix and key and table != prefix.rsplit(".", 1)[-1]:
+        # keys "mesh.*") or nested ([instruments.camera] names its keys "camera.*"): name the key
+        # as the user wrote it, with its whole dotted path
+        _, _, key = err.name.partition(".")
+        if prefix and key and not err.name.startswith(prefix + "."):
             raise ParameterError(f"{prefix}.{key}", err.value, err.allowed, err.reason) from err
         raise
 

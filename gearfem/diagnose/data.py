@@ -2,20 +2,26 @@
 
 Format (one measurement per row; lines starting with ``#`` are comments; header required)::
 
-    speed_rpm,torque_Nm,time_s,quantity,value_C,uncertainty_K,ambient_C
-    1000,8,,max_surface,110,3.0,21
-    1000,8,300,mean_bulk,61.5,1.0,21
+    speed_rpm,torque_Nm,time_s,quantity,value,uncertainty,ambient_C
+    1000,8,,camera_max,110,3.0,21
+    1000,8,300,probe:web,61.5,1.0,21
+    1000,8,,torque_loss_Nm,0.052,0.06,21
 
 * ``speed_rpm`` (pinion), ``torque_Nm`` (resisting torque on the wheel): the operating point.
 * ``time_s``: time since start (cold gear at ambient); empty = the equilibrium (end) value, i.e.
   the steady state of the model (the thesis bench values are "after about 15 minutes, judged to be
   thermal equilibrium").
-* ``quantity``: what was measured, one of :data:`QUANTITIES` (the thermal model's reported
-  temperatures of the gear: ``max_surface`` is what an IR camera's maximum spot reads when it sees
-  the hottest surface, ``mean_bulk`` the volume mean, ``flank_mean`` the mean over the drive
-  flanks...).
-* ``value_C``: measured temperature, C. ``uncertainty_K``: its standard uncertainty (u_D of ASME
-  V&V 20), K, > 0. ``ambient_C``: the recorded air/surroundings temperature of that run, C.
+* ``quantity``: what was measured, and by which instrument (:mod:`gearfem.instruments`):
+  ``camera_max`` (the hottest pixel of the IR camera of ``[instruments.camera]``),
+  ``probe:NAME`` (the probe ``[instruments.probes.NAME]``: a thermocouple, a side-face spot...),
+  ``torque_loss_Nm`` and ``efficiency`` (the torque meters), or one of the thermal model's
+  reported field temperatures :data:`FIELD_QUANTITIES` (``max_surface``: the hottest surface node,
+  ``mean_bulk``, ``flank_mean``...: what a perfect probe of that quantity would read).
+* ``value``: the measured value in the quantity's unit (C for temperatures, N m for the torque
+  loss, 1 for the efficiency). ``uncertainty``: its standard uncertainty (u_D of ASME V&V 20) in
+  the same unit (K for temperatures), > 0. ``ambient_C``: the recorded air/surroundings
+  temperature of that run, C. The older header names ``value_C`` and ``uncertainty_K`` are read
+  as ``value`` and ``uncertainty``.
 
 Rows with the same (speed, torque, ambient, quantity) are samples of one temperature curve: they
 are not independent (see :meth:`Dataset.n_effective`).
@@ -27,37 +33,46 @@ import csv
 import dataclasses
 import io
 import math
+import re
 from collections.abc import Iterable
 from pathlib import Path
 
 from gearfem.core.errors import ParameterError
-from gearfem.core.params import require_positive, require_range
+from gearfem.core.params import require_finite, require_positive, require_range
+from gearfem.instruments.options import FIELD_QUANTITIES, CameraOptions
 
-QUANTITIES = (
-    "max_surface",
-    "mean_bulk",
-    "flank_mean",
-    "flank_max",
-    "coast_flank_mean",
-    "coast_flank_max",
-    "tip_mean",
-    "tip_max",
-    "root_mean",
-    "root_max",
-)
-COLUMNS = ("speed_rpm", "torque_Nm", "time_s", "quantity", "value_C", "uncertainty_K", "ambient_C")
+#: Quantities read by instruments (``probe:NAME`` for every configured probe besides).
+INSTRUMENT_QUANTITIES = ("camera_max", "torque_loss_Nm", "efficiency")
+#: Every fixed quantity name of a data file.
+QUANTITIES = (*FIELD_QUANTITIES, *INSTRUMENT_QUANTITIES)
+UNITS = {"torque_loss_Nm": "N m", "efficiency": "1"}
+COLUMNS = ("speed_rpm", "torque_Nm", "time_s", "quantity", "value", "uncertainty", "ambient_C")
+_LEGACY = {"value_C": "value", "uncertainty_K": "uncertainty"}
+_PROBE = re.compile(r"^probe:[A-Za-z][A-Za-z0-9_-]*$")
+
+
+def check_quantity(quantity: str, name: str = "data.quantity") -> str:
+    """``quantity`` if it is a known quantity name or ``probe:NAME``, else a ParameterError."""
+    if quantity in QUANTITIES or _PROBE.match(quantity):
+        return quantity
+    raise ParameterError(name, quantity, "one of " + ", ".join(QUANTITIES) + " or probe:NAME")
+
+
+def unit_of(quantity: str) -> str:
+    """The unit of a quantity's value ("C" for temperatures)."""
+    return UNITS.get(quantity, "C")
 
 
 @dataclasses.dataclass(frozen=True)
 class Measurement:
-    """One measured temperature (see the module docstring for the fields)."""
+    """One measured value (see the module docstring for the fields)."""
 
     speed_rpm: float
     torque_Nm: float
     time_s: float | None
     quantity: str
-    value_C: float
-    uncertainty_K: float
+    value: float
+    uncertainty: float
     ambient_C: float
 
     def __post_init__(self) -> None:
@@ -65,11 +80,21 @@ class Measurement:
         require_positive("data.torque_Nm", self.torque_Nm)
         if self.time_s is not None:
             require_positive("data.time_s", self.time_s)
-        if self.quantity not in QUANTITIES:
-            raise ParameterError("data.quantity", self.quantity, f"one of {', '.join(QUANTITIES)}")
-        require_range("data.value_C", self.value_C, -273.15, 1000.0, lo_open=True, unit="C")
-        require_positive("data.uncertainty_K", self.uncertainty_K)
+        check_quantity(self.quantity)
+        if self.is_temperature:
+            require_range("data.value", self.value, -273.15, 1000.0, lo_open=True, unit="C")
+        else:
+            require_finite("data.value", self.value)
+        require_positive("data.uncertainty", self.uncertainty)
         require_range("data.ambient_C", self.ambient_C, -273.15, 1000.0, lo_open=True, unit="C")
+
+    @property
+    def unit(self) -> str:
+        return unit_of(self.quantity)
+
+    @property
+    def is_temperature(self) -> bool:
+        return self.unit == "C"
 
     @property
     def point(self) -> tuple[float, float, float]:
@@ -169,7 +194,7 @@ def parse_csv(text: str, source: str = "") -> Dataset:
     if not lines:
         raise ParameterError("data", source or "<text>", "a header line and at least one row")
     reader = csv.reader(io.StringIO("\n".join(lines)))
-    header = [h.strip() for h in next(reader)]
+    header = [_LEGACY.get(h.strip(), h.strip()) for h in next(reader)]
     missing = [c for c in COLUMNS if c not in header]
     unknown = [c for c in header if c not in COLUMNS]
     if missing or unknown:
@@ -191,9 +216,9 @@ def parse_csv(text: str, source: str = "") -> Dataset:
                 speed_rpm=_float(r["speed_rpm"], "speed_rpm", i),
                 torque_Nm=_float(r["torque_Nm"], "torque_Nm", i),
                 time_s=_float(r["time_s"], "time_s", i, optional=True),
-                quantity=r["quantity"].strip(),
-                value_C=_float(r["value_C"], "value_C", i),
-                uncertainty_K=_float(r["uncertainty_K"], "uncertainty_K", i),
+                quantity=check_quantity(r["quantity"].strip(), f"data row {i}: quantity"),
+                value=_float(r["value"], "value", i),
+                uncertainty=_float(r["uncertainty"], "uncertainty", i),
                 ambient_C=_float(r["ambient_C"], "ambient_C", i),
             )
         )
@@ -220,29 +245,32 @@ def write_csv(data: Dataset, path: str | Path, comment: str = "") -> Path:
     for m in data.measurements:
         t = "" if m.time_s is None else f"{m.time_s:g}"
         lines.append(
-            f"{m.speed_rpm:g},{m.torque_Nm:g},{t},{m.quantity},{m.value_C:.4f},{m.uncertainty_K:g},"
+            f"{m.speed_rpm:g},{m.torque_Nm:g},{t},{m.quantity},{m.value:.6g},{m.uncertainty:g},"
             f"{m.ambient_C:g}"
         )
     path.write_text("\n".join(lines) + "\n")
     return path
 
 
-def camera_uncertainty_K(value_C: float) -> float:
-    """Standard uncertainty assumed for the thesis bench's IR camera maximum (K).
+def camera_uncertainty_K(value_C: float, camera: CameraOptions | None = None) -> float:
+    """Standard uncertainty of the thesis bench's IR camera maximum (K).
 
-    FLIR E40 stated accuracy: +-2 C or +-2 % of reading, whichever is larger, taken as one
-    standard uncertainty; combined in quadrature with 2 K for what the single end value does not
-    tell (emissivity 0.90 set, not measured, on a moving surface; "equilibrium" judged by the
-    operators after about 15 min). An assumption, documented in docs/diagnosis.md.
+    The camera's stated accuracy (FLIR E40: +-2 C or +-2 % of reading, whichever is larger,
+    :meth:`CameraOptions.uncertainty_K`), taken as one standard uncertainty, combined in quadrature
+    with 2 K for what the single end value does not tell: "equilibrium" judged by the operators
+    after about 15 min, and the maximum read from a video by post-processing. What the camera
+    does with emissivity, footprint and rotation is modelled by ``camera_max`` itself
+    (:mod:`gearfem.instruments.camera`); the surface emissivity's own uncertainty is an input
+    uncertainty of the model (V&V 20 u_input). An assumption, documented in docs/diagnosis.md.
     """
-    return math.hypot(max(2.0, 0.02 * abs(value_C)), 2.0)
+    camera = camera or CameraOptions()
+    return math.hypot(camera.uncertainty_K(value_C), 2.0)
 
 
 def thesis_bench(text: str, source: str = "") -> Dataset:
-    """Convert the thesis bench file (``testbench/thesis_testbench.csv``): the camera maximum
-    surface
-    temperature as an end (equilibrium) value, ambient = the camera's atmospheric temperature,
-    uncertainty :func:`camera_uncertainty_K`."""
+    """Convert the thesis bench file (``testbench/thesis_testbench.csv``): the IR camera's
+    maximum (``camera_max``) as an end (equilibrium) value, ambient = the camera's atmospheric
+    temperature, uncertainty :func:`camera_uncertainty_K`."""
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     rows = list(csv.DictReader(io.StringIO("\n".join(lines))))
     out = []
@@ -253,9 +281,9 @@ def thesis_bench(text: str, source: str = "") -> Dataset:
                 speed_rpm=_float(r["speed_rpm"], "speed_rpm", i),
                 torque_Nm=_float(r["torque_Nm"], "torque_Nm", i),
                 time_s=None,
-                quantity="max_surface",
-                value_C=value,
-                uncertainty_K=camera_uncertainty_K(value),
+                quantity="camera_max",
+                value=value,
+                uncertainty=camera_uncertainty_K(value),
                 ambient_C=_float(r["camera_ambient_C"], "camera_ambient_C", i),
             )
         )

@@ -3,8 +3,11 @@
 :class:`FullModel` runs, for an operating point and a set of candidate extensions, the gearfem
 thermal model of one gear with heat sources from the cached structural cycle of the torque
 (:func:`gearfem.pipeline.cycle`, one cycle solve per torque, speed-independent) and returns the
-requested
-temperatures: end values from the steady state, time samples from a transient run from ambient.
+requested temperatures: end values from the steady state, time samples from a transient run from
+ambient. When the data name instrument quantities (``camera_max``, ``probe:NAME``,
+``torque_loss_Nm``, ``efficiency``) it also runs the thermal models the instruments read (both
+gears for the camera) and returns the instruments' readings of them
+(:func:`gearfem.instruments.evaluate.evaluate`): like is compared with like.
 
 :class:`Surrogate` is for screening: per (speed, torque) it tabulates the full model's rises
 theta = T - T_ambient at a few parameter values of each candidate (the nodes of
@@ -37,9 +40,11 @@ from mpi4py import MPI
 
 from gearfem import pipeline
 from gearfem.config import Case, case_to_dict
+from gearfem.core.errors import ParameterError
 from gearfem.core.provenance import source_hash
 from gearfem.diagnose.candidates import LIBRARY, AmbientOffset, Candidate, apply_all, by_name
-from gearfem.diagnose.data import QUANTITIES, Dataset
+from gearfem.diagnose.data import FIELD_QUANTITIES, Dataset
+from gearfem.instruments.evaluate import TORQUE_QUANTITIES, evaluate
 
 log = logging.getLogger(__name__)
 
@@ -71,6 +76,9 @@ class FullModel:
         times_s: Sample times of the transient runs (s); the runs last until the largest.
         work_dir: Scratch directory for the thermal outputs (default: a temporary one).
         library: The candidates that model names refer to.
+        quantities: The instrument quantities wanted besides the field temperatures
+            (``camera_max``, ``probe:NAME``, ``torque_loss_Nm``, ``efficiency``); each must be
+            read by an instrument of the case.
     """
 
     def __init__(
@@ -80,11 +88,14 @@ class FullModel:
         times_s: tuple[float, ...] = (),
         work_dir: str | Path | None = None,
         library: tuple[Candidate, ...] = LIBRARY,
+        quantities: tuple[str, ...] = (),
     ) -> None:
         self.case = case
         self.comm = comm or MPI.COMM_WORLD
         self.times_s = tuple(sorted(set(float(t) for t in times_s)))
         self.library = library
+        self.quantities = tuple(dict.fromkeys(q for q in quantities if q not in FIELD_QUANTITIES))
+        check_instrument_quantities(case, self.quantities)
         self._tmp = None
         if work_dir is None:
             name = tempfile.mkdtemp(prefix="gearfem-diagnose-") if self.comm.rank == 0 else None
@@ -152,33 +163,48 @@ class FullModel:
         case = self.point_case(speed_rpm, torque_Nm, ambient_C, model or {})
         if transform is not None:
             case = transform(case)
+        case = dataclasses.replace(case, instruments=self._instruments(case))
         out = self.work_dir / f"run{self.solves}"
-        summ = pipeline.thermal(
-            case,
-            out,
-            self.comm,
-            cycle_result=self.cycle(torque_Nm),
-            write_fields=False,
-            steady=True,
-            write_plot=False,
+        cyc = self.cycle(torque_Nm)
+        summ, _, snapshot = pipeline.observed_thermal(
+            case, out, self.comm, cyc, write_fields=False, steady=True, write_plot=False
         )
         self.solves += 1
-        if self.comm.rank == 0:  # only the numbers are kept
-            shutil.rmtree(out, ignore_errors=True)
         res: dict[Request, float] = {}
         end = (
             summ["steady_state_C"]
             if case.thermal.mode == "transient"
             else summ["final_temperatures_C"]
         )
-        for q in QUANTITIES:
+        for q in FIELD_QUANTITIES:
             res[(q, None)] = float(end[q])
         for t in self.times_s:
             rec = summ.get("at_times_C", {}).get(f"{t:g}")
             if rec is None and abs(t - case.thermal.duration_s) <= 1e-6 * t:
                 rec = summ["final_temperatures_C"]
-            for q in QUANTITIES:
+            for q in FIELD_QUANTITIES:
                 res[(q, t)] = float(rec[q])
+        if self.quantities:
+
+            def read() -> dict[Request, float]:
+                times = (None, *self.times_s)
+                fields = [q for q in self.quantities if q not in TORQUE_QUANTITIES]
+                labels = (
+                    tuple(dict.fromkeys(snapshot.label_of(t) for t in times))
+                    if fields
+                    else snapshot.labels
+                )
+                got = evaluate(case.instruments, snapshot, labels=labels)
+                return {
+                    (q, t): got.value(q, snapshot.label_of(t) if q in fields else labels[0])
+                    for q in self.quantities
+                    for t in times
+                }
+
+            res.update(pipeline.on_root(self.comm, read))
+        if self.comm.rank == 0:  # only the numbers are kept
+            shutil.rmtree(out, ignore_errors=True)
+        self.comm.barrier()
         fr = summ.get("friction", {})
         frac = summ.get("model_fraction") or 1.0
         balance = summ.get("steady_balance_W") or summ["final_balance_W"]
@@ -188,6 +214,17 @@ class FullModel:
             steady_states=fr.get("distinct_steady_states"),
             transient_branch=fr.get("transient_branch"),
             branches=tuple(fr.get("branches", ())),
+        )
+
+    def _instruments(self, case: Case):
+        """The case's instruments reduced to those the wanted quantities need (no camera, no
+        second gear when no ``camera_max`` is wanted)."""
+        ins = case.instruments
+        probes = {n: p for n, p in ins.probes.items() if f"probe:{n}" in self.quantities}
+        return dataclasses.replace(
+            ins,
+            camera=dataclasses.replace(ins.camera, enabled="camera_max" in self.quantities),
+            probes=probes,
         )
 
     def predict(
@@ -269,15 +306,17 @@ class Surrogate:
             os.replace(tmp, path)
 
     def _key(self, points) -> str:
-        """Hash of everything the tables depend on: case, points, times, candidates' nodes, and
-        the source of every gearfem module a table value is computed by (this module and what it
-        imports, transitively: pipeline, thermal, coupling, cycle, contact, geometry, core)."""
+        """Hash of everything the tables depend on: case (instruments included), points, times,
+        instrument quantities, candidates' nodes, and the source of every gearfem module a table
+        value is computed by (this module and what it imports, transitively: pipeline,
+        instruments, thermal, coupling, cycle, contact, geometry, core)."""
         h = hashlib.sha256()
         h.update(source_hash("gearfem.diagnose.forward", "gearfem.diagnose.candidates").encode())
         meta = {
             "case": case_to_dict(self.full.case),
             "points": points,
             "times": self.full.times_s,
+            "quantities": self.full.quantities,
             "candidates": [(c.name, c.nodes()) for c in self.candidates],
             "ambient": _AMBIENT.nodes(),
         }
@@ -340,6 +379,23 @@ class Surrogate:
 _AMBIENT = AmbientOffset()
 
 
+def check_instrument_quantities(case: Case, quantities) -> None:
+    """Each instrument quantity must be read by an instrument of the case (a ParameterError
+    names the quantity and what the case offers)."""
+    offered = case.instruments.quantities
+    for q in quantities:
+        if q in FIELD_QUANTITIES:
+            continue
+        if q not in offered:
+            raise ParameterError(
+                "data.quantity",
+                q,
+                "a quantity of the case's instruments: " + ", ".join((*offered, *FIELD_QUANTITIES)),
+                "configure it in [instruments] (camera enabled, [instruments.probes.NAME], "
+                "torque meters)",
+            )
+
+
 def _lagrange_weights(x: np.ndarray, t: float) -> np.ndarray:
     """Weights w_i(t) of the polynomial through the nodes x (value = w @ y)."""
     w = np.ones(len(x))
@@ -367,4 +423,11 @@ def confirm(full: FullModel, surrogate: Surrogate, data: Dataset, model: dict[st
     }
 
 
-__all__ = ["ForwardState", "FullModel", "Request", "Surrogate", "confirm"]
+__all__ = [
+    "ForwardState",
+    "FullModel",
+    "Request",
+    "Surrogate",
+    "check_instrument_quantities",
+    "confirm",
+]

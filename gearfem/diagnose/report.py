@@ -16,7 +16,7 @@ from gearfem.core.io import prepare_output, write_json
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY
-from gearfem.diagnose.data import QUANTITIES, Dataset, Measurement
+from gearfem.diagnose.data import Dataset, Measurement, unit_of
 from gearfem.diagnose.forward import FullModel, Surrogate
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
@@ -24,6 +24,15 @@ from gearfem.diagnose.vv20 import Comparison, input_uncertainty
 
 def _replace_thermal(**kw):
     return lambda c: dataclasses.replace(c, thermal=dataclasses.replace(c.thermal, **kw))
+
+
+def _replace_camera(**kw):
+    def change(c: Case) -> Case:
+        ins = c.instruments
+        cam = dataclasses.replace(ins.camera, **kw)
+        return dataclasses.replace(c, instruments=dataclasses.replace(ins, camera=cam))
+
+    return change
 
 
 def _replace_material(**kw):
@@ -46,13 +55,14 @@ def run_diagnosis(
 
     comm = comm or MPI.COMM_WORLD
     out = prepare_output(out_dir, "diagnosis.json", comm)
-    full = FullModel(case, comm, times_s=data.times, work_dir=None)
+    quantities = tuple(dict.fromkeys(m.quantity for m in data.measurements))
+    full = FullModel(case, comm, times_s=data.times, work_dir=None, quantities=quantities)
     pts = tuple(dict.fromkeys((m.speed_rpm, m.torque_Nm) for m in data.measurements))
     sur = Surrogate(full, pts, cache_dir=cache_dir if cache_dir is not None else cache_root())
-    D = np.array([m.value_C for m in data.measurements])
+    D = np.array([m.value for m in data.measurements])
     # V&V 20 of the baseline on the full model
     S = full.predict(data, {})
-    u_D = np.array([m.uncertainty_K for m in data.measurements])
+    u_D = np.array([m.uncertainty for m in data.measurements])
     if (
         case.thermal.degree == 1
     ):  # numerical: P1 against P2 on the same mesh (conservative: the whole difference)
@@ -79,6 +89,14 @@ def run_diagnosis(
             1.0 / math.sqrt(3.0),
         ),
     }
+    if "camera_max" in quantities:
+        # the camera's optics are known only roughly: blur FWHM 1 +- 0.5 px (uniform); its
+        # reading of a hot spot two pixels wide moves by kelvins with it (docs/instruments.md)
+        cam = case.instruments.camera
+        pert["camera blur FWHM (1 +- 0.5 px, uniform)"] = (
+            _replace_camera(blur_fwhm_px=cam.blur_fwhm_px + 0.5),
+            1.0 / math.sqrt(3.0),
+        )
     u_in, parts = input_uncertainty(lambda tr: full.predict(data, {}, transform=tr), S, pert)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
@@ -123,20 +141,20 @@ def run_diagnosis(
 
 
 def _probes(sur: Surrogate, data: Dataset) -> Dataset:
-    """Measurements one could add at the data's operating points: every quantity, every tabulated
-    time."""
+    """Measurements one could add at the data's operating points: every tabulated quantity (field
+    temperatures and the data's instrument quantities), every tabulated time."""
     rows, seen = [], set()
     for m in data.measurements:
         if m.point in seen:
             continue
         seen.add(m.point)
-        times = sorted(
-            {r[1] for r in sur.tables[(float(m.speed_rpm), float(m.torque_Nm))].base},
-            key=lambda t: math.inf if t is None else t,
-        )
-        for q in QUANTITIES:
+        base = sur.tables[(float(m.speed_rpm), float(m.torque_Nm))].base
+        times = sorted({r[1] for r in base}, key=lambda t: math.inf if t is None else t)
+        quantities = tuple(dict.fromkeys(r[0] for r in base))
+        for q in quantities:
             for t in times:
-                rows.append(Measurement(m.speed_rpm, m.torque_Nm, t, q, 20.0, 1.0, m.ambient_C))
+                v = 20.0 if unit_of(q) == "C" else 0.5
+                rows.append(Measurement(m.speed_rpm, m.torque_Nm, t, q, v, 1.0, m.ambient_C))
     return Dataset(tuple(rows), "probes")
 
 
@@ -146,8 +164,8 @@ def _plots(result: Diagnosis, data: Dataset, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    D = np.array([m.value_C for m in data.measurements])
-    u = np.array([m.uncertainty_K for m in data.measurements])
+    D = np.array([m.value for m in data.measurements])
+    u = np.array([m.uncertainty for m in data.measurements])
     labels = [m.label() for m in data.measurements]
     base, chosen = result.baseline_fit, result.chosen_fit
     x = np.arange(len(D))

@@ -136,7 +136,18 @@ class Diagnosis(JsonRecord):
 
 
 def _sigma(data: Dataset, u_model_K: float) -> np.ndarray:
-    return np.sqrt(np.array([m.uncertainty_K for m in data.measurements]) ** 2 + u_model_K**2)
+    """sqrt(u_D² + u_model²); u_model (surrogate and time-step error, K) on temperatures only."""
+    u_model = np.where(_temperatures(data), u_model_K, 0.0)
+    return np.sqrt(np.array([m.uncertainty for m in data.measurements]) ** 2 + u_model**2)
+
+
+def _values(data: Dataset) -> np.ndarray:
+    return np.array([m.value for m in data.measurements])
+
+
+def _temperatures(data: Dataset) -> np.ndarray:
+    """Which measurements are temperatures (RMS errors in K are taken over these)."""
+    return np.array([m.is_temperature for m in data.measurements], dtype=bool)
 
 
 def chi2(predict: Predict, data: Dataset, model: dict[str, float], u_model_K: float) -> float:
@@ -145,7 +156,7 @@ def chi2(predict: Predict, data: Dataset, model: dict[str, float], u_model_K: fl
 
 
 def _residuals(predict, data, model, u_model_K):
-    D = np.array([m.value_C for m in data.measurements])
+    D = _values(data)
     w = np.sqrt(np.array(data.series_weights()))
     return w * (predict(data, model) - D) / _sigma(data, u_model_K)
 
@@ -249,8 +260,9 @@ def leave_one_point_out(
         train = data.without_point(pt)
         test = data.subset(m.point == pt for m in data.measurements)
         model, _ = fit(predict, train, names, u_model_K, library) if names else ({}, 0.0)
-        errs.extend(predict(test, model) - np.array([m.value_C for m in test.measurements]))
-    return float(np.sqrt(np.mean(np.square(errs))))
+        T = _temperatures(test)
+        errs.extend((predict(test, model) - _values(test))[T])
+    return float(np.sqrt(np.mean(np.square(errs)))) if errs else None
 
 
 def _criterion(c2: float, k: int, n: int, kind: str) -> float:
@@ -427,8 +439,11 @@ def _model_fit(r: dict) -> ModelFit:
 def _rmse(r: dict, data: Dataset) -> float | None:
     if r.get("predictions_C") is None:
         return None
-    D = np.array([m.value_C for m in data.measurements])
-    return float(np.sqrt(np.mean((np.array(r["predictions_C"]) - D) ** 2)))
+    T = _temperatures(data)
+    if not np.any(T):
+        return None
+    err = np.array(r["predictions_C"]) - _values(data)
+    return float(np.sqrt(np.mean(err[T] ** 2)))
 
 
 def separating_measurements(
@@ -548,11 +563,12 @@ def refine(
         lo, hi, _ = profile_interval(corrected, data, names, name, c2, u_model_K, library)
         ivs[name] = [lo, hi]
     check = {}
-    D = np.array([m.value_C for m in data.measurements])
+    D = _values(data)
+    T = _temperatures(data)
     if final_check:
         F = full_predict(data, params)
         check = {
-            "full_rmse_K": float(np.sqrt(np.mean((F - D) ** 2))),
+            "full_rmse_K": float(np.sqrt(np.mean((F - D)[T] ** 2))) if np.any(T) else None,
             "full_vs_corrected_max_K": float(np.max(np.abs(F - corrected(data, params)))),
             "full_C": F.tolist(),
         }

@@ -193,6 +193,17 @@ def summary(problem, records, extra: dict[str, Any] | None = None) -> dict[str, 
     return out
 
 
+class _Observers:
+    """Several observers of :meth:`ThermalProblem.integrate` as one (called in order)."""
+
+    def __init__(self, *observers) -> None:
+        self.observers = observers
+
+    def on_step(self, problem, record, write_field: bool) -> None:
+        for ob in self.observers:
+            ob.on_step(problem, record, write_field)
+
+
 def solve_and_write(
     problem: ThermalProblem,
     out_dir: str | Path,
@@ -200,23 +211,27 @@ def solve_and_write(
     write_fields: bool = True,
     more: Callable[[list[StepRecord]], dict[str, Any]] | None = None,
     write_plot: bool = True,
+    observers: tuple = (),
 ) -> tuple[list[StepRecord], dict[str, Any]]:
     """Solve (transient or steady, as ``problem.options.mode`` says) and write CSV, VTX, plot,
     summary.
 
     ``extra`` and ``more(records)`` (computed after the run, collectively) are added to the
-    summary. The summary (``thermal_summary.json``) is written last: a run that fails leaves none.
+    summary. ``observers`` are told every step after the writer (``on_step(problem, record,
+    write_field)``; ``write_field`` is true at the output times and the end). The summary
+    (``thermal_summary.json``) is written last: a run that fails leaves none.
     """
     t0 = time.perf_counter()
     with ThermalWriter(
         out_dir, problem, write_fields=write_fields, write_plot=write_plot
     ) as writer:
+        observer = _Observers(writer, *observers)
         if problem.options.mode == "steady":
             rec = problem.solve_steady()
-            writer.on_step(problem, rec, write_field=True)
+            observer.on_step(problem, rec, write_field=True)
             records = [rec]
         else:
-            records = problem.integrate(observer=writer)
+            records = problem.integrate(observer=observer)
         info = {"wall_time_s": time.perf_counter() - t0, "mode": problem.options.mode}
         info.update(extra or {})
         if more is not None:

@@ -1,0 +1,193 @@
+"""The thesis bench points as the bench measured them: the IR camera's reading (issue 13).
+
+Runs the built-in case (or ``--case``) at the two bench points of
+``shared/data/testbench/thesis_testbench.csv`` (1000 rpm / 8 N m and 2000 rpm / 4 N m) with
+``gearfem run`` (both gears' thermal models, the FLIR E40 of ``[instruments.camera]``, the torque
+meters), or reuses a finished run of the same case in ``OUT/<label>``, and reports the predicted
+``camera_max`` at 900 s (when the bench was read) and at the steady state next to the bench's
+reading and the model's hottest nodes. Writes the table into docs/reproduction.md (block
+``bench_camera``) and the thermograms at 900 s into docs/images/.
+
+With ``--diagnose DIAG_CASE.toml`` it also runs ``gearfem diagnose`` on the bench file against
+that case (the bench read as ``camera_max``) into ``OUT/bench_diagnosis`` and writes its V&V 20
+table and verdict into docs/diagnosis.md (block ``bench_camera_diagnosis``).
+
+Run (each point's structural cycle is cached after its first run):
+    mpirun -n 2 python demos/bench_camera.py [--case CASE.toml] [--out results]
+        [--diagnose DIAG_CASE.toml]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+from pathlib import Path
+
+from mpi4py import MPI
+
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
+from gearfem import pipeline
+from gearfem.config import case_to_dict, load_case
+from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.diagnose.data import read_csv
+from gearfem.diagnose.report import run_diagnosis
+from gearfem.pipeline import RunSummary
+
+ROOT = Path(__file__).resolve().parent.parent
+BENCH = ROOT.parent / "shared" / "data" / "testbench" / "thesis_testbench.csv"
+
+
+def _run(case, out: Path, comm) -> RunSummary:
+    """The run of ``case`` in ``out``: reused when finished with the same case, else computed."""
+    done = False
+    if comm.rank == 0 and (out / "summary.json").is_file() and (out / "case.toml").is_file():
+        done = case_to_dict(load_case(out / "case.toml")) == case_to_dict(case)
+    if comm.bcast(done, root=0):
+        return RunSummary.read(out / "summary.json")
+    return pipeline.run(case, out, comm, progress=False)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--case", default=None, help="case TOML (default: the built-in thesis case)")
+    p.add_argument("--out", default=str(ROOT / "results"), help="where the runs go")
+    p.add_argument("--no-doc", action="store_true", help="do not write into docs/")
+    p.add_argument("--diagnose", default=None, help="also diagnose the bench against this case")
+    p.add_argument("--skip-runs", action="store_true", help="only the diagnosis")
+    a = p.parse_args()
+    comm = MPI.COMM_WORLD
+    if a.diagnose:
+        diagnosis(a.diagnose, Path(a.out) / "bench_diagnosis", comm, doc=not a.no_doc)
+    if a.skip_runs:
+        return
+    base = load_case(a.case)
+    bench = read_csv(BENCH)
+    rows = []
+    for m in bench.measurements:
+        label = f"bench_{m.speed_rpm:g}rpm_{m.torque_Nm:g}Nm"
+        case = base.with_operating(speed_rpm=m.speed_rpm, torque_Nm=m.torque_Nm)
+        s = _run(case, Path(a.out) / label, comm)
+        ins = s.instruments
+        at = "900" if "900" in ins.camera else "end"
+        cam = ins.camera[at]
+        steady = ins.camera.get("steady")
+        th_at = s.thermal["at_times_C"].get(at, s.thermal["final_temperatures_C"])
+        other = s.thermal_other or {}
+        oth_at = other.get("at_times_C", {}).get(at, other.get("final_temperatures_C", {}))
+        top = ", ".join(f"{k} {v:.0%}" for k, v in list(cam.surface_fractions.items())[:3])
+        rows.append(
+            (
+                f"{m.speed_rpm:g} rpm, {m.torque_Nm:g} N m",
+                f"{m.value:.0f} ± {m.uncertainty:.1f}",
+                f"**{cam.max_C:.1f}**",
+                f"{cam.frame_max_range_C[0]:.1f}-{cam.frame_max_range_C[1]:.1f}",
+                f"{steady.max_C:.1f}" if steady else "",
+                top,
+                f"{th_at['max_surface']:.1f}",
+                f"{oth_at.get('max_surface', float('nan')):.1f}",
+                f"{th_at['mean_bulk']:.1f}",
+                f"{ins.torque.torque_loss_Nm:.3f} ± {ins.torque.u_torque_loss_Nm:.3f}"
+                if ins.torque
+                else "",
+                f"{ins.torque.efficiency:.4f}" if ins.torque else "",
+            )
+        )
+        if comm.rank == 0 and not a.no_doc:
+            src = Path(a.out) / label / "instruments" / f"thermogram_{at}.png"
+            shutil.copyfile(src, ROOT / "docs" / "images" / f"thermogram_{label}.png")
+    table = markdown_table(
+        (
+            "bench point",
+            "bench camera (C)",
+            "camera_max 900 s (C)",
+            "frames (C)",
+            "camera_max steady (C)",
+            "hottest pixel sees",
+            "max node pinion (C)",
+            "max node wheel (C)",
+            "bulk pinion (C)",
+            "torque loss (N m)",
+            "efficiency",
+        ),
+        rows,
+    )
+    note = (
+        f"\n\nCase {base.name!r}; camera: {base.instruments.camera.view} view, "
+        f"{base.instruments.camera.distance_m:g} m, emissivity setting "
+        f"{base.instruments.camera.emissivity_setting:g}, reflected "
+        f"{base.instruments.camera.reflected_C:g} C; bench uncertainty as in docs/diagnosis.md. "
+        f"Measured by `mpirun -n {comm.size} python demos/bench_camera.py` "
+        f"(1-minute load average {os.getloadavg()[0]:.1f} at the end)."
+    )
+    if comm.rank == 0:
+        print(table + note)
+        if not a.no_doc:
+            replace_block(ROOT / "docs" / "reproduction.md", "bench_camera", table + note)
+
+
+def _relative(path: Path) -> str:
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
+def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
+    """``gearfem diagnose`` of the bench file (as camera_max) against a case; its V&V 20 table
+    and verdict into docs/diagnosis.md."""
+    case = load_case(case_path)
+    data = read_csv(BENCH)
+    r = run_diagnosis(data, case, out, comm, max_size=1)
+    rows = [
+        (
+            row["measurement"],
+            f"{row['S_C']:.1f}",
+            f"{row['D_C']:.1f}",
+            f"{row['E_K']:+.1f}",
+            f"{row['u_num_K']:.2f}",
+            f"{row['u_input_K']:.2f}",
+            f"{row['u_D_K']:.2f}",
+            f"{row['u_val_K']:.2f}",
+            "yes" if row["resolved"] else "no",
+        )
+        for row in r.vv20["rows"]
+    ]
+    table = markdown_table(
+        (
+            "measurement",
+            "S (C)",
+            "D (C)",
+            "E (K)",
+            "u_num",
+            "u_input",
+            "u_D",
+            "u_val",
+            "|E| > 2 u_val",
+        ),
+        rows,
+    )
+    parts = "; ".join(
+        f"{k}: {', '.join(f'{v:.2f}' for v in vals)} K"
+        for k, vals in r.vv20["u_input_parts_K"].items()
+    )
+    g = r.diagnosis.gain
+    fit = r.diagnosis.chosen_fit
+    ps = ", ".join(f"{n} = {fit.params[n]:.3g}" for n in fit.candidates) or "none"
+    fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"
+    text = (
+        f"{table}\n\nCase {case.name!r} ({case_path}), thermal degree {case.thermal.degree}; "
+        f"u_num: {r.vv20['u_num_method']}; u_input parts: {parts}.\n\n"
+        f"**Verdict: {r.diagnosis.verdict.text}** Chosen: {fit.label} ({ps}); held-out RMS "
+        f"error {fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after. Measured by "
+        f"`mpirun -n {comm.size} python demos/bench_camera.py --diagnose {case_path} --skip-runs`"
+        f" (report: {_relative(out)}/report.md)."
+    )
+    if comm.rank == 0:
+        print(text)
+        if doc:
+            replace_block(ROOT / "docs" / "diagnosis.md", "bench_camera_diagnosis", text)
+
+
+if __name__ == "__main__":
+    main()

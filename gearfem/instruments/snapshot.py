@@ -1,0 +1,269 @@
+"""What a finished run keeps for its instruments: the temperature fields of the gears and the
+cycle's torques, independent of how many ranks computed them (numpy only).
+
+Per gear (:class:`BodyField`): the thermal mesh gathered on one rank, its nodes sorted by their
+coordinates (so the arrays are the same whatever the partition), the cells (10-node tetrahedra for
+a quadratic mesh, 4-node for a linear one), the boundary faces oriented outwards with the kind of
+surface each lies on (side_front, side_back, drive_flank, coast_flank, tip, root, bore, cut_start,
+cut_end), and the nodal temperatures at the reported times (labels: the output times as
+``"900"``, the end of the run ``"end"``, the steady state ``"steady"``). Coordinates are those of
+the mesh as built, in the pair frame (pinion axis = z axis, wheel axis through (a, 0, 0), face
+width z in [0, b]); the body's placement (centre, tooth-centre angles) comes with it, so that the
+periodic sector can be completed to the whole gear by rotation.
+
+The pair (:class:`FieldSnapshot`): the gears' fields, the reported times, the operating point and
+the cycle's torque histories (:class:`CycleTorques`). Written next to ``summary.json`` as
+``instruments/snapshot.npz`` by ``gearfem run``; ``gearfem observe`` evaluates instruments on it
+without solving again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gearfem.core.errors import ParameterError
+
+KINDS = (
+    "side_front",
+    "side_back",
+    "drive_flank",
+    "coast_flank",
+    "tip",
+    "root",
+    "bore",
+    "cut_start",
+    "cut_end",
+)
+FORMAT_VERSION = 1
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BodyField:
+    """One gear's thermal mesh and temperatures (see the module docstring).
+
+    Attributes:
+        body: ``"pinion"`` or ``"wheel"``.
+        nodes_m: (n, 3) node coordinates, pair frame, sorted lexicographically.
+        cells: (c, 10) or (c, 4) node indices of the tetrahedra (basix order: vertices, then the
+            edges (2,3), (1,3), (1,2), (0,3), (0,2), (0,1)).
+        faces: (f, 6) or (f, 3) node indices of the boundary faces (vertices, then the edges
+            (1,2), (0,2), (0,1)), counter-clockwise seen from outside.
+        face_kind: (f,) index into :data:`KINDS` of each face.
+        temperature_K: (labels, n) nodal temperatures at the snapshot's labels.
+        center_m: Centre of the body (on its axis at z = 0), pair frame.
+        tooth_angles_rad: Centre-line angles of the modelled teeth about the centre.
+        teeth: Teeth of the whole gear.
+        rotation_sense: +1 counter-clockwise about +z (the pinion), -1 clockwise (the wheel).
+        speed_rpm: The body's speed.
+        emissivity: The thermal model's radiation emissivity of the surfaces.
+        temperatures_C: The thermal model's reported temperatures at each label (max_surface,
+            mean_bulk, flank_mean, ...).
+    """
+
+    body: str
+    nodes_m: np.ndarray
+    cells: np.ndarray
+    faces: np.ndarray
+    face_kind: np.ndarray
+    temperature_K: np.ndarray
+    center_m: np.ndarray
+    tooth_angles_rad: np.ndarray
+    teeth: int
+    rotation_sense: int
+    speed_rpm: float
+    emissivity: float
+    temperatures_C: dict[str, dict[str, float]]
+
+    @property
+    def pitch_rad(self) -> float:
+        return 2.0 * math.pi / self.teeth
+
+    @property
+    def full(self) -> bool:
+        """True when the mesh is the whole gear (no cut faces)."""
+        return len(self.tooth_angles_rad) == self.teeth
+
+    @property
+    def central_tooth(self) -> int:
+        """The tooth in the middle of the sector: furthest from the adiabatic cut faces."""
+        return len(self.tooth_angles_rad) // 2
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CycleTorques:
+    """The torques of the structural cycle (per position; per unit pinion speed where noted).
+
+    ``pinion_torque_Nm``: the torque driving the pinion at each position; ``resisting_torque_Nm``
+    the constant torque holding the wheel; ``speed_ratio`` = ω₂/ω₁ = z₁/z₂;
+    ``friction_power_W_per_rad_s``: ∫ μ p v_s dA per unit ω₁ at each position.
+    """
+
+    pinion_torque_Nm: np.ndarray
+    resisting_torque_Nm: float
+    speed_ratio: float
+    friction_power_W_per_rad_s: np.ndarray
+    friction_coefficient: float
+
+    @classmethod
+    def of(cls, cycle) -> CycleTorques:
+        """From a :class:`gearfem.cycle.result.CycleResult`."""
+        return cls(
+            pinion_torque_Nm=np.asarray(cycle.pinion_torque_Nm, dtype=float),
+            resisting_torque_Nm=float(cycle.torque_Nm),
+            speed_ratio=float(cycle.info["speed_ratio"]),
+            friction_power_W_per_rad_s=np.asarray(cycle.friction_power_W_per_rad_s, dtype=float),
+            friction_coefficient=float(cycle.friction_coefficient),
+        )
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FieldSnapshot:
+    """The fields and torques a run's instruments read (see the module docstring).
+
+    Attributes:
+        labels: The reported times' labels, in order; ``times_s`` their times (None: steady).
+        bodies: The gears' fields by body name.
+        pinion_speed_rpm: Operating speed of the pinion.
+        face_width_m: Face width b.
+        ambient_C: The thermal model's ambient (air and surroundings).
+        torques: The cycle's torques (None: prescribed sources, no cycle).
+        case: Name of the case.
+    """
+
+    labels: tuple[str, ...]
+    times_s: tuple[float | None, ...]
+    bodies: dict[str, BodyField]
+    pinion_speed_rpm: float
+    face_width_m: float
+    ambient_C: float
+    torques: CycleTorques | None = None
+    case: str = ""
+
+    def __post_init__(self) -> None:
+        if len(self.labels) != len(self.times_s):
+            raise ValueError("one time per label")
+        for b in self.bodies.values():
+            if b.temperature_K.shape != (len(self.labels), len(b.nodes_m)):
+                raise ValueError(f"{b.body}: temperatures of shape (labels, nodes) expected")
+
+    def label_index(self, label: str) -> int:
+        if label not in self.labels:
+            raise ParameterError("time label", label, "one of " + ", ".join(self.labels))
+        return self.labels.index(label)
+
+    def label_of(self, time_s: float | None) -> str:
+        """The label of a reported time: None is the end value (the steady state when the run
+        computed one, else the end of the run); a time is the output time it equals."""
+        if time_s is None:
+            return "steady" if "steady" in self.labels else "end"
+        for lab, t in zip(self.labels, self.times_s):
+            if t is not None and abs(t - time_s) <= 1e-6 * max(1.0, abs(time_s)):
+                return lab
+        raise ParameterError(
+            "time_s",
+            time_s,
+            "a reported time of the run: "
+            + ", ".join(f"{t:g} s" for t in self.times_s if t is not None),
+        )
+
+    # --- storage ----------------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Write as one ``.npz`` (atomically: a temporary file, then a rename)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays: dict[str, np.ndarray] = {}
+        meta: dict[str, Any] = {
+            "format": FORMAT_VERSION,
+            "labels": list(self.labels),
+            "times_s": list(self.times_s),
+            "pinion_speed_rpm": self.pinion_speed_rpm,
+            "face_width_m": self.face_width_m,
+            "ambient_C": self.ambient_C,
+            "case": self.case,
+            "bodies": {},
+            "torques": None,
+        }
+        for name, b in self.bodies.items():
+            for key in ("nodes_m", "cells", "faces", "face_kind", "temperature_K"):
+                arrays[f"{name}.{key}"] = np.asarray(getattr(b, key))
+            arrays[f"{name}.center_m"] = np.asarray(b.center_m, dtype=float)
+            arrays[f"{name}.tooth_angles_rad"] = np.asarray(b.tooth_angles_rad, dtype=float)
+            meta["bodies"][name] = {
+                "teeth": b.teeth,
+                "rotation_sense": b.rotation_sense,
+                "speed_rpm": b.speed_rpm,
+                "emissivity": b.emissivity,
+                "temperatures_C": b.temperatures_C,
+            }
+        if self.torques is not None:
+            t = self.torques
+            arrays["torques.pinion_torque_Nm"] = t.pinion_torque_Nm
+            arrays["torques.friction_power_W_per_rad_s"] = t.friction_power_W_per_rad_s
+            meta["torques"] = {
+                "resisting_torque_Nm": t.resisting_torque_Nm,
+                "speed_ratio": t.speed_ratio,
+                "friction_coefficient": t.friction_coefficient,
+            }
+        arrays["meta"] = np.array(json.dumps(meta))
+        tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.npz")
+        np.savez_compressed(tmp, **arrays)
+        os.replace(tmp, path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> FieldSnapshot:
+        path = Path(path)
+        if not path.is_file():
+            raise ParameterError(
+                "snapshot", str(path), "the instruments/snapshot.npz of a finished gearfem run"
+            )
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+            if meta.get("format") != FORMAT_VERSION:
+                raise ParameterError(
+                    "snapshot format", meta.get("format"), str(FORMAT_VERSION), "re-run the case"
+                )
+            bodies = {}
+            for name, m in meta["bodies"].items():
+                bodies[name] = BodyField(
+                    body=name,
+                    nodes_m=z[f"{name}.nodes_m"],
+                    cells=z[f"{name}.cells"],
+                    faces=z[f"{name}.faces"],
+                    face_kind=z[f"{name}.face_kind"],
+                    temperature_K=z[f"{name}.temperature_K"],
+                    center_m=z[f"{name}.center_m"],
+                    tooth_angles_rad=z[f"{name}.tooth_angles_rad"],
+                    teeth=int(m["teeth"]),
+                    rotation_sense=int(m["rotation_sense"]),
+                    speed_rpm=float(m["speed_rpm"]),
+                    emissivity=float(m["emissivity"]),
+                    temperatures_C=m["temperatures_C"],
+                )
+            torques = None
+            if meta["torques"] is not None:
+                t = meta["torques"]
+                torques = CycleTorques(
+                    pinion_torque_Nm=z["torques.pinion_torque_Nm"],
+                    resisting_torque_Nm=float(t["resisting_torque_Nm"]),
+                    speed_ratio=float(t["speed_ratio"]),
+                    friction_power_W_per_rad_s=z["torques.friction_power_W_per_rad_s"],
+                    friction_coefficient=float(t["friction_coefficient"]),
+                )
+        return cls(
+            labels=tuple(meta["labels"]),
+            times_s=tuple(meta["times_s"]),
+            bodies=bodies,
+            pinion_speed_rpm=float(meta["pinion_speed_rpm"]),
+            face_width_m=float(meta["face_width_m"]),
+            ambient_C=float(meta["ambient_C"]),
+            torques=torques,
+            case=str(meta["case"]),
+        )
