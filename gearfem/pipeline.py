@@ -254,13 +254,22 @@ def thermal(
 
 
 def reported_quantities(
-    thermal: dict[str, Any], cycle: CycleAtSpeed | None
+    thermal: dict[str, Any],
+    cycle: CycleAtSpeed | None,
+    readings: InstrumentReadings | None = None,
 ) -> dict[str, tuple[float, str]]:
     """The quantities a run reports and a refinement study follows, name -> (value, unit): every
-    temperature of the thermal summary at the end of the run and, with a cycle, its friction
-    power, effective contact ratio, pitch-point and largest pressures and mean transmission
-    error."""
+    temperature of the thermal summary at the end of the run, the instruments' readings at the end
+    (``camera_max``, ``probe:NAME``, ``torque_loss_Nm``) and, with a cycle, its friction power,
+    effective contact ratio, pitch-point and largest pressures and mean transmission error."""
     out = {q: (v, "C") for q, v in thermal.get("final_temperatures_C", {}).items()}
+    if readings is not None:
+        if "end" in readings.camera:
+            out["camera_max"] = (readings.camera["end"].max_C, "C")
+        for name, probe in readings.probes.get("end", {}).items():
+            out[f"probe:{name}"] = (probe.value_C, "C")
+        if readings.torque is not None:
+            out["torque_loss_Nm"] = (readings.torque.torque_loss_Nm, "N m")
     if cycle is not None:
         out.update(
             friction_power_W=(cycle.friction_power_W, "W"),
@@ -619,6 +628,7 @@ def friction_outputs(
         src.heat_partition,
         src.heat_fractions(case.materials)[body],
         case.friction.contact_temperature,
+        src.flux_smoothing_m,
     )
     state = evaluate_at(problem, model)
     out = friction_summary(model, state)
@@ -764,7 +774,9 @@ def run(
     at_speed = None
     if cyc is not None:
         at_speed = CycleAtSpeed.of(cyc, case.operating.speed_rpm, CycleCache(str(cdir), cached))
-    unc = run_uncertainty(case, {q: v for q, (v, _) in reported_quantities(th, at_speed).items()})
+    unc = run_uncertainty(
+        case, {q: v for q, (v, _) in reported_quantities(th, at_speed, readings).items()}
+    )
     summary = RunSummary(
         case=case.name,
         speed_rpm=case.operating.speed_rpm,
@@ -807,6 +819,8 @@ def headline(
             ("mean_bulk_temperature_C", "mean_bulk"),
             ("friction_power_W", "friction_power_W"),
             ("effective_contact_ratio", "effective_contact_ratio"),
+            ("camera_max_C", "camera_max"),
+            ("torque_loss_Nm", "torque_loss_Nm"),
         ):
             if uncertainty.u_num(q) is not None:
                 u_num[field] = uncertainty.u_num(q)

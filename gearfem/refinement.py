@@ -47,6 +47,7 @@ from gearfem.core.io import prepare_output, write_json
 from gearfem.core.params import require_choice, require_range
 from gearfem.core.results import JsonRecord
 from gearfem.geometry.options import MeshOptions
+from gearfem.instruments.evaluate import evaluate
 from gearfem.uncertainty import StudyUncertainty, resolution_key, store_study
 
 LEVELS = 3
@@ -142,20 +143,37 @@ def refined_contact_zone(options: MeshOptions, factor: float) -> MeshOptions:
 def level_case(case: Case, kind: str, factor: float) -> Case:
     """The case refined by ``factor`` (>= 1) in direction ``kind``. The thermal mesh is pinned to
     the case's (``[thermal_mesh]``, or ``[mesh]`` when absent) in every kind but ``thermal_mesh``,
-    so that refining the structural mesh does not refine the thermal one with it."""
+    so that refining the structural mesh does not refine the thermal one with it. The
+    reconstruction of the cycle's facet flux (``[sources] flux_smoothing_*_mm``) is part of the
+    structural discretisation: its profile width shrinks with the structural flank size and with
+    the positions' spacing (the contact zone's refinement keeps the layers, and the axial width)."""
     require_choice("refinement kind", kind, KINDS)
     pinned = dataclasses.replace(case, thermal_mesh=case.thermal_mesh_options)
     if kind == "thermal_mesh":
         return dataclasses.replace(
             case, thermal_mesh=refined_mesh(case.thermal_mesh_options, factor)
         )
-    if kind == "structural_mesh":
-        return dataclasses.replace(pinned, mesh=refined_contact_zone(case.mesh, factor))
+    src = case.sources
+    if kind == "structural_mesh":  # the flux reconstruction shrinks with the facets it smooths
+        smooth = dataclasses.replace(
+            src, flux_smoothing_profile_mm=src.flux_smoothing_profile_mm / factor
+        )
+        return dataclasses.replace(
+            pinned, mesh=refined_contact_zone(case.mesh, factor), sources=smooth
+        )
     if kind == "tip":
         mesh = dataclasses.replace(case.mesh, size_tip_mm=case.mesh.size_tip_mm / factor)
         return dataclasses.replace(pinned, mesh=mesh)
     n = round(case.cycle.positions_per_pitch * factor)
-    return dataclasses.replace(pinned, cycle=dataclasses.replace(case.cycle, positions_per_pitch=n))
+    smooth = dataclasses.replace(  # and with the spacing of the positions along the profile
+        src,
+        flux_smoothing_profile_mm=src.flux_smoothing_profile_mm
+        * case.cycle.positions_per_pitch
+        / n,
+    )
+    return dataclasses.replace(
+        pinned, cycle=dataclasses.replace(case.cycle, positions_per_pitch=n), sources=smooth
+    )
 
 
 def _size_and_setting(case: Case, kind: str, thermal: dict, cycle) -> tuple[float, int, dict]:
@@ -192,13 +210,17 @@ def refinement_study(
         cyc = cyc_fixed
         if cyc is None and c.sources.mode == "cycle":
             cyc, _, _ = pipeline.cycle(c, comm)
-        th = pipeline.thermal(
+        # the thermal models the instruments read (both gears with the camera) and the readings
+        th, _, snapshot = pipeline.observed_thermal(
             c, out / f"level{level}", comm, cyc, write_fields=False, steady=False, write_plot=False
         )
+        readings = None
+        if comm.bcast(snapshot is not None, root=0):
+            readings = pipeline.on_root(comm, lambda: evaluate(c.instruments, snapshot))
         at_speed = pipeline.CycleAtSpeed.of(cyc, c.operating.speed_rpm) if cyc else None
         size, dofs, setting = _size_and_setting(c, kind, th, cyc)
         levels.append(RefinementLevel(level, size, dofs, setting))
-        quantities.append(pipeline.reported_quantities(th, at_speed))
+        quantities.append(pipeline.reported_quantities(th, at_speed, readings))
     formal = case.thermal.degree + 1.0 if kind == "thermal_mesh" else None
     rows = []
     for q, (_, unit) in quantities[0].items():

@@ -83,6 +83,10 @@ def resolution_key(case: Case) -> str:
         },
         "thermal": {k: thermal[k] for k in _THERMAL_RESOLUTION if k in thermal},
         "contact": {k: contact[k] for k in _CONTACT_RESOLUTION if k in contact},
+        "flux_smoothing_mm": [
+            case.sources.flux_smoothing_profile_mm,
+            case.sources.flux_smoothing_axial_mm,
+        ],
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 

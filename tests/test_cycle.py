@@ -225,6 +225,14 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     heat_t = _flank_heat(dt, st)
     assert dt.mesh.topology.index_map(3).size_global != dom.mesh.topology.index_map(3).size_global
     assert heat_t == pytest.approx(heat, rel=1e-10)
+    # without the reconstruction of the facet flux: the same heat, a less even flux
+    raw = SourceOptions(flux_smoothing_profile_mm=0.0, flux_smoothing_axial_mm=0.0)
+    sr = cycle_heat_sources(dt, gt, "pinion", back, raw, case.materials, speed)
+    assert _flank_heat(dt, sr) == pytest.approx(heat, rel=1e-10)
+    q_raw, q_smooth = sr.flank_flux_W_m2.x.array, st.flank_flux_W_m2.x.array
+    assert comm.allreduce(q_raw.max(), op=MPI.MAX) > 1.05 * comm.allreduce(
+        q_smooth.max(), op=MPI.MAX
+    )
 
 
 def _flank_heat(domain, sources) -> float:

@@ -56,7 +56,12 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
     resolution = [
         level_case(case, kind, 1.5)
         for kind in ("thermal_mesh", "structural_mesh", "positions", "tip")
-    ] + [dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, degree=1))]
+    ] + [
+        dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, degree=1)),
+        dataclasses.replace(
+            case, sources=dataclasses.replace(case.sources, flux_smoothing_axial_mm=3.0)
+        ),
+    ]
     keys = {resolution_key(c) for c in resolution}
     assert key not in keys and len(keys) == len(resolution)
 
@@ -68,11 +73,18 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     assert s.mesh.size_flank_mm == pytest.approx(case.mesh.size_flank_mm / 2)
     assert s.mesh.layers == case.mesh.layers and s.mesh.size_body_mm == case.mesh.size_body_mm
     assert s.thermal_mesh_options == case.mesh  # the thermal mesh does not follow
+    # the reconstruction of the facet flux follows the facets and the positions' spacing
+    src = case.sources
+    assert s.sources.flux_smoothing_profile_mm == pytest.approx(src.flux_smoothing_profile_mm / 2)
+    assert s.sources.flux_smoothing_axial_mm == src.flux_smoothing_axial_mm
     t = level_case(case, "tip", 2.0)
     assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
     assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
     p = level_case(case, "positions", 1.5)
     assert p.cycle.positions_per_pitch == 18 and p.thermal_mesh_options == case.mesh
+    assert p.sources.flux_smoothing_profile_mm == pytest.approx(
+        src.flux_smoothing_profile_mm * 12 / 18
+    )
     th = level_case(case, "thermal_mesh", 1.5)
     assert th.mesh == case.mesh and th.thermal_mesh.layers == 3
 

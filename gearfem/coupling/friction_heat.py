@@ -496,13 +496,14 @@ class ThermalFrictionFlux:
     :class:`gearfem.thermal.source_terms.SurfaceFluxModel` on the thermal mesh of one gear.
 
     Targets are the local cells next to the flanks
-    (:class:`gearfem.coupling.transfer.FlankTransfer`); each flank facet takes the points of its
-    reference facet, weighted by the revolution average, the heat partition, the per-tooth geometric
-    scale of the transfer (computed once from the law-independent flux per unit mu) and the facet's
-    share of its cell's flank area. Groups are a band on one thermal tooth: its flash temperature is
-    solved on that tooth's flank temperatures. ``update`` (collective) fills :attr:`value` and
-    :attr:`slope`; :attr:`state` keeps the last evaluation (mu, contact and flash temperatures per
-    point) for the outputs.
+    (:class:`gearfem.coupling.transfer.FlankTransfer`); each flank facet takes the points of the
+    reference facets it is linked to (its nearest, or with the flux reconstruction its neighbours
+    with their weights), weighted by the revolution average, the heat partition, the per-tooth
+    geometric scale of the transfer (computed once from the law-independent flux per unit mu) and
+    the facet's share of its cell's flank area. Groups are a band on one thermal tooth: its flash
+    temperature is solved on that tooth's flank temperatures. ``update`` (collective) fills
+    :attr:`value` and :attr:`slope`; :attr:`state` keeps the last evaluation (mu, contact and flash
+    temperatures per point) for the outputs.
     """
 
     def __init__(
@@ -532,17 +533,18 @@ class ThermalFrictionFlux:
         # CSR of the reference instances by reference facet
         order = np.argsort(ref.target, kind="stable")
         starts = np.searchsorted(ref.target[order], np.arange(ref.num_targets + 1))
-        f_all = np.arange(len(transfer.ref))
-        cnt = starts[transfer.ref + 1] - starts[transfer.ref]
-        f = np.repeat(f_all, cnt)
+        # every link (thermal facet, reference facet, weight) takes that reference facet's points
+        lf, lj, lw = transfer.links
+        cnt = starts[lj + 1] - starts[lj]
+        f = np.repeat(lf, cnt)
         offs = np.arange(len(f)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        r = order[np.repeat(starts[transfer.ref], cnt) + offs]
+        r = order[np.repeat(starts[lj], cnt) + offs]
         nt = transfer.num_teeth
         share = transfer.area / np.where(transfer.cell_area > 0, transfer.cell_area, 1.0)
         inst = Instances(
             point=ref.point[r],
             target=transfer.cells[f],
-            weight=ref.weight[r] * scale[transfer.tooth[f]] * share[f],
+            weight=ref.weight[r] * np.repeat(lw, cnt) * scale[transfer.tooth[f]] * share[f],
             group=ref.group[r] * nt + transfer.tooth[f],
             group_band=np.repeat(np.arange(bands.num_bands), nt),
             num_targets=transfer.num_cells,

@@ -74,22 +74,24 @@ def friction_flux_function(
     heat_fraction: float,
     kinds: tuple[str, ...] = FLANK_KINDS,
     reference_flux_W_m2: np.ndarray | None = None,
+    smoothing_m: tuple[float, float] | None = None,
 ):
     """DG0 flank flux (W/m²) into this gear on the cells next to the contact surfaces, and those
     surfaces' names: ``heat_fraction`` of the generated flux at pinion speed ``omega1_rad_s``
     (or, if given, ``reference_flux_W_m2`` per reference facet, already at the speed and split).
 
-    Each facet of the drive flanks, tips and roots takes the reference facet nearest to its
-    congruent place; every tooth's total is then scaled to the reference tooth's heat
+    The reference flux is reconstructed with the Gaussian ``smoothing_m`` (None: as the cycle
+    gives it); each facet of the drive flanks, tips and roots takes the reference facet nearest to
+    its congruent place; every tooth's total is then scaled to the reference tooth's heat
     (:mod:`gearfem.coupling.transfer`). Collective (totals are reduced).
     """
-    tr = FlankTransfer(domain, gear_mesh, body, fields, kinds)
+    tr = FlankTransfer(domain, gear_mesh, body, fields, kinds, smoothing_m)
     if reference_flux_W_m2 is None:
         q_ref = heat_fraction * fields.generated_flux_W_m2_per_rad_s * omega1_rad_s
     else:
         q_ref = np.asarray(reference_flux_W_m2, dtype=float)
     scale = tr.tooth_scale(q_ref)
-    q = q_ref[tr.ref] * scale[tr.tooth]
+    q = tr.sample(q_ref) * scale[tr.tooth]
     return tr.function(q, "flank_flux"), tr.names
 
 
@@ -131,6 +133,7 @@ def cycle_heat_sources(
             hysteresis_scale=options.hysteresis_scale,
         )
     friction = friction or FrictionOptions()
+    smooth = options.flux_smoothing_m
     if options.friction and cycle.friction_coefficient > 0.0:
         law = friction.law_for(cycle.friction_coefficient)
         kw["flux_scale"] = options.flux_scale
@@ -139,7 +142,9 @@ def cycle_heat_sources(
             and law.mu0 == cycle.friction_coefficient
             and (options.heat_partition == "fixed")
         ):
-            flux, names = friction_flux_function(domain, gear_mesh, body, fields, omega1, fraction)
+            flux, names = friction_flux_function(
+                domain, gear_mesh, body, fields, omega1, fraction, smoothing_m=smooth
+            )
             kw.update(flank_flux_W_m2=flux, flux_surfaces=names)
         elif not law.depends_on_temperature:
             q_ref, _, _ = reference_flux(
@@ -154,12 +159,19 @@ def cycle_heat_sources(
                 "flank",
             )
             flux, names = friction_flux_function(
-                domain, gear_mesh, body, fields, omega1, 1.0, reference_flux_W_m2=q_ref
+                domain,
+                gear_mesh,
+                body,
+                fields,
+                omega1,
+                1.0,
+                reference_flux_W_m2=q_ref,
+                smoothing_m=smooth,
             )
             kw.update(flank_flux_W_m2=flux, flux_surfaces=names)
         else:
             kw["flank_flux_model"] = ThermalFrictionFlux(
-                FlankTransfer(domain, gear_mesh, body, fields),
+                FlankTransfer(domain, gear_mesh, body, fields, smoothing_m=smooth),
                 cycle,
                 body,
                 law,

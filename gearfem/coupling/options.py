@@ -42,6 +42,17 @@ class SourceOptions:
             b1 sqrt(v1)/(b1 sqrt(v1) + b2 sqrt(v2)), so the faster-rolling flank takes more).
             Mode "cycle" only (:mod:`gearfem.coupling.friction_heat`).
         hysteresis_scale, flux_scale: Multipliers (model-discrepancy hooks).
+        flux_smoothing_profile_mm, flux_smoothing_axial_mm: Standard deviations (mm) of the
+            Gaussian with which the cycle's friction flux, a value per structural facet summed
+            over discrete positions, is spread over the neighbouring facets before it goes to the
+            thermal mesh (in the flank's plane and along the face width; conservative: every
+            facet's heat is kept). The contact sweeps the flank continuously; the cycle samples it
+            at ``positions_per_pitch`` positions on facets of ``[mesh] size_flank_mm`` and
+            ``layers``, and without the reconstruction the finer thermal meshes resolve that
+            sampling (a comb of bands one facet wide) instead of the heat. Of the order of the
+            structural flank element and a third of a layer; refined with the structural mesh
+            (``gearfem converge --kind structural_mesh`` scales them). 0: none (piecewise constant
+            per structural facet).
         flank_heat_per_gear_W, u_max_J_m3, flanks: Prescribed mode only (see
             :class:`gearfem.thermal.source_terms.PrescribedSources`).
     """
@@ -57,6 +68,8 @@ class SourceOptions:
     flank_heat_per_gear_W: float = 0.0
     u_max_J_m3: float = 0.0
     flanks: str = "drive"
+    flux_smoothing_profile_mm: float = 0.1
+    flux_smoothing_axial_mm: float = 1.5
 
     def __post_init__(self) -> None:
         require_choice("sources.mode", self.mode, ("cycle", "prescribed"))
@@ -65,6 +78,14 @@ class SourceOptions:
             require_range("sources.heat_fraction_pinion", self.heat_fraction_pinion, 0.0, 1.0)
         require_nonnegative("sources.hysteresis_scale", self.hysteresis_scale)
         require_nonnegative("sources.flux_scale", self.flux_scale)
+        require_range("sources.flux_smoothing_profile_mm", self.flux_smoothing_profile_mm, 0.0, 5.0)
+        require_range("sources.flux_smoothing_axial_mm", self.flux_smoothing_axial_mm, 0.0, 50.0)
+        if (self.flux_smoothing_profile_mm == 0.0) != (self.flux_smoothing_axial_mm == 0.0):
+            raise ParameterError(
+                "sources.flux_smoothing_profile_mm",
+                (self.flux_smoothing_profile_mm, self.flux_smoothing_axial_mm),
+                "both > 0 (smoothed) or both 0 (piecewise constant per structural facet)",
+            )
         require_choice("sources.heat_partition", self.heat_partition, HEAT_PARTITIONS)
         if self.mode == "prescribed" and self.heat_partition != "fixed":
             raise ParameterError(
@@ -84,6 +105,13 @@ class SourceOptions:
             hysteresis_scale=self.hysteresis_scale,
             flux_scale=self.flux_scale,
         )
+
+    @property
+    def flux_smoothing_m(self) -> tuple[float, float] | None:
+        """(profile, axial) standard deviations of the flux reconstruction (m), None: none."""
+        if self.flux_smoothing_profile_mm == 0.0:
+            return None
+        return (self.flux_smoothing_profile_mm * 1e-3, self.flux_smoothing_axial_mm * 1e-3)
 
     def heat_fractions(self, materials: dict[str, Material]) -> dict[str, float]:
         """Share of the friction heat generated in the mesh that flows into each gear:

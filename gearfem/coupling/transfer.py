@@ -1,16 +1,26 @@
 """Carrying a flux of the cycle's reference tooth onto the flank facets of the thermal mesh.
 
-The cycle gives a flux per facet of one reference tooth sector (body frame, as built). Each flank
-facet of the thermal mesh (drive flanks, tips, roots) takes the reference facet nearest to its
-congruent place (its centroid rotated by whole pitches into the reference sector); every tooth's
-total is then scaled to the reference tooth's heat (a purely geometric correction for meshes that
-are not rotated copies of each other), so the heat put in is conserved to round-off. Cells next to
-the facets carry their facets' area-weighted mean (DG0).
+The cycle gives a flux per facet of one reference tooth sector (body frame, as built), summed
+over discrete positions. It is first reconstructed as a smoother field on the reference facets
+(optional, ``[sources] flux_smoothing_*_mm``): every reference facet j spreads its heat q_j A_j
+over its neighbours i with Gaussian weights A_i K(x_i - x_j) normalised over the neighbours, so
+
+    q̃_i = Σ_j S_ij q_j,   S_ij = A_j K_ij / Σ_k A_k K_kj,   Σ_i A_i q̃_i = Σ_j A_j q_j,
+
+with K anisotropic (standard deviations σ_p in the flank's plane, σ_z along the face width, cut at
+3σ). Each flank facet of the thermal mesh (drive flanks, tips, roots) then takes the reference
+facet nearest to its congruent place (its centroid rotated by whole pitches into the reference
+sector); every tooth's total is scaled to the reference tooth's heat (a purely geometric correction
+for meshes that are not rotated copies of each other), so the heat put in is conserved to
+round-off for any pair of meshes. Cells next to the facets carry their facets' area-weighted mean
+(DG0). The links (thermal facet, reference facet, weight) of :attr:`FlankTransfer.links` are the
+rows S[ref(f), :], shared by the static and the temperature-dependent friction fluxes.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sps
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
@@ -23,6 +33,28 @@ from gearfem.geometry.mesh import parse_group_name
 # the heat assembled with this rule equals the target to round-off (degree 2 left 2e-6).
 AREA_QUADRATURE_DEGREE = 6
 FLANK_KINDS = ("drive_flank", "tip", "root")
+#: Kernel cut-off of the reconstruction, in standard deviations.
+SMOOTHING_CUTOFF = 3.0
+
+
+def smoothing_operator(
+    points_m: np.ndarray, area_m2: np.ndarray, sigma_m: tuple[float, float] | None
+) -> sps.csr_matrix:
+    """The conservative reconstruction S (module docstring) on facets at ``points_m`` (tooth-local,
+    z along the axis) with areas ``area_m2``; the identity for ``sigma_m`` None."""
+    n = len(area_m2)
+    if sigma_m is None:
+        return sps.identity(n, format="csr")
+    sp_, sz = sigma_m
+    y = np.asarray(points_m) / np.array([sp_, sp_, sz])
+    tree = cKDTree(y)
+    pairs = tree.query_pairs(SMOOTHING_CUTOFF, output_type="ndarray")
+    i = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(n)])
+    j = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(n)])
+    k = np.exp(-0.5 * np.sum((y[i] - y[j]) ** 2, axis=1))
+    norm = np.bincount(j, weights=area_m2[i] * k, minlength=n)  # Σ_k A_k K_kj
+    w = area_m2[j] * k / norm[j]
+    return sps.csr_matrix((w, (i, j)), shape=(n, n))
 
 
 def tooth_local(
@@ -46,10 +78,19 @@ class FlankTransfer:
     Attributes: ``names`` (facet groups), ``cells``/``local_facet`` (cell and local facet of every
     owned flank facet), ``area`` (m²), ``centroid`` (m), ``ref`` (reference facet index),
     ``tooth`` (thermal tooth index), ``num_teeth``, ``Q`` (the DG0 space), ``num_cells`` (local,
-    owned and ghost), ``cell_area`` (flank area of each facet's cell).
+    owned and ghost), ``cell_area`` (flank area of each facet's cell), ``smoother`` (S on the
+    reference facets), ``links`` (facet, reference facet, weight: the rows S[ref, :]).
     """
 
-    def __init__(self, domain, gear_mesh, body: str, fields, kinds=FLANK_KINDS) -> None:
+    def __init__(
+        self,
+        domain,
+        gear_mesh,
+        body: str,
+        fields,
+        kinds=FLANK_KINDS,
+        smoothing_m: tuple[float, float] | None = None,
+    ) -> None:
         from dolfinx import fem
 
         mesh = domain.mesh
@@ -99,6 +140,11 @@ class FlankTransfer:
         _, j = cKDTree(fields.facet_points_m - fields.center_m).query(xl)
         self.cells, self.local_facet = cf[:, 0], cf[:, 1]
         self.area, self.centroid, self.ref, self.tooth = area, xc, j, tooth
+        self.smoother = smoothing_operator(
+            fields.facet_points_m - fields.center_m, fields.facet_area_m2, smoothing_m
+        )
+        rows = self.smoother[j].tocoo()
+        self.links = (rows.row.astype(np.int64), rows.col.astype(np.int64), rows.data)
         self.num_teeth = len(angles)
         self.Q = fem.functionspace(mesh, ("DG", 0))
         imap = mesh.topology.index_map(tdim)
@@ -110,12 +156,16 @@ class FlankTransfer:
     def tooth_scale(self, q_ref: np.ndarray) -> np.ndarray:
         """Per thermal tooth: the factor that makes its heat, with the facet flux ``q_ref[ref]``,
         equal the reference tooth's Σ q_ref A_ref (collective)."""
-        q = q_ref[self.ref]
+        q = self.sample(q_ref)
         tooth_heat = self.comm.allreduce(
             np.bincount(self.tooth, weights=q * self.area, minlength=self.num_teeth), op=MPI.SUM
         )
         target = float(np.sum(q_ref * self.fields.facet_area_m2))
         return np.where(tooth_heat > 0, target / np.where(tooth_heat > 0, tooth_heat, 1.0), 0.0)
+
+    def sample(self, q_ref: np.ndarray) -> np.ndarray:
+        """The reconstructed reference flux at every owned flank facet (before the tooth scale)."""
+        return (self.smoother @ np.asarray(q_ref, dtype=float))[self.ref]
 
     def cell_values(self, q_facet: np.ndarray) -> np.ndarray:
         """Area-weighted mean of a facet quantity per local cell (0 off the flanks)."""
@@ -133,4 +183,11 @@ class FlankTransfer:
         return fn
 
 
-__all__ = ["AREA_QUADRATURE_DEGREE", "FLANK_KINDS", "FlankTransfer", "tooth_local"]
+__all__ = [
+    "AREA_QUADRATURE_DEGREE",
+    "FLANK_KINDS",
+    "SMOOTHING_CUTOFF",
+    "FlankTransfer",
+    "smoothing_operator",
+    "tooth_local",
+]
