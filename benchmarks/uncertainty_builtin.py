@@ -31,9 +31,23 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.config import load_case
 from gearfem.core.doctables import replace_block
-from gearfem.core.io import write_json
-from gearfem.refinement import KINDS, markdown, refinement_study, study_uncertainty
+from gearfem.core.io import read_json, write_json
+from gearfem.refinement import (
+    KINDS,
+    RefinementStudy,
+    markdown,
+    refinement_study,
+    study_uncertainty,
+)
+from gearfem.uncertainty import resolution_key
 
+#: The docs/refinement.md block of each kind.
+BLOCKS = {
+    "thermal_mesh": "refinement_thermal_mesh",
+    "structural_mesh": "refinement_structural_mesh",
+    "positions": "refinement_positions",
+    "tip": "refinement_tip",
+}
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "gearfem" / "data" / "uncertainty"
 DOC = ROOT / "docs" / "refinement.md"
@@ -44,12 +58,35 @@ def main() -> None:
     p.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     p.add_argument("--factor", type=float, default=1.5)
     p.add_argument("--out", default="results/uncertainty")
+    p.add_argument(
+        "--file-only",
+        action="store_true",
+        help="do not run: file the finished studies found in OUT/<kind> (their refinement.json, "
+        "written last by a complete study) and write their tables",
+    )
+    p.add_argument("--note", help="with --file-only: how the study was run (the table's caption)")
     args = p.parse_args()
     comm = MPI.COMM_WORLD
     case = load_case(None)
     for kind in args.kinds:
         t0 = time.perf_counter()
-        study = refinement_study(case, Path(args.out) / kind, comm, kind=kind, factor=args.factor)
+        if args.file_only and not (Path(args.out) / kind / "refinement.json").is_file():
+            # an incomplete study (e.g. a cycle that did not converge): say so in its block
+            if comm.rank == 0:
+                text = f"No complete {kind} study in {args.out}/{kind}"
+                replace_block(DOC, BLOCKS[kind], f"{text}: {args.note or 'not run'}.")
+            continue
+        if args.file_only:
+            study = RefinementStudy.from_json(read_json(Path(args.out) / kind / "refinement.json"))
+            if study.resolution_key != resolution_key(case) or study.kind != kind:
+                raise SystemExit(
+                    f"{args.out}/{kind}: a study of resolution {study.resolution_key} "
+                    f"({study.kind}), not of the built-in case's {resolution_key(case)} ({kind})"
+                )
+        else:
+            study = refinement_study(
+                case, Path(args.out) / kind, comm, kind=kind, factor=args.factor
+            )
         wall = time.perf_counter() - t0
         if comm.rank == 0:
             write_json(DATA / study.resolution_key / f"{kind}.json", study_uncertainty(case, study))
@@ -58,7 +95,9 @@ def main() -> None:
                 f"{kind}`: {wall:.0f} s on {comm.size} ranks, load average "
                 f"{os.getloadavg()[0]:.1f}."
             )
-            replace_block(DOC, f"refinement_{kind}", markdown(study) + caption)
+            if args.file_only:
+                caption = f"\n\n{args.note or 'Filed from ' + args.out + '/' + kind}."
+            replace_block(DOC, BLOCKS[kind], markdown(study) + caption)
             shutil.copy(
                 Path(args.out) / kind / "refinement.png",
                 ROOT / "docs" / "images" / f"refinement_{kind}.png",

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+from pathlib import Path
 
 import pytest
 
 from gearfem.config import load_case
-from gearfem.refinement import level_case
+from gearfem.refinement import KINDS, level_case
 from gearfem.uncertainty import (
     StudyUncertainty,
     resolution_key,
@@ -89,12 +91,18 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     assert th.mesh == case.mesh and th.thermal_mesh.layers == 3
 
 
+def _unshipped_case():
+    """The built-in case at a resolution no study is shipped for (P1 temperatures)."""
+    case = load_case(None)
+    return dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, degree=1))
+
+
 def test_no_study_no_uncertainty(store):
-    assert run_uncertainty(load_case(None), {"max_surface": 250.0}) is None
+    assert run_uncertainty(_unshipped_case(), {"max_surface": 250.0}) is None
 
 
 def test_studies_combine_in_quadrature_and_scale_with_the_rise(store):
-    case = load_case(None)
+    case = _unshipped_case()
     store_study(_study(case, "thermal_mesh", 3.0, 0.4))
     store_study(_study(case, "positions", 4.0, 0.3))
     assert set(stored_studies(resolution_key(case))) == {"thermal_mesh", "positions"}
@@ -117,3 +125,21 @@ def test_another_resolution_finds_nothing(store):
     store_study(_study(case, "thermal_mesh", 3.0, 0.4))
     finer = level_case(case, "positions", 1.5)
     assert run_uncertainty(finer, {"max_surface": 250.0}) is None
+
+
+def test_the_built_in_case_ships_its_studies_at_its_own_resolution():
+    """benchmarks/uncertainty_builtin.py files the built-in case's studies as package data under
+    its resolution key: a change of the built-in resolution (or of what the key covers) without
+    re-running it leaves no study for the new key, and the main job would report no u_num."""
+    root = Path(__file__).resolve().parent.parent / "gearfem" / "data" / "uncertainty"
+    case = load_case(None)
+    key = resolution_key(case)
+    shipped = sorted(p.name for p in root.iterdir()) if root.is_dir() else []
+    assert shipped == [key], f"shipped studies {shipped}, built-in resolution key {key}"
+    kinds = sorted(p.stem for p in (root / key).glob("*.json"))
+    # the thermal study at least (the headline temperatures' u_num); the others where they ran
+    assert "thermal_mesh" in kinds and set(kinds) <= set(KINDS)
+    for kind in kinds:
+        s = StudyUncertainty.from_json(json.loads((root / key / f"{kind}.json").read_text()))
+        assert s.resolution_key == key and s.kind == kind
+        assert s.speed_rpm == case.operating.speed_rpm and s.torque_Nm == case.operating.torque_Nm

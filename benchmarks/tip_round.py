@@ -1,0 +1,192 @@
+"""The tip-round contact of the built-in case under refinement of the tip elements: does the peak
+pressure converge, and how much load and friction heat pass through the tip rounds?
+
+The thesis gears have a tip round of radius rho_a = 0.1 m (0.2 mm at m = 2) between the involute
+and the tip circle. When the next pair enters mesh, the wheel's (and, at the end of contact, the
+pinion's) tip round touches the mate's flank below its start of active profile: a contact of a
+small convex radius with a corner-like transition, where the peak pressure need not converge as
+the tip elements shrink. This script solves the cycle with ``[mesh] size_tip_mm`` divided by 1,
+1.5, 2.25 (the refinement levels of ``gearfem converge --kind tip``, cycles cached) and reports
+per level, from the contact history (:mod:`gearfem.cycle.history`):
+
+* the largest contact pressure anywhere and on the tip rounds (points at radius >= r_Fa, the tip
+  form radius where the round meets the involute, of the slave gear that owns the round);
+* the normal force through the tip rounds, mean over the positions and largest, and its share of
+  the mean normal load;
+* the friction heat generated at tip-round contacts (μ p ŝ·v_T) and its share of the friction
+  power;
+* at the case's level, how much of the maximum surface temperature and of the camera reading comes
+  from it: the thermal runs of both gears again with the friction flux recomputed from the contact
+  history without the tip-round contacts (first order: the other contacts' pressures unchanged).
+
+With ``--docs`` it writes the table into docs/refinement.md (block ``tip_round``).
+
+Usage: ``mpirun -n 2 python benchmarks/tip_round.py [--docs]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
+from gearfem import pipeline
+from gearfem.config import load_case
+from gearfem.contact.friction import FrictionOptions
+from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.coupling.friction_heat import reference_flux
+from gearfem.geometry.involute import GearPair
+from gearfem.geometry.options import BODIES
+from gearfem.instruments.evaluate import evaluate
+from gearfem.refinement import level_case
+
+ROOT = Path(__file__).resolve().parent.parent
+DOC = ROOT / "docs" / "refinement.md"
+FACTORS = (1.0, 1.5, 2.25)
+
+
+def on_tip_round(case, cyc) -> np.ndarray:
+    """Mask of the history's points on the tip round of their slave gear (radius >= r_Fa)."""
+    pair = GearPair(case.geometry)
+    h = cyc.history
+    centers = {"pinion": np.zeros(2), "wheel": np.array([pair.center_distance_m, 0.0])}
+    on_tip = np.zeros(h.num_points, dtype=bool)
+    for b in BODIES:
+        r = np.linalg.norm(h.point_m[:, :2] - centers[b], axis=1)
+        on_tip |= h.of(b) & (r >= pair.profile(b).tip_form_radius_m)
+    return on_tip
+
+
+def without_tip_rounds(case, cyc):
+    """The cycle with the friction flux of its contact history without the tip-round contacts
+    (the pressures there set to zero, the rest as solved)."""
+    on_tip = on_tip_round(case, cyc)
+    h = dataclasses.replace(cyc.history, pressure_Pa=np.where(on_tip, 0.0, cyc.history.pressure_Pa))
+    masked = dataclasses.replace(cyc, history=h)
+    speed = case.operating.speed_rpm
+    omega = 2 * math.pi * speed / 60
+    law = FrictionOptions().law_for(cyc.friction_coefficient)
+    fields = {}
+    for b in BODIES:
+        q, _, _ = reference_flux(masked, b, law, case.materials, speed, 300.0)
+        fields[b] = dataclasses.replace(cyc.fields[b], generated_flux_W_m2_per_rad_s=q / omega)
+    return dataclasses.replace(masked, fields=fields)
+
+
+def temperatures(case, cyc, out: Path, comm) -> tuple[float, float]:
+    """(max surface of the case's gear, camera_max) at the end of the run (C)."""
+    th, _, snap = pipeline.observed_thermal(
+        case, out, comm, cyc, write_fields=False, steady=False, write_plot=False
+    )
+    cam = pipeline.on_root(comm, lambda: evaluate(case.instruments, snap).camera["end"].max_C)
+    return th["final_temperatures_C"]["max_surface"], cam
+
+
+def tip_round_measures(case, cyc) -> dict[str, float]:
+    """The tip-round measures of one cycle (see the module docstring)."""
+    h = cyc.history
+    n = len(cyc.phi_rad)
+    on_tip = on_tip_round(case, cyc)
+    pw = h.pressure_Pa * h.weight_m2
+    mu = cyc.friction_coefficient
+    heat = mu * pw * h.dissipation_speed_m_s  # per unit ω1
+    # a contact through a tip round is counted once, in the pass whose slave owns the round
+    f_tip = np.bincount(h.position[on_tip], weights=pw[on_tip], minlength=n)
+    f_all = np.bincount(h.position, weights=pw * h.pass_weight, minlength=n)
+    q_tip = np.bincount(h.position[on_tip], weights=heat[on_tip], minlength=n)
+    q_all = cyc.friction_power_W_per_rad_s
+    omega = 2 * math.pi * case.operating.speed_rpm / 60
+    return {
+        "p_max_MPa": float(np.max(cyc.p_max_Pa)) * 1e-6,
+        "p_max_tip_MPa": float(np.max(h.pressure_Pa[on_tip], initial=0.0)) * 1e-6,
+        "p_max_off_tip_MPa": float(np.max(h.pressure_Pa[~on_tip], initial=0.0)) * 1e-6,
+        "tip_force_mean_N": float(np.mean(f_tip)),
+        "tip_force_max_N": float(np.max(f_tip)),
+        "tip_force_share": float(np.mean(f_tip) / np.mean(f_all)),
+        "tip_heat_W": float(np.mean(q_tip)) * omega,
+        "friction_power_W": float(np.mean(q_all)) * omega,
+        "tip_heat_share": float(np.mean(q_tip) / np.mean(q_all)),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--docs", action="store_true", help="write the table into docs/refinement.md")
+    args = ap.parse_args()
+    comm = MPI.COMM_WORLD
+    case = load_case(None)
+    rows = []
+    t0 = time.perf_counter()
+    for f in FACTORS:
+        c = level_case(case, "tip", f)
+        cyc, _, _ = pipeline.cycle(c, comm)
+        m = tip_round_measures(c, cyc)
+        rows.append(
+            [
+                f"{c.mesh.size_tip_mm:.3f}",
+                f"{m['p_max_MPa']:.0f}",
+                f"{m['p_max_tip_MPa']:.0f}",
+                f"{m['p_max_off_tip_MPa']:.0f}",
+                f"{m['tip_force_mean_N']:.1f}",
+                f"{m['tip_force_max_N']:.1f}",
+                f"{100 * m['tip_force_share']:.2f} %",
+                f"{m['tip_heat_W']:.3f}",
+                f"{m['friction_power_W']:.3f}",
+                f"{100 * m['tip_heat_share']:.2f} %",
+            ]
+        )
+        if comm.rank == 0:
+            print(c.mesh.size_tip_mm, m, flush=True)
+    # the case's level: the temperatures with and without the tip-round contacts' heat
+    cyc, _, _ = pipeline.cycle(case, comm)
+    out = Path("results/tip_round")
+    t_with = temperatures(case, cyc, out / "with", comm)
+    t_without = temperatures(case, without_tip_rounds(case, cyc), out / "without", comm)
+    wall = time.perf_counter() - t0
+    if comm.rank == 0:
+        thermal = markdown_table(
+            ("friction heat", "max surface (C)", "camera_max (C)"),
+            [
+                ["all contacts (the case)", f"{t_with[0]:.2f}", f"{t_with[1]:.2f}"],
+                ["without the tip-round contacts", f"{t_without[0]:.2f}", f"{t_without[1]:.2f}"],
+                [
+                    "difference",
+                    f"{t_with[0] - t_without[0]:+.2f}",
+                    f"{t_with[1] - t_without[1]:+.2f}",
+                ],
+            ],
+        )
+        print(thermal)
+        table = markdown_table(
+            (
+                "tip size (mm)",
+                "p_max (MPa)",
+                "p_max on tip rounds (MPa)",
+                "p_max elsewhere (MPa)",
+                "tip-round force, mean (N)",
+                "tip-round force, max (N)",
+                "share of the normal load",
+                "tip-round friction heat (W)",
+                "friction power (W)",
+                "share of the friction heat",
+            ),
+            rows,
+        )
+        print(table)
+        if args.docs:
+            caption = (
+                f"\n\n`mpirun -n {comm.size} python benchmarks/tip_round.py --docs`: {wall:.0f} s "
+                f"(cycles cached or solved), load average {os.getloadavg()[0]:.1f}."
+            )
+            replace_block(DOC, "tip_round", table + "\n\n" + thermal + caption)
+
+
+if __name__ == "__main__":
+    main()
