@@ -100,9 +100,25 @@ def run_diagnosis(
     u_in, parts = input_uncertainty(lambda tr: full.predict(data, {}, transform=tr), S, pert)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
-    result = diagnose(sur.predict, data, max_size=max_size, probes=probes, u_model_K=u_model_K)
-    # confirmation of the chosen model on the full model (and removal of the surrogate's bias there)
-    result = refine(full.predict, sur.predict, data, result, iterations=1, final_check=True)
+    result = diagnose(
+        sur.predict,
+        data,
+        max_size=max_size,
+        probes=probes,
+        u_model_K=u_model_K,
+        model_error=sur.error,
+    )
+    # confirmation of the chosen model on the full model (and removal of the surrogate's bias
+    # there), interval edges checked on the full model where the surrogate's error could move them
+    result = refine(
+        full.predict,
+        sur.predict,
+        data,
+        result,
+        iterations=1,
+        final_check=True,
+        model_error=sur.error,
+    )
     base_sur = sur.predict(data, {})
     report = DiagnosisReport(
         diagnosis=result,
@@ -120,6 +136,11 @@ def run_diagnosis(
         surrogate={
             "full_model_solves": full.solves,
             "baseline_max_abs_difference_K": float(np.max(np.abs(base_sur - S))),
+            "tol_K": sur.tol_K,
+            "nodes": {c.name: max(sur.nodes_of(c.name).values()) for c in sur.candidates},
+            "error_estimate_max_K": {
+                c.name: float(np.max(sur.error(data, (c.name,)))) for c in sur.candidates
+            },
         },
         candidates={
             c.name: {
@@ -237,6 +258,7 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         ps = ", ".join(
             f"{n} = {m.params[n]:.4g}"
             + (f" [{m.intervals[n][0]:.3g}, {m.intervals[n][1]:.3g}]" if n in m.intervals else "")
+            + (f" (scaled x{m.interval_scale:.3g})" if m.interval_scale > 1 and m.intervals else "")
             for n in m.candidates
         )
         loo = "" if m.loo_rmse_K is None else f"{m.loo_rmse_K:.1f}"
@@ -265,6 +287,28 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
             f"correction applied {c.max_correction_K[0]:.2f} K, remaining full-vs-corrected "
             f"difference {c.full_vs_corrected_max_K:.2f} K.",
         ]
+        if c.interval_scale > 1.0:
+            lines += [
+                "",
+                f"The chosen model fails the chi-square test: its ranges use the threshold "
+                f"3.84 x chi2/dof = {3.841 * c.interval_scale:.3g}; they are not 95 % "
+                "intervals of a model that explains the data.",
+            ]
+        checked = [e for e in c.edges if e.checked]
+        if checked:
+            lines += ["", "Interval edges on the full model:", ""]
+            lines += [
+                f"- {e.parameter} {e.side}: surrogate {e.surrogate_edge:.4g}, full model "
+                f"{e.full_edge:.4g} (chi2 there {e.full_excess_chi2:+.2f} from the threshold; "
+                f"{e.full_runs} full-model runs)"
+                for e in checked
+            ]
+        elif c.edges:
+            lines += [
+                "",
+                "Interval edges not re-checked on the full model: the surrogate's error estimate "
+                "cannot move chi2 there by more than 0.5.",
+            ]
     if v.separate_by:
         lines += ["", "## Measurements that would separate the rivals (predicted differences)", ""]
         lines += [
