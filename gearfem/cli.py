@@ -312,6 +312,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         MPI.COMM_WORLD,
         max_size=1 if args.singles else 2,
         u_model_K=args.u_model_K,
+        suggest_next=args.suggest,
     )
     for row in r.vv20["rows"]:
         _say(
@@ -326,7 +327,13 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
             f"held-out RMS error: {g.loo_rmse_before_K:.1f} K before, "
             f"{g.loo_rmse_after_K:.1f} K after"
         )
-    _say(f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, ranking.png")
+    if r.suggestion is not None:
+        _say("what to measure next:\n" + r.suggestion.text)
+    extra = ", suggestion.json" if r.suggestion is not None else ""
+    _say(
+        f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, "
+        f"ranking.png{extra}"
+    )
     return 0
 
 
@@ -500,7 +507,14 @@ def build_parser() -> argparse.ArgumentParser:
         dest="u_model_K",
         type=float,
         default=1.0,
-        help="model (surrogate, discretisation) standard uncertainty added to u_D in the fits, K",
+        help="model (time-step, discretisation) standard uncertainty added to u_D in the fits, K "
+        "(the surrogate's own error estimate is added besides)",
+    )
+    s.add_argument(
+        "--suggest",
+        action="store_true",
+        help="rank the next measurements (bench speed x torque grid, warm-up times, instruments) "
+        "by how well they would separate the explanations still standing (suggestion.json)",
     )
     s.set_defaults(func=_cmd_diagnose)
     return p

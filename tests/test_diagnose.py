@@ -168,9 +168,17 @@ def _diagnose(sur, data, full=None, final_check=False):
     from gearfem.diagnose.select import diagnose, refine
 
     lib = sur.candidates
-    r = diagnose(sur.predict, data, library=lib)
+    r = diagnose(sur.predict, data, library=lib, model_error=sur.error)
     if full is not None:
-        r = refine(full.predict, sur.predict, data, r, final_check=final_check, library=lib)
+        r = refine(
+            full.predict,
+            sur.predict,
+            data,
+            r,
+            final_check=final_check,
+            library=lib,
+            model_error=sur.error,
+        )
     return r
 
 
@@ -477,3 +485,95 @@ def test_partial_verdict_scales_intervals_and_refine_quotes_full_values():
     v = rr.refined.params[name]
     assert f"{v:.4g}" in rr.verdict.text and "surrogate alone gave" in rr.verdict.text
     assert all(e.checked for e in rr.refined.edges)
+
+
+# ---------------------------------------------------------------- experiment design (issue 16)
+# the design logic on the lumped forward model; the full model checks the top proposals there too
+
+
+def _design_setup(library_names, points, truth, seed, quantities, end_only=False):
+    from diagnose_lumped import LumpedModel
+
+    from gearfem.diagnose import design
+    from gearfem.diagnose.forward import Surrogate
+
+    lm = LumpedModel(times_s=(300.0,))
+    lib = tuple(by_name(n) for n in library_names)
+    grid = design.bench_grid(("camera_max", "probe:web", "torque_loss_Nm"), times_s=(300.0,))
+    sur = Surrogate(lm, tuple(dict.fromkeys((*points, *grid.points))), lib)
+    rng = np.random.default_rng(seed)
+    if end_only:
+        lm_end = LumpedModel(times_s=())
+        d = _lumped_data(lm_end, points, truth, rng, quantities, noise_K=2.0)
+    else:
+        d = _lumped_data(lm, points, truth, rng, quantities, noise_K=2.0)
+    return lm, lib, grid, sur, d, rng
+
+
+def test_suggest_separates_rivals_the_design_cannot():
+    """friction_pressure hidden, data at one torque: the pressure law and a friction scale act
+    alike there ("not identifiable"). --suggest proposes a measurement; the same analysis on data
+    generated (from the truth, with noise) at the suggested rows ranks the pressure law first and
+    leaves the friction scale more than the tie behind."""
+    from gearfem.diagnose import design
+    from gearfem.diagnose.select import diagnose
+
+    pts = ((500.0, 8.0), (1000.0, 8.0), (2000.0, 8.0))
+    truth = {"friction_pressure": -0.4}
+    qs = ("camera_max", "mean_bulk")
+    lm, lib, grid, sur, d, rng = _design_setup(
+        ("friction_scale", "friction_pressure", "convection_scale"), pts, truth, 2, qs
+    )
+    r = diagnose(sur.predict, d, library=lib, max_size=1, model_error=sur.error)
+    assert r.verdict.kind == "not identifiable", r.verdict.text
+    s = design.suggest(
+        sur.predict, d, r, grid, library=lib, model_error=sur.error, full_predict=lm.predict
+    )
+    top = s.ranked[0]
+    assert top.decide_probability > 0.8 and s.decisive[0] == top
+    assert top.full_max_difference is not None and top.full_max_difference < 0.5
+    # JSON record round trip
+    assert design.Suggestion.from_json(s.to_json()) == s
+    # data at the suggested rows (the proposal's own rows, values from the truth with noise)
+    rows = next(p for k, lab, p in design.proposals(d, grid) if lab == top.label)
+    new = []
+    for m in rows.measurements:
+        amb = float(np.round(rng.uniform(18.0, 28.0), 1))
+        v = lm.evaluate(m.speed_rpm, m.torque_Nm, amb, truth)[(m.quantity, None)]
+        new.append(
+            dataclasses.replace(m, value=v + rng.normal(0, 2.0), uncertainty=2.0, ambient_C=amb)
+        )
+    d2 = ddata.Dataset(d.measurements + tuple(new))
+    r2 = diagnose(sur.predict, d2, library=lib, max_size=1, model_error=sur.error)
+    assert r2.chosen == ("friction_pressure",) and r2.verdict.kind == "identified", r2.verdict.text
+    assert r2.fit_of(("friction_scale",)).delta > 2.0
+
+
+def test_suggest_names_the_instrument_that_sees_a_hidden_effect():
+    """Friction heat x 0.6 hidden, only the camera's end values: friction and convection change
+    the reading alike ("not identifiable"); the torque meters see the friction directly, and
+    --suggest ranks them first; each outcome is spelled out."""
+    from gearfem.diagnose import design
+    from gearfem.diagnose.select import diagnose
+
+    pts = ((1000.0, 8.0), (2000.0, 4.0), (1500.0, 6.0))
+    _, lib, grid, sur, d, _ = _design_setup(
+        ("friction_scale", "convection_scale", "bore_heat_path"),
+        pts,
+        {"friction_scale": 0.6},
+        1,
+        ("camera_max",),
+        end_only=True,
+    )
+    r = diagnose(sur.predict, d, library=lib, max_size=1, model_error=sur.error)
+    assert r.verdict.kind == "not identifiable", r.verdict.text
+    s = design.suggest(sur.predict, d, r, grid, library=lib, model_error=sur.error)
+    top = s.ranked[0]
+    assert top.kind == "instrument" and set(top.quantities) == {"torque_loss_Nm"}
+    assert "torque_loss_Nm" in s.text.splitlines()[1]
+    assert "friction_scale" in s.text and "convection_scale" in s.text
+    # an operating point of the same camera cannot tell them apart
+    op = [p for p in s.ranked if p.kind == "operating point"]
+    assert (
+        max(p.expected_information_gain_bits for p in op) < top.expected_information_gain_bits / 3
+    )

@@ -15,11 +15,13 @@ from gearfem.config import Case
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
-from gearfem.diagnose.candidates import LIBRARY
+from gearfem.diagnose.candidates import LIBRARY, by_name
 from gearfem.diagnose.data import Dataset, Measurement, unit_of
+from gearfem.diagnose.design import Grid, Suggestion, bench_grid, standing_explanations, suggest
 from gearfem.diagnose.forward import FullModel, Surrogate
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
+from gearfem.instruments.options import ProbeOptions
 
 
 def _replace_thermal(**kw):
@@ -49,9 +51,13 @@ def run_diagnosis(
     max_size: int = 2,
     cache_dir: str | Path | None = None,
     u_model_K: float = 1.0,
+    suggest_next: bool = False,
+    grid: Grid | None = None,
 ) -> DiagnosisReport:
     """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns
-    the result."""
+    the result. ``suggest_next``: also rank the next measurements (:func:`suggest_measurements`)
+    on ``grid`` (default: :func:`~gearfem.diagnose.design.bench_grid` with the case's instruments
+    and a web thermocouple and a side-face probe added where the case has no probes)."""
 
     comm = comm or MPI.COMM_WORLD
     out = prepare_output(out_dir, "diagnosis.json", comm)
@@ -120,6 +126,9 @@ def run_diagnosis(
         model_error=sur.error,
     )
     base_sur = sur.predict(data, {})
+    suggestion = None
+    if suggest_next:
+        suggestion = suggest_measurements(data, case, result, comm, grid, cache_dir)
     report = DiagnosisReport(
         diagnosis=result,
         data={
@@ -152,13 +161,81 @@ def run_diagnosis(
             }
             for c in LIBRARY
         },
+        suggestion=suggestion,
     )
     if comm.rank == 0:
         _plots(result, data, out)
+        if suggestion is not None:
+            write_json(out / "suggestion.json", suggestion)
         (out / "report.md").write_text(markdown(report, data))
         write_json(out / "diagnosis.json", report)  # last: marks a complete diagnosis
     comm.barrier()
     return report
+
+
+def design_case(case: Case) -> Case:
+    """The case with the probes a next measurement may add, when it has none: a thermocouple
+    ``web`` in the pinion's body halfway between bore and root circle, on the tooth's centre line,
+    mid-face, and a side-face probe ``rim`` on the front side face halfway between root and
+    reference circle (in the tooth ring)."""
+    ins = case.instruments
+    if ins.probes:
+        return case
+    g = case.geometry
+    r_ref = 0.5 * g.module_mm * g.teeth_pinion
+    r_root = r_ref - g.dedendum_coefficient * g.module_mm
+    probes = {
+        "web": ProbeOptions(kind="thermocouple", radius_mm=0.5 * (g.bore_radius_mm + r_root)),
+        "rim": ProbeOptions(kind="side_face", radius_mm=0.5 * (r_root + r_ref)),
+    }
+    return dataclasses.replace(case, instruments=dataclasses.replace(ins, probes=probes))
+
+
+def suggest_measurements(
+    data: Dataset,
+    case: Case,
+    result: Diagnosis,
+    comm: MPI.Comm,
+    grid: Grid | None = None,
+    cache_dir: str | Path | None = None,
+) -> Suggestion:
+    """``gearfem diagnose --suggest``: the next measurements ranked (:mod:`.design`), with a
+    surrogate of the standing explanations' candidates tabulated at the data's and the grid's
+    points (every instrument quantity of :func:`design_case`, the grid's warm-up times) and the
+    top proposals checked on the full model. Cost: 1 + sum(nodes - 1) full-model transient runs
+    per point for those candidates, and a structural cycle for each new torque."""
+    dcase = design_case(case)
+    quantities = tuple(q for q in dcase.instruments.quantities if q != "efficiency")
+    grid = grid or bench_grid(quantities)
+    expl = standing_explanations(result)
+    names = tuple(dict.fromkeys(n for e in expl for n in e.candidates))
+    times = tuple(sorted({*data.times, *grid.times_s}))
+    full = FullModel(
+        dcase,
+        comm,
+        times_s=times,
+        quantities=tuple(dict.fromkeys((*quantities, *(m.quantity for m in data.measurements)))),
+    )
+    pts = tuple(dict.fromkeys([(m.speed_rpm, m.torque_Nm) for m in data.measurements]))
+    lib = tuple(by_name(n) for n in names)
+    if len(expl) < 2:  # nothing to separate: no tables needed
+        return suggest(lambda d, m: np.zeros(len(d)), data, result, grid, library=lib)
+    sur = Surrogate(
+        full,
+        tuple(dict.fromkeys((*pts, *grid.points))),
+        candidates=lib,
+        cache_dir=cache_dir if cache_dir is not None else cache_root(),
+    )
+    return suggest(
+        sur.predict,
+        data,
+        result,
+        grid,
+        library=lib,
+        model_error=sur.error,
+        torque_u_Nm=dcase.instruments.torque.uncertainty_Nm,
+        full_predict=full.predict,
+    )
 
 
 def _probes(sur: Surrogate, data: Dataset) -> Dataset:
@@ -315,6 +392,8 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
             f"- {s.measurement}: {'+'.join(s.rival)} differs by {s.difference_K:.1f} K"
             for s in v.separate_by
         ]
+    if report.suggestion is not None:
+        lines += suggestion_markdown(report.suggestion)
     lines += [
         "",
         "![prediction vs data](prediction_vs_data.png)",
@@ -323,6 +402,34 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def suggestion_markdown(sug: Suggestion, top: int = 12) -> list[str]:
+    """The ranked next measurements as a markdown section."""
+    g = sug.grid
+    lines = [
+        "",
+        "## What to measure next (`--suggest`)",
+        "",
+        f"Grid: speeds {', '.join(f'{x:g}' for x in g.speeds_rpm)} rpm x torques "
+        f"{', '.join(f'{x:g}' for x in g.torques_Nm)} N m, warm-up times "
+        f"{', '.join(f'{x:g}' for x in g.times_s)} s, instruments {', '.join(g.instruments)} "
+        f"({g.source}). Standing explanations (prior entropy {sug.prior_entropy_bits:.2f} bit): "
+        + ", ".join(f"{e.label} (p = {e.probability:.2f})" for e in sug.explanations)
+        + f"; {sug.draws} simulated outcomes per explanation and proposal.",
+        "",
+        "| rank | kind | measurement | expected information gain (bit) | P(decides) | "
+        "largest separation (u) | full vs surrogate (max) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for i, p in enumerate(sug.ranked[:top], start=1):
+        full = "" if p.full_max_difference is None else f"{p.full_max_difference:.2g}"
+        lines.append(
+            f"| {i} | {p.kind} | {p.label} | {p.expected_information_gain_bits:.2f} | "
+            f"{p.decide_probability:.2f} | {p.separation:.1f} | {full} |"
+        )
+    lines += ["", "**Measurements that would decide:**", "", "```", sug.text, "```"]
+    return lines
 
 
 @dataclasses.dataclass(frozen=True)
@@ -336,6 +443,7 @@ class DiagnosisReport(JsonRecord):
     vv20: dict[str, Any]
     surrogate: dict[str, Any]
     candidates: dict[str, Any]
+    suggestion: Suggestion | None = None
 
     def to_json(self) -> dict[str, Any]:
         out = self.diagnosis.to_json()
@@ -345,8 +453,20 @@ class DiagnosisReport(JsonRecord):
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> DiagnosisReport:
         own = ("data", "case", "vv20", "surrogate", "candidates")
-        rest = {k: v for k, v in data.items() if k not in own}
-        return cls(Diagnosis.from_json(rest), *(data[k] for k in own))
+        rest = {k: v for k, v in data.items() if k not in (*own, "suggestion")}
+        sug = data.get("suggestion")
+        return cls(
+            Diagnosis.from_json(rest),
+            *(data[k] for k in own),
+            suggestion=None if sug is None else Suggestion.from_json(sug),
+        )
 
 
-__all__ = ["DiagnosisReport", "markdown", "run_diagnosis"]
+__all__ = [
+    "DiagnosisReport",
+    "design_case",
+    "markdown",
+    "run_diagnosis",
+    "suggest_measurements",
+    "suggestion_markdown",
+]
