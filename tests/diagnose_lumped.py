@@ -36,13 +36,19 @@ class LumpedModel:
     surrogate and the design need (``evaluate``, ``predict``, ``ambient_C``, ``comm``,
     ``times_s``, ``surrogate_meta``)."""
 
-    def __init__(self, times_s=(), ambient_C: float = 23.0) -> None:
+    def __init__(self, times_s=(), ambient_C: float = 23.0, comm=None) -> None:
         from mpi4py import MPI
 
         self.times_s = tuple(sorted(set(float(t) for t in times_s)))
         self.ambient_C = float(ambient_C)
-        self.comm = MPI.COMM_SELF
+        self.comm = comm or MPI.COMM_SELF
         self.solves = 0
+
+    def on(self, comm) -> LumpedModel:
+        return LumpedModel(self.times_s, self.ambient_C, comm)
+
+    def cycle(self, torque_Nm: float) -> None:
+        """No structural cycle (the FullModel interface the surrogate's MPI split calls)."""
 
     def surrogate_meta(self) -> dict:
         return {"lumped": 1, "times": self.times_s, "ambient": self.ambient_C}

@@ -577,3 +577,25 @@ def test_suggest_names_the_instrument_that_sees_a_hidden_effect():
     assert (
         max(p.expected_information_gain_bits for p in op) < top.expected_information_gain_bits / 3
     )
+
+
+@pytest.mark.mpi
+def test_surrogate_points_shared_over_ranks():
+    """Under mpirun the surrogate's points are tabulated by the ranks on their own and gathered:
+    the same tables as one process builds, with the work split."""
+    from diagnose_lumped import LumpedModel
+
+    from gearfem.diagnose.forward import Surrogate
+
+    world = MPI.COMM_WORLD
+    pts = COVERAGE_DESIGNS[0]
+    par = Surrogate(LumpedModel((300.0,), comm=world), pts, LIBRARY)
+    ser = Surrogate(LumpedModel((300.0,)), pts, LIBRARY)
+    assert list(par.tables) == list(ser.tables)
+    for pt in pts:
+        a, b = par.tables[pt], ser.tables[pt]
+        assert a.base == b.base and a.errors == b.errors
+        for name, (u, vals) in b.nodes.items():
+            assert np.array_equal(a.nodes[name][0], u)
+            assert all(np.array_equal(a.nodes[name][1][k], v) for k, v in vals.items())
+    assert par.solves == ser.solves

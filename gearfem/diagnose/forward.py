@@ -123,6 +123,12 @@ class FullModel:
             "quantities": self.quantities,
         }
 
+    def on(self, comm: MPI.Comm) -> FullModel:
+        """The same model on another communicator (its own scratch directory)."""
+        return FullModel(
+            self.case, comm, self.times_s, None, library=self.library, quantities=self.quantities
+        )
+
     def cycle(self, torque_Nm: float):
         if torque_Nm not in self._cycles:
             cyc, _, _ = pipeline.cycle(self.case.with_operating(torque_Nm=torque_Nm), self.comm)
@@ -314,7 +320,9 @@ class Surrogate:
     ``full`` is any forward model with ``evaluate(speed_rpm, torque_Nm, ambient_C, model)`` ->
     {(quantity, time_s): value}, ``ambient_C``, ``comm`` and ``surrogate_meta()`` (what its
     values depend on, for the cache key); :class:`FullModel` is one. ``predict`` costs
-    microseconds per operating point.
+    microseconds per operating point. Under MPI (``full.comm`` of more than one rank and a
+    model with ``on(comm)``), the points are shared out over the ranks, each tabulating its own
+    on ``MPI.COMM_SELF``, and the tables gathered on every rank.
     """
 
     def __init__(
@@ -343,17 +351,30 @@ class Surrogate:
             if path.is_file():
                 self.tables = pickle.loads(path.read_bytes())
                 return
-        for sp, tq in points:
-            self.tables[(sp, tq)] = self._tabulate(sp, tq)
-        if path is not None and getattr(full, "comm", MPI.COMM_SELF).rank == 0:
+        comm = getattr(full, "comm", MPI.COMM_SELF)
+        if comm.size > 1 and hasattr(full, "on"):
+            # the points are independent: each rank tabulates its share on its own (COMM_SELF),
+            # the structural cycles first computed (or read) together and cached
+            for tq in dict.fromkeys(t for _, t in points):
+                full.cycle(tq)
+            local = full.on(MPI.COMM_SELF)
+            mine = {pt: self._tabulate(*pt, local) for pt in points[comm.rank :: comm.size]}
+            parts = comm.allgather((mine, self.solves))
+            got = {pt: t for part, _ in parts for pt, t in part.items()}
+            self.tables = {pt: got[pt] for pt in points}
+            self.solves = sum(n for _, n in parts)
+        else:
+            for sp, tq in points:
+                self.tables[(sp, tq)] = self._tabulate(sp, tq)
+        if path is not None and comm.rank == 0:
             # atomic: a failed build leaves no table
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
             tmp.write_bytes(pickle.dumps(self.tables))
             os.replace(tmp, path)
 
-    def _tabulate(self, sp: float, tq: float) -> _Table:
-        full = self.full
+    def _tabulate(self, sp: float, tq: float, forward=None) -> _Table:
+        full = forward or self.full
         amb = float(full.ambient_C)
 
         def theta(model):
