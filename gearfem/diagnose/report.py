@@ -199,43 +199,75 @@ def suggest_measurements(
     grid: Grid | None = None,
     cache_dir: str | Path | None = None,
 ) -> Suggestion:
-    """``gearfem diagnose --suggest``: the next measurements ranked (:mod:`.design`), with a
-    surrogate of the standing explanations' candidates tabulated at the data's and the grid's
-    points (every instrument quantity of :func:`design_case`, the grid's warm-up times) and the
-    top proposals checked on the full model. Cost: 1 + sum(nodes - 1) full-model transient runs
-    per point for those candidates, and a structural cycle for each new torque."""
+    """``gearfem diagnose --suggest``: the next measurements ranked (:mod:`.design`), with
+    surrogates of the standing explanations' candidates (every instrument quantity of
+    :func:`design_case`): transient to the last warm-up time at the data's points, steady at the
+    grid's other points; the top proposals are checked on the full model. Cost: 1 + sum(nodes -
+    1) full-model runs per point for those candidates, and a structural cycle per new torque."""
     dcase = design_case(case)
     quantities = tuple(q for q in dcase.instruments.quantities if q != "efficiency")
     grid = grid or bench_grid(quantities)
     expl = standing_explanations(result)
     names = tuple(dict.fromkeys(n for e in expl for n in e.candidates))
-    times = tuple(sorted({*data.times, *grid.times_s}))
-    full = FullModel(
-        dcase,
-        comm,
-        times_s=times,
-        quantities=tuple(dict.fromkeys((*quantities, *(m.quantity for m in data.measurements)))),
-    )
-    pts = tuple(dict.fromkeys([(m.speed_rpm, m.torque_Nm) for m in data.measurements]))
     lib = tuple(by_name(n) for n in names)
     if len(expl) < 2:  # nothing to separate: no tables needed
         return suggest(lambda d, m: np.zeros(len(d)), data, result, grid, library=lib)
-    sur = Surrogate(
-        full,
-        tuple(dict.fromkeys((*pts, *grid.points))),
-        candidates=lib,
-        cache_dir=cache_dir if cache_dir is not None else cache_root(),
-    )
+    wanted = tuple(dict.fromkeys((*quantities, *(m.quantity for m in data.measurements))))
+    cache = cache_dir if cache_dir is not None else cache_root()
+    pts = tuple(dict.fromkeys([(m.speed_rpm, m.torque_Nm) for m in data.measurements]))
+    # the data's points: transient runs to the last warm-up time (time proposals); the grid's
+    # other points: steady runs only (their proposals are end values)
+    times = tuple(sorted({*data.times, *grid.times_s}))
+    runs = FullModel(dcase, comm, times_s=times, quantities=wanted)
+    steady = FullModel(dcase, comm, times_s=(), quantities=wanted)
+    at_data = Surrogate(runs, pts, candidates=lib, cache_dir=cache)
+    new = tuple(p for p in grid.points if p not in pts)
+    at_grid = Surrogate(steady, new, candidates=lib, cache_dir=cache) if new else None
+    both = _Split(at_data, at_grid)
     return suggest(
-        sur.predict,
+        both.predict,
         data,
         result,
         grid,
         library=lib,
-        model_error=sur.error,
+        model_error=both.error,
         torque_u_Nm=dcase.instruments.torque.uncertainty_Nm,
-        full_predict=full.predict,
+        full_predict=_Split(runs, steady).predict,
     )
+
+
+class _Split:
+    """Two forward models as one: rows at the first's operating points go to the first, the
+    others to the second (``predict`` and, for surrogates, ``error``)."""
+
+    def __init__(self, first, second) -> None:
+        self.first, self.second = first, second
+
+    def _points(self):
+        f = self.first
+        return set(f.tables) if isinstance(f, Surrogate) else None
+
+    def _route(self, data: Dataset, call):
+        pts = self._points()
+        mine = np.array(
+            [
+                (m.speed_rpm, m.torque_Nm) in pts
+                if pts is not None
+                else m.time_s is not None or self.second is None
+                for m in data.measurements
+            ]
+        )
+        out = np.empty(len(data))
+        for mask, model in ((mine, self.first), (~mine, self.second)):
+            if np.any(mask):
+                out[mask] = call(model, data.subset(mask))
+        return out
+
+    def predict(self, data: Dataset, model: dict[str, float]) -> np.ndarray:
+        return self._route(data, lambda f, d: f.predict(d, model))
+
+    def error(self, data: Dataset, names) -> np.ndarray:
+        return self._route(data, lambda f, d: f.error(d, names))
 
 
 def _probes(sur: Surrogate, data: Dataset) -> Dataset:
