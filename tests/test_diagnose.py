@@ -599,3 +599,44 @@ def test_surrogate_points_shared_over_ranks():
             assert np.array_equal(a.nodes[name][0], u)
             assert all(np.array_equal(a.nodes[name][1][k], v) for k, v in vals.items())
     assert par.solves == ser.solves
+
+
+def test_design_probes_and_split_routing():
+    """A case without probes gets a web thermocouple between bore and root circle and a side-face
+    probe in the tooth ring; a case with probes is left alone. The design's two surrogates (data
+    points, grid points) answer together what one surrogate of all points answers."""
+    from diagnose_lumped import LumpedModel
+
+    from gearfem.diagnose.forward import Surrogate
+    from gearfem.diagnose.report import _Split, design_case
+    from gearfem.instruments.options import ProbeOptions
+
+    case = Case()
+    g = case.geometry
+    r_ref = 0.5 * g.module_mm * g.teeth_pinion
+    r_root = r_ref - g.dedendum_coefficient * g.module_mm
+    probes = design_case(case).instruments.probes
+    assert probes["web"].kind == "thermocouple" and g.bore_radius_mm < probes["web"].radius_mm
+    assert probes["web"].radius_mm < r_root
+    assert probes["rim"].kind == "side_face" and r_root < probes["rim"].radius_mm < r_ref
+    own = dataclasses.replace(
+        case,
+        instruments=dataclasses.replace(
+            case.instruments, probes={"tc": ProbeOptions(kind="thermocouple", radius_mm=20.0)}
+        ),
+    )
+    assert design_case(own) is own
+    lm = LumpedModel((300.0,))
+    pts = COVERAGE_DESIGNS[0]
+    one = Surrogate(lm, pts, LIBRARY)
+    split = _Split(Surrogate(lm, pts[:1], LIBRARY), Surrogate(lm, pts[1:], LIBRARY))
+    rows = tuple(
+        ddata.Measurement(sp, tq, t, q, 50.0, 1.0, 21.0)
+        for sp, tq in pts
+        for q in ("camera_max", "torque_loss_Nm")
+        for t in (300.0, None)
+    )
+    d = ddata.Dataset(rows)
+    model = {"friction_scale": 0.7, "ambient_offset": 3.0}
+    assert np.array_equal(split.predict(d, model), one.predict(d, model))
+    assert np.array_equal(split.error(d, tuple(model)), one.error(d, tuple(model)))
