@@ -640,3 +640,38 @@ def test_design_probes_and_split_routing():
     model = {"friction_scale": 0.7, "ambient_offset": 3.0}
     assert np.array_equal(split.predict(d, model), one.predict(d, model))
     assert np.array_equal(split.error(d, tuple(model)), one.error(d, tuple(model)))
+
+
+def test_suggest_measurements_path(tmp_path):
+    """The --suggest path of gearfem diagnose (design case, split surrogates, full-model check of
+    the top proposals) with the lumped model as the forward model: the confuser of friction and
+    convection on camera end values gets the torque meters first, and the record round-trips
+    through JSON."""
+    from diagnose_lumped import LumpedModel
+
+    from gearfem.diagnose import design
+    from gearfem.diagnose.forward import Surrogate
+    from gearfem.diagnose.report import suggest_measurements
+    from gearfem.diagnose.select import diagnose
+
+    lib = tuple(by_name(n) for n in ("friction_scale", "convection_scale"))
+    pts = ((1000.0, 8.0), (2000.0, 4.0), (1500.0, 6.0))
+    rng = np.random.default_rng(1)
+    d = _lumped_data(LumpedModel(()), pts, {"friction_scale": 0.6}, rng, ("camera_max",), 2.0)
+    sur = Surrogate(LumpedModel(()), pts, lib)
+    r = diagnose(sur.predict, d, library=lib, max_size=1, model_error=sur.error)
+    assert r.verdict.kind == "not identifiable"
+    grid = dataclasses.replace(design.bench_grid(("camera_max",)), times_s=(300.0,))
+    grid = dataclasses.replace(grid, instruments=("camera_max", "probe:web", "torque_loss_Nm"))
+
+    def forward(case, comm, times_s, quantities):
+        assert {"probe:web", "probe:rim"} <= set(case.instruments.quantities)
+        return LumpedModel(times_s)
+
+    s = suggest_measurements(d, Case(), r, MPI.COMM_SELF, grid, cache_dir=tmp_path, forward=forward)
+    assert s.ranked[0].quantities == ("torque_loss_Nm",) * len(pts)
+    assert s.ranked[0].full_max_difference is not None
+    assert any(p.kind == "time" for p in s.ranked) and any(
+        p.kind == "operating point" for p in s.ranked
+    )
+    assert design.Suggestion.from_json(s.to_json()) == s

@@ -198,12 +198,15 @@ def suggest_measurements(
     comm: MPI.Comm,
     grid: Grid | None = None,
     cache_dir: str | Path | None = None,
+    forward=FullModel,
 ) -> Suggestion:
     """``gearfem diagnose --suggest``: the next measurements ranked (:mod:`.design`), with
     surrogates of the standing explanations' candidates (every instrument quantity of
     :func:`design_case`): transient to the last warm-up time at the data's points, steady at the
     grid's other points; the top proposals are checked on the full model. Cost: 1 + sum(nodes -
-    1) full-model runs per point for those candidates, and a structural cycle per new torque."""
+    1) full-model runs per point for those candidates, and a structural cycle per new torque.
+    ``forward(case, comm, times_s=, quantities=)`` makes the forward models (the tests pass a
+    cheap one)."""
     dcase = design_case(case)
     quantities = tuple(q for q in dcase.instruments.quantities if q != "efficiency")
     grid = grid or bench_grid(quantities)
@@ -218,8 +221,8 @@ def suggest_measurements(
     # the data's points: transient runs to the last warm-up time (time proposals); the grid's
     # other points: steady runs only (their proposals are end values)
     times = tuple(sorted({*data.times, *grid.times_s}))
-    runs = FullModel(dcase, comm, times_s=times, quantities=wanted)
-    steady = FullModel(dcase, comm, times_s=(), quantities=wanted)
+    runs = forward(dcase, comm, times_s=times, quantities=wanted)
+    steady = forward(dcase, comm, times_s=(), quantities=wanted)
     at_data = Surrogate(runs, pts, candidates=lib, cache_dir=cache)
     new = tuple(p for p in grid.points if p not in pts)
     at_grid = Surrogate(steady, new, candidates=lib, cache_dir=cache) if new else None
