@@ -56,7 +56,7 @@ def main() -> None:
             truth = {} if hidden == "null" else {hidden: G.draw(hidden, rng)}
             data = G.synthetic(full, truth, rng, noise_K=args.noise_K)
             t = time.perf_counter()
-            r = diagnose(sur.predict, data)
+            r = diagnose(sur.predict, data, model_error=sur.error)
             t_an.append(time.perf_counter() - t)
             kind = r.verdict.kind
             if kind == "baseline adequate":
@@ -71,7 +71,9 @@ def main() -> None:
             if hidden != "null" and r.chosen == (hidden,):
                 lo, hi = r.fit_of((hidden,)).intervals[hidden]
                 inside[hidden] += int(lo <= truth[hidden] <= hi)
-                ref = refine(full.predict, sur.predict, data, r, final_check=False).refined
+                ref = refine(
+                    full.predict, sur.predict, data, r, final_check=False, model_error=sur.error
+                ).refined
                 lo, hi = ref.intervals[hidden]
                 inside_refined[hidden] += int(lo <= truth[hidden] <= hi)
     print("hidden \\ verdict".ljust(28) + " ".join(c[:10].rjust(10) for c in cols))

@@ -16,13 +16,14 @@ from collections.abc import Sequence
 
 from gearfem import pipeline
 from gearfem.config import load_case
-from gearfem.core.errors import GearfemError
+from gearfem.core.errors import GearfemError, ParameterError
 from gearfem.core.io import write_json
 from gearfem.core.log import ProgressBar, setup_logging
 from gearfem.core.provenance import format_versions, versions
 from gearfem.cycle.report import cycle_summary_dict, write_cycle_outputs
 from gearfem.diagnose.data import read_csv
-from gearfem.diagnose.report import run_diagnosis
+from gearfem.diagnose.design import bench_grid, check_grid
+from gearfem.diagnose.report import design_case, run_diagnosis
 from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair
 from gearfem.pipeline import read_case, run_thermal_case
 from gearfem.refinement import KINDS as REFINEMENT_KINDS
@@ -299,6 +300,36 @@ def _cmd_converge(args: argparse.Namespace) -> int:
     return 0
 
 
+def _floats(text: str | None, name: str) -> tuple[float, ...] | None:
+    if text is None:
+        return None
+    try:
+        return tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise ParameterError(name, text, "comma-separated numbers") from None
+
+
+def _design_grid(args: argparse.Namespace, case):
+    """The --suggest grid: the bench grid with the options' speeds, torques and times."""
+    speeds = _floats(args.suggest_speeds, "--suggest-speeds")
+    torques = _floats(args.suggest_torques, "--suggest-torques")
+    times = _floats(args.suggest_times, "--suggest-times")
+    if not args.suggest or (speeds, torques, times) == (None, None, None):
+        return None
+    base = bench_grid(
+        tuple(q for q in design_case(case).instruments.quantities if q != "efficiency")
+    )
+    return check_grid(
+        dataclasses.replace(
+            base,
+            speeds_rpm=speeds or base.speeds_rpm,
+            torques_Nm=torques or base.torques_Nm,
+            times_s=times if times is not None else base.times_s,
+            source="given on the command line",
+        )
+    )
+
+
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     """Confront a case with measured data: V&V 20, candidate extensions ranked, verdict, gain."""
     from mpi4py import MPI
@@ -312,6 +343,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         MPI.COMM_WORLD,
         max_size=1 if args.singles else 2,
         u_model_K=args.u_model_K,
+        suggest_next=args.suggest,
+        grid=_design_grid(args, case),
     )
     for row in r.vv20["rows"]:
         _say(
@@ -326,7 +359,13 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
             f"held-out RMS error: {g.loo_rmse_before_K:.1f} K before, "
             f"{g.loo_rmse_after_K:.1f} K after"
         )
-    _say(f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, ranking.png")
+    if r.suggestion is not None:
+        _say("what to measure next:\n" + r.suggestion.text)
+    extra = ", suggestion.json" if r.suggestion is not None else ""
+    _say(
+        f"results in {args.out}: diagnosis.json, report.md, prediction_vs_data.png, "
+        f"ranking.png{extra}"
+    )
     return 0
 
 
@@ -500,7 +539,29 @@ def build_parser() -> argparse.ArgumentParser:
         dest="u_model_K",
         type=float,
         default=1.0,
-        help="model (surrogate, discretisation) standard uncertainty added to u_D in the fits, K",
+        help="model (time-step, discretisation) standard uncertainty added to u_D in the fits, K "
+        "(the surrogate's own error estimate is added besides)",
+    )
+    s.add_argument(
+        "--suggest",
+        action="store_true",
+        help="rank the next measurements (bench speed x torque grid, warm-up times, instruments) "
+        "by how well they would separate the explanations still standing (suggestion.json)",
+    )
+    s.add_argument(
+        "--suggest-speeds",
+        default=None,
+        help="speeds the bench can run, rpm, comma-separated (default 500,1000,1500,2000)",
+    )
+    s.add_argument(
+        "--suggest-torques",
+        default=None,
+        help="torques the bench can run, N m, comma-separated (default 4,6,8)",
+    )
+    s.add_argument(
+        "--suggest-times",
+        default=None,
+        help="warm-up times one could record, s, comma-separated (default 60,180,300,600,900)",
     )
     s.set_defaults(func=_cmd_diagnose)
     return p

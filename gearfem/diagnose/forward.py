@@ -10,17 +10,21 @@ gears for the camera) and returns the instruments' readings of them
 (:func:`gearfem.instruments.evaluate.evaluate`): like is compared with like.
 
 :class:`Surrogate` is for screening: per (speed, torque) it tabulates the full model's rises
-theta = T - T_ambient at a few parameter values of each candidate (the nodes of
-:meth:`~gearfem.diagnose.candidates.Candidate.nodes`) and interpolates them by a polynomial through
-the nodes in the prior's coordinate. Approximations (checked against the full model by
-:func:`confirm` and in the tests):
+theta = T - T_ambient at nodes of each candidate's prior, starting at
+:meth:`~gearfem.diagnose.candidates.Candidate.nodes` and bisected where the response curves (a
+leave-one-out test), and interpolates them by a monotone piecewise cubic (PCHIP) in the prior's
+coordinate; the remaining leave-one-out error is its error estimate, which the fits carry
+(:meth:`Surrogate.error`). Approximations (checked against the full model by :func:`confirm`, by
+the full-model refinement of the diagnosis and in the tests):
 
 * combinations of candidates compose multiplicatively in theta (exact for a linear problem in
   which one candidate scales the sources and the other the conductances; not exact with
-  radiation, k(T), H(T) and mu(T)), additive candidates (ambient offset) add;
+  radiation, k(T), H(T) and mu(T)), additive candidates (ambient offset) add; this composition
+  error is not in the error estimate;
 * the rise theta is taken as independent of the ambient temperature of a run (tabulated at the
-  case's ambient, shifted to each measurement's ambient: radiation and k(T) make this approximate
-  by a few tenths of a kelvin for a few kelvin of ambient difference).
+  case's ambient, shifted to each measurement's ambient through the tabulated ambient axis).
+
+Quantities that are not temperatures (torque loss, efficiency) are tabulated as values, not rises.
 """
 
 from __future__ import annotations
@@ -37,13 +41,15 @@ from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
+from scipy import interpolate
 
 from gearfem import pipeline
 from gearfem.config import Case, case_to_dict
 from gearfem.core.errors import ParameterError
+from gearfem.core.params import require_positive
 from gearfem.core.provenance import source_hash
 from gearfem.diagnose.candidates import LIBRARY, AmbientOffset, Candidate, apply_all, by_name
-from gearfem.diagnose.data import FIELD_QUANTITIES, Dataset
+from gearfem.diagnose.data import FIELD_QUANTITIES, Dataset, unit_of
 from gearfem.instruments.evaluate import TORQUE_QUANTITIES, evaluate
 
 log = logging.getLogger(__name__)
@@ -103,6 +109,25 @@ class FullModel:
         self.work_dir = Path(work_dir)
         self._cycles: dict[float, object] = {}
         self.solves = 0
+
+    @property
+    def ambient_C(self) -> float:
+        """The case's ambient (C): the surrogate tabulates rises above it."""
+        return float(self.case.thermal.ambient_C)
+
+    def surrogate_meta(self) -> dict:
+        """What the model's values depend on besides the code (the surrogate's cache key)."""
+        return {
+            "case": case_to_dict(self.case),
+            "times": self.times_s,
+            "quantities": self.quantities,
+        }
+
+    def on(self, comm: MPI.Comm) -> FullModel:
+        """The same model on another communicator (its own scratch directory)."""
+        return FullModel(
+            self.case, comm, self.times_s, None, library=self.library, quantities=self.quantities
+        )
 
     def cycle(self, torque_Nm: float):
         if torque_Nm not in self._cycles:
@@ -240,6 +265,15 @@ class FullModel:
         return np.array(out)
 
 
+#: The error estimate is this times the largest leave-one-out error of an axis. A leave-one-out
+#: error is that of an interpolant on twice the final spacing; for a smooth response the final
+#: (third-order) interpolant's error is about 1/8 of it. Measured on the lumped test model
+#: (tests/diagnose_lumped.py): true error / leave-one-out error 0.08-0.33 on smooth axes; a
+#: steep glass step that exhausted the node budget was under-estimated (1.4 x): 1/2 keeps a
+#: margin on smooth axes and is not a bound at a kink.
+ERROR_FACTOR = 0.5
+
+
 @dataclasses.dataclass
 class _Table:
     ambient_C: float
@@ -247,27 +281,69 @@ class _Table:
     nodes: dict[
         str, tuple[np.ndarray, dict[Request, np.ndarray]]
     ]  # candidate -> (u nodes, theta at nodes)
+    errors: dict[str, dict[Request, float]]  # candidate -> leave-one-out error estimate
+
+
+def _is_temperature(request: Request) -> bool:
+    return unit_of(request[0]) == "C"
+
+
+def _loo_errors(u: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Leave-one-out errors of the monotone (PCHIP) interpolant at the interior nodes: for each
+    interior node i, |interpolant of the other nodes at u_i - y_i| (len(u) - 2 values, per column
+    of ``y``, shape (nodes, ...))."""
+    out = []
+    for i in range(1, len(u) - 1):
+        keep = np.arange(len(u)) != i
+        out.append(np.abs(_interp(u[keep], y[keep])(u[i]) - y[i]))
+    return np.array(out)
+
+
+def _interp(u: np.ndarray, y: np.ndarray):
+    """Monotone piecewise-cubic (PCHIP) interpolant through the nodes (linear with two)."""
+    if len(u) == 2:
+        return lambda t: y[0] + (np.asarray(t)[..., None] - u[0]) * (y[1] - y[0]) / (u[1] - u[0])
+    return interpolate.PchipInterpolator(u, y, axis=0, extrapolate=True)
 
 
 class Surrogate:
-    """Tabulated full-model rises with interpolation (see the module docstring).
+    """Tabulated full-model rises with interpolation and an error estimate (module docstring).
 
-    Built from ``full`` at the (speed, torque) pairs of ``points`` for the ``candidates``; costs
-    1 + sum(nodes - 1) full-model runs per (speed, torque). ``predict`` costs microseconds.
+    Built from ``full`` at the (speed, torque) pairs of ``points`` for the ``candidates``. Per
+    candidate and point the nodes start at :meth:`Candidate.nodes` and are refined adaptively: an
+    interval next to an interior node whose leave-one-out error (the monotone interpolant of the
+    other nodes, evaluated at that node) exceeds ``tol_K`` on any tabulated temperature (or 1 % of
+    the largest value of another quantity) is bisected, until no such node is left or the axis has
+    ``max_nodes`` nodes. The largest remaining leave-one-out error is kept per candidate and
+    measurement, times :data:`ERROR_FACTOR`, as the surrogate's error estimate (:meth:`error`).
+
+    ``full`` is any forward model with ``evaluate(speed_rpm, torque_Nm, ambient_C, model)`` ->
+    {(quantity, time_s): value}, ``ambient_C``, ``comm`` and ``surrogate_meta()`` (what its
+    values depend on, for the cache key); :class:`FullModel` is one. ``predict`` costs
+    microseconds per operating point. Under MPI (``full.comm`` of more than one rank and a
+    model with ``on(comm)``), the points are shared out over the ranks, each tabulating its own
+    on ``MPI.COMM_SELF``, and the tables gathered on every rank.
     """
 
     def __init__(
         self,
-        full: FullModel,
+        full,
         points: tuple[tuple[float, float], ...],
         candidates: tuple[Candidate, ...] = LIBRARY,
         cache_dir: str | Path | None = None,
+        tol_K: float = 0.25,
+        max_nodes: int = 9,
     ) -> None:
+        require_positive("surrogate.tol_K", tol_K)
+        if max_nodes < 3:
+            raise ParameterError("surrogate.max_nodes", max_nodes, ">= 3")
         self.full = full
         self.candidates = tuple(candidates)
+        self.tol_K = float(tol_K)
+        self.max_nodes = int(max_nodes)
         self.tables: dict[tuple[float, float], _Table] = {}
+        self.solves = 0
         self._prep: dict = {}
-        amb = full.case.thermal.ambient_C
         points = tuple(dict.fromkeys((float(s), float(t)) for s, t in points))
         path = None
         if cache_dir is not None:
@@ -275,50 +351,76 @@ class Surrogate:
             if path.is_file():
                 self.tables = pickle.loads(path.read_bytes())
                 return
-        for sp, tq in points:
-            base = full.evaluate(sp, tq, amb, {})
-            theta0 = {k: v - amb for k, v in base.items()}
-            nodes = {}
-            axes = [c for c in self.candidates if c.name != _AMBIENT.name] + [_AMBIENT]
-            for c in axes:
-                p = c.parameter
-                vals = c.nodes()
-                thetas = {k: [] for k in theta0}
-                for v in vals:
-                    r = (
-                        theta0
-                        if v == p.null
-                        else {
-                            k: t - amb for k, t in full.evaluate(sp, tq, amb, {c.name: v}).items()
-                        }
-                    )
-                    for k in thetas:
-                        thetas[k].append(r[k])
-                nodes[c.name] = (
-                    np.array([p.to_unit(v) for v in vals]),
-                    {k: np.array(t) for k, t in thetas.items()},
-                )
-            self.tables[(sp, tq)] = _Table(amb, theta0, nodes)
-        if path is not None and full.comm.rank == 0:  # atomic: a failed build leaves no table
+        comm = getattr(full, "comm", MPI.COMM_SELF)
+        if comm.size > 1 and hasattr(full, "on"):
+            # the points are independent: each rank tabulates its share on its own (COMM_SELF),
+            # the structural cycles first computed (or read) together and cached
+            for tq in dict.fromkeys(t for _, t in points):
+                full.cycle(tq)
+            local = full.on(MPI.COMM_SELF)
+            mine = {pt: self._tabulate(*pt, local) for pt in points[comm.rank :: comm.size]}
+            parts = comm.allgather((mine, self.solves))
+            got = {pt: t for part, _ in parts for pt, t in part.items()}
+            self.tables = {pt: got[pt] for pt in points}
+            self.solves = sum(n for _, n in parts)
+        else:
+            for sp, tq in points:
+                self.tables[(sp, tq)] = self._tabulate(sp, tq)
+        if path is not None and comm.rank == 0:
+            # atomic: a failed build leaves no table
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
             tmp.write_bytes(pickle.dumps(self.tables))
             os.replace(tmp, path)
 
+    def _tabulate(self, sp: float, tq: float, forward=None) -> _Table:
+        full = forward or self.full
+        amb = float(full.ambient_C)
+
+        def theta(model):
+            self.solves += 1
+            res = full.evaluate(sp, tq, amb, model)
+            return {k: v - (amb if _is_temperature(k) else 0.0) for k, v in res.items()}
+
+        theta0 = theta({})
+        keys = list(theta0)
+        temp = np.array([_is_temperature(k) for k in keys])
+        nodes, errors = {}, {}
+        axes = [c for c in self.candidates if c.name != _AMBIENT.name] + [_AMBIENT]
+        for c in axes:
+            p = c.parameter
+            got = {p.to_unit(v): (theta0 if v == p.null else theta({c.name: v})) for v in c.nodes()}
+            while True:
+                u = np.array(sorted(got))
+                y = np.array([[got[x][k] for k in keys] for x in u])
+                loo = _loo_errors(u, y)
+                scale = np.where(temp, self.tol_K, 0.01 * np.max(np.abs(y), axis=0) + 1e-300)
+                bad = [i + 1 for i in range(len(loo)) if np.any(loo[i] > scale)]
+                new = sorted({0.5 * (u[j] + u[j + 1]) for i in bad for j in (i - 1, i)} - set(got))
+                if not new or len(u) >= self.max_nodes:
+                    break
+                for x in new[: self.max_nodes - len(u)]:
+                    got[x] = theta({c.name: p.from_unit(float(x))})
+            nodes[c.name] = (u, {k: y[:, j] for j, k in enumerate(keys)})
+            worst = ERROR_FACTOR * loo.max(axis=0) if len(loo) else np.zeros(len(keys))
+            errors[c.name] = {k: float(worst[j]) for j, k in enumerate(keys)}
+        return _Table(amb, theta0, nodes, errors)
+
     def _key(self, points) -> str:
-        """Hash of everything the tables depend on: case (instruments included), points, times,
-        instrument quantities, candidates' nodes, and the source of every gearfem module a table
-        value is computed by (this module and what it imports, transitively: pipeline,
-        instruments, thermal, coupling, cycle, contact, geometry, core)."""
+        """Hash of everything the tables depend on: the forward model's own description (for
+        :class:`FullModel`: case with instruments, times, instrument quantities), points,
+        candidates' starting nodes, tolerance and node budget, and the source of every gearfem
+        module a table value is computed by (this module and what it imports, transitively:
+        pipeline, instruments, thermal, coupling, cycle, contact, geometry, core)."""
         h = hashlib.sha256()
         h.update(source_hash("gearfem.diagnose.forward", "gearfem.diagnose.candidates").encode())
         meta = {
-            "case": case_to_dict(self.full.case),
+            "model": self.full.surrogate_meta(),
             "points": points,
-            "times": self.full.times_s,
-            "quantities": self.full.quantities,
             "candidates": [(c.name, c.nodes()) for c in self.candidates],
             "ambient": _AMBIENT.nodes(),
+            "tol_K": self.tol_K,
+            "max_nodes": self.max_nodes,
         }
         h.update(json.dumps(meta, sort_keys=True, default=str).encode())
         return h.hexdigest()[:16]
@@ -327,53 +429,72 @@ class Surrogate:
     def names(self) -> tuple[str, ...]:
         return tuple(c.name for c in self.candidates)
 
+    def nodes_of(self, name: str) -> dict[tuple[float, float], int]:
+        """Number of nodes of a candidate's axis per (speed, torque)."""
+        return {pt: len(t.nodes[name][0]) for pt, t in self.tables.items()}
+
     def _prepared(self, data: Dataset):
         key = tuple(
             (m.speed_rpm, m.torque_Nm, m.quantity, m.time_s, m.ambient_C) for m in data.measurements
         )
         got = self._prep.get(key)
         if got is None:
-            rows = [
-                (self.tables[(float(m.speed_rpm), float(m.torque_Nm))], (m.quantity, m.time_s))
-                for m in data.measurements
-            ]
-            base = np.array([t.base[r] for t, r in rows])
-            nodes = {
-                name: (rows[0][0].nodes[name][0], np.array([t.nodes[name][1][r] for t, r in rows]))
-                for name in rows[0][0].nodes
-            }
-            amb = np.array([m.ambient_C for m in data.measurements])
-            got = (base, nodes, amb, rows[0][0].ambient_C)
+            groups: dict[tuple, list[int]] = {}
+            for i, m in enumerate(data.measurements):
+                groups.setdefault(m.point, []).append(i)
+            got = []
+            for (sp, tq, amb), idx in groups.items():
+                table = self.tables[(float(sp), float(tq))]
+                reqs = [(data.measurements[i].quantity, data.measurements[i].time_s) for i in idx]
+                base = np.array([table.base[r] for r in reqs])
+                interps = {
+                    name: _interp(u, np.array([vals[r] for r in reqs]).T)
+                    for name, (u, vals) in table.nodes.items()
+                }
+                errs = {name: np.array([e[r] for r in reqs]) for name, e in table.errors.items()}
+                temp = np.array([_is_temperature(r) for r in reqs])
+                got.append((np.array(idx), base, interps, errs, temp, amb, table.ambient_C))
             self._prep[key] = got
         return got
 
     def predict(self, data: Dataset, model: dict[str, float] | None = None) -> np.ndarray:
-        """Predicted temperatures (C) of every measurement of ``data`` with the candidates of
-        ``model``.
+        """Predicted values (C for temperatures) of every measurement of ``data`` with the
+        candidates of ``model``.
 
         theta = theta_0 prod_c theta_c(p_c)/theta_0; an additive candidate (and the difference
         between a measurement's ambient and the case's) enters through the tabulated response to
         the ambient: a shift plus its (small) ratio.
         """
         model = model or {}
-        base, nodes, amb, amb_case = self._prepared(data)
-        safe = np.where(base != 0.0, base, 1.0)
-        theta = base.copy()
-        shift = amb - amb_case
-        for name, value in model.items():
-            c = by_name(name, self.candidates)
-            if c.additive:
-                shift = shift + value
-                continue
-            u, vals = nodes[name]
-            theta = theta * (_lagrange_weights(u, c.parameter.to_unit(value)) @ vals.T) / safe
-        u, vals = nodes[_AMBIENT.name]
-        y = (
-            _lagrange_weights_many(u, np.array([_AMBIENT.parameter.to_unit(s) for s in shift]))
-            * vals
-        )
-        theta = theta * (y.sum(axis=1) - shift) / safe
-        return amb_case + shift + theta
+        out = np.empty(len(data))
+        for idx, base, interps, _, temp, amb, amb_case in self._prepared(data):
+            safe = np.where(base != 0.0, base, 1.0)
+            theta = base.copy()
+            shift = amb - amb_case
+            for name, value in model.items():
+                c = by_name(name, self.candidates)
+                if c.additive:
+                    shift += value
+                    continue
+                theta = theta * interps[name](c.parameter.to_unit(value)) / safe
+            y = interps[_AMBIENT.name](_AMBIENT.parameter.to_unit(shift))
+            theta = theta * (y - np.where(temp, shift, 0.0)) / safe
+            out[idx] = np.where(temp, amb_case + shift, 0.0) + theta
+        return out
+
+    def error(self, data: Dataset, names: tuple[str, ...] | list[str] = ()) -> np.ndarray:
+        """Estimated error of :meth:`predict` for a model of the candidates ``names`` (same unit as
+        the values): the leave-one-out errors of their axes and of the ambient axis, in
+        quadrature, at each measurement. Parameter-independent (the largest over the prior), so
+        that a fit is not drawn to where the table is poor."""
+        out = np.zeros(len(data))
+        for idx, _, _, errs, _, _, _ in self._prepared(data):
+            e2 = errs[_AMBIENT.name] ** 2
+            for name in names:
+                if not by_name(name, self.candidates).additive:
+                    e2 = e2 + errs[name] ** 2
+            out[idx] = np.sqrt(e2)
+        return out
 
 
 _AMBIENT = AmbientOffset()
@@ -394,20 +515,6 @@ def check_instrument_quantities(case: Case, quantities) -> None:
                 "configure it in [instruments] (camera enabled, [instruments.probes.NAME], "
                 "torque meters)",
             )
-
-
-def _lagrange_weights(x: np.ndarray, t: float) -> np.ndarray:
-    """Weights w_i(t) of the polynomial through the nodes x (value = w @ y)."""
-    w = np.ones(len(x))
-    for i in range(len(x)):
-        for j in range(len(x)):
-            if j != i:
-                w[i] *= (t - x[j]) / (x[i] - x[j])
-    return w
-
-
-def _lagrange_weights_many(x: np.ndarray, t: np.ndarray) -> np.ndarray:
-    return np.array([_lagrange_weights(x, float(ti)) for ti in t])
 
 
 def confirm(full: FullModel, surrogate: Surrogate, data: Dataset, model: dict[str, float]) -> dict:

@@ -15,11 +15,13 @@ from gearfem.config import Case
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
-from gearfem.diagnose.candidates import LIBRARY
+from gearfem.diagnose.candidates import LIBRARY, by_name
 from gearfem.diagnose.data import Dataset, Measurement, unit_of
+from gearfem.diagnose.design import Grid, Suggestion, bench_grid, standing_explanations, suggest
 from gearfem.diagnose.forward import FullModel, Surrogate
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
+from gearfem.instruments.options import ProbeOptions
 
 
 def _replace_thermal(**kw):
@@ -49,9 +51,13 @@ def run_diagnosis(
     max_size: int = 2,
     cache_dir: str | Path | None = None,
     u_model_K: float = 1.0,
+    suggest_next: bool = False,
+    grid: Grid | None = None,
 ) -> DiagnosisReport:
     """Diagnose ``data`` against ``case`` (collective); writes the outputs to ``out_dir``, returns
-    the result."""
+    the result. ``suggest_next``: also rank the next measurements (:func:`suggest_measurements`)
+    on ``grid`` (default: :func:`~gearfem.diagnose.design.bench_grid` with the case's instruments
+    and a web thermocouple and a side-face probe added where the case has no probes)."""
 
     comm = comm or MPI.COMM_WORLD
     out = prepare_output(out_dir, "diagnosis.json", comm)
@@ -100,10 +106,29 @@ def run_diagnosis(
     u_in, parts = input_uncertainty(lambda tr: full.predict(data, {}, transform=tr), S, pert)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
-    result = diagnose(sur.predict, data, max_size=max_size, probes=probes, u_model_K=u_model_K)
-    # confirmation of the chosen model on the full model (and removal of the surrogate's bias there)
-    result = refine(full.predict, sur.predict, data, result, iterations=1, final_check=True)
+    result = diagnose(
+        sur.predict,
+        data,
+        max_size=max_size,
+        probes=probes,
+        u_model_K=u_model_K,
+        model_error=sur.error,
+    )
+    # confirmation of the chosen model on the full model (and removal of the surrogate's bias
+    # there), interval edges checked on the full model where the surrogate's error could move them
+    result = refine(
+        full.predict,
+        sur.predict,
+        data,
+        result,
+        iterations=1,
+        final_check=True,
+        model_error=sur.error,
+    )
     base_sur = sur.predict(data, {})
+    suggestion = None
+    if suggest_next:
+        suggestion = suggest_measurements(data, case, result, comm, grid, cache_dir)
     report = DiagnosisReport(
         diagnosis=result,
         data={
@@ -120,6 +145,11 @@ def run_diagnosis(
         surrogate={
             "full_model_solves": full.solves,
             "baseline_max_abs_difference_K": float(np.max(np.abs(base_sur - S))),
+            "tol_K": sur.tol_K,
+            "nodes": {c.name: max(sur.nodes_of(c.name).values()) for c in sur.candidates},
+            "error_estimate_max_K": {
+                c.name: float(np.max(sur.error(data, (c.name,)))) for c in sur.candidates
+            },
         },
         candidates={
             c.name: {
@@ -131,13 +161,116 @@ def run_diagnosis(
             }
             for c in LIBRARY
         },
+        suggestion=suggestion,
     )
     if comm.rank == 0:
         _plots(result, data, out)
+        if suggestion is not None:
+            write_json(out / "suggestion.json", suggestion)
         (out / "report.md").write_text(markdown(report, data))
         write_json(out / "diagnosis.json", report)  # last: marks a complete diagnosis
     comm.barrier()
     return report
+
+
+def design_case(case: Case) -> Case:
+    """The case with the probes a next measurement may add, when it has none: a thermocouple
+    ``web`` in the pinion's body halfway between bore and root circle, on the tooth's centre line,
+    mid-face, and a side-face probe ``rim`` on the front side face halfway between root and
+    reference circle (in the tooth ring)."""
+    ins = case.instruments
+    if ins.probes:
+        return case
+    g = case.geometry
+    r_ref = 0.5 * g.module_mm * g.teeth_pinion
+    r_root = r_ref - g.dedendum_coefficient * g.module_mm
+    probes = {
+        "web": ProbeOptions(kind="thermocouple", radius_mm=0.5 * (g.bore_radius_mm + r_root)),
+        "rim": ProbeOptions(kind="side_face", radius_mm=0.5 * (r_root + r_ref)),
+    }
+    return dataclasses.replace(case, instruments=dataclasses.replace(ins, probes=probes))
+
+
+def suggest_measurements(
+    data: Dataset,
+    case: Case,
+    result: Diagnosis,
+    comm: MPI.Comm,
+    grid: Grid | None = None,
+    cache_dir: str | Path | None = None,
+    forward=FullModel,
+) -> Suggestion:
+    """``gearfem diagnose --suggest``: the next measurements ranked (:mod:`.design`), with
+    surrogates of the standing explanations' candidates (every instrument quantity of
+    :func:`design_case`): transient to the last warm-up time at the data's points, steady at the
+    grid's other points; the top proposals are checked on the full model. Cost: 1 + sum(nodes -
+    1) full-model runs per point for those candidates, and a structural cycle per new torque.
+    ``forward(case, comm, times_s=, quantities=)`` makes the forward models (the tests pass a
+    cheap one)."""
+    dcase = design_case(case)
+    quantities = tuple(q for q in dcase.instruments.quantities if q != "efficiency")
+    grid = grid or bench_grid(quantities)
+    expl = standing_explanations(result)
+    names = tuple(dict.fromkeys(n for e in expl for n in e.candidates))
+    lib = tuple(by_name(n) for n in names)
+    if len(expl) < 2:  # nothing to separate: no tables needed
+        return suggest(lambda d, m: np.zeros(len(d)), data, result, grid, library=lib)
+    wanted = tuple(dict.fromkeys((*quantities, *(m.quantity for m in data.measurements))))
+    cache = cache_dir if cache_dir is not None else cache_root()
+    pts = tuple(dict.fromkeys([(m.speed_rpm, m.torque_Nm) for m in data.measurements]))
+    # the data's points: transient runs to the last warm-up time (time proposals); the grid's
+    # other points: steady runs only (their proposals are end values)
+    times = tuple(sorted({*data.times, *grid.times_s}))
+    runs = forward(dcase, comm, times_s=times, quantities=wanted)
+    steady = forward(dcase, comm, times_s=(), quantities=wanted)
+    at_data = Surrogate(runs, pts, candidates=lib, cache_dir=cache)
+    new = tuple(p for p in grid.points if p not in pts)
+    at_grid = Surrogate(steady, new, candidates=lib, cache_dir=cache) if new else None
+    both = _Split(at_data, at_grid)
+    return suggest(
+        both.predict,
+        data,
+        result,
+        grid,
+        library=lib,
+        model_error=both.error,
+        torque_u_Nm=dcase.instruments.torque.uncertainty_Nm,
+        full_predict=_Split(runs, steady).predict,
+    )
+
+
+class _Split:
+    """Two forward models as one: rows at the first's operating points go to the first, the
+    others to the second (``predict`` and, for surrogates, ``error``)."""
+
+    def __init__(self, first, second) -> None:
+        self.first, self.second = first, second
+
+    def _points(self):
+        f = self.first
+        return set(f.tables) if isinstance(f, Surrogate) else None
+
+    def _route(self, data: Dataset, call):
+        pts = self._points()
+        mine = np.array(
+            [
+                (m.speed_rpm, m.torque_Nm) in pts
+                if pts is not None
+                else m.time_s is not None or self.second is None
+                for m in data.measurements
+            ]
+        )
+        out = np.empty(len(data))
+        for mask, model in ((mine, self.first), (~mine, self.second)):
+            if np.any(mask):
+                out[mask] = call(model, data.subset(mask))
+        return out
+
+    def predict(self, data: Dataset, model: dict[str, float]) -> np.ndarray:
+        return self._route(data, lambda f, d: f.predict(d, model))
+
+    def error(self, data: Dataset, names) -> np.ndarray:
+        return self._route(data, lambda f, d: f.error(d, names))
 
 
 def _probes(sur: Surrogate, data: Dataset) -> Dataset:
@@ -237,6 +370,7 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         ps = ", ".join(
             f"{n} = {m.params[n]:.4g}"
             + (f" [{m.intervals[n][0]:.3g}, {m.intervals[n][1]:.3g}]" if n in m.intervals else "")
+            + (f" (scaled x{m.interval_scale:.3g})" if m.interval_scale > 1 and m.intervals else "")
             for n in m.candidates
         )
         loo = "" if m.loo_rmse_K is None else f"{m.loo_rmse_K:.1f}"
@@ -265,12 +399,36 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
             f"correction applied {c.max_correction_K[0]:.2f} K, remaining full-vs-corrected "
             f"difference {c.full_vs_corrected_max_K:.2f} K.",
         ]
+        if c.interval_scale > 1.0:
+            lines += [
+                "",
+                f"The chosen model fails the chi-square test: its ranges use the threshold "
+                f"3.84 x chi2/dof = {3.841 * c.interval_scale:.3g}; they are not 95 % "
+                "intervals of a model that explains the data.",
+            ]
+        checked = [e for e in c.edges if e.checked]
+        if checked:
+            lines += ["", "Interval edges on the full model:", ""]
+            lines += [
+                f"- {e.parameter} {e.side}: surrogate {e.surrogate_edge:.4g}, full model "
+                f"{e.full_edge:.4g} (chi2 there {e.full_excess_chi2:+.2f} from the threshold; "
+                f"{e.full_runs} full-model runs)"
+                for e in checked
+            ]
+        elif c.edges:
+            lines += [
+                "",
+                "Interval edges not re-checked on the full model: the surrogate's error estimate "
+                "cannot move chi2 there by more than 0.5.",
+            ]
     if v.separate_by:
         lines += ["", "## Measurements that would separate the rivals (predicted differences)", ""]
         lines += [
             f"- {s.measurement}: {'+'.join(s.rival)} differs by {s.difference_K:.1f} K"
             for s in v.separate_by
         ]
+    if report.suggestion is not None:
+        lines += suggestion_markdown(report.suggestion)
     lines += [
         "",
         "![prediction vs data](prediction_vs_data.png)",
@@ -279,6 +437,34 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def suggestion_markdown(sug: Suggestion, top: int = 12) -> list[str]:
+    """The ranked next measurements as a markdown section."""
+    g = sug.grid
+    lines = [
+        "",
+        "## What to measure next (`--suggest`)",
+        "",
+        f"Grid: speeds {', '.join(f'{x:g}' for x in g.speeds_rpm)} rpm x torques "
+        f"{', '.join(f'{x:g}' for x in g.torques_Nm)} N m, warm-up times "
+        f"{', '.join(f'{x:g}' for x in g.times_s)} s, instruments {', '.join(g.instruments)} "
+        f"({g.source}). Standing explanations (prior entropy {sug.prior_entropy_bits:.2f} bit): "
+        + ", ".join(f"{e.label} (p = {e.probability:.2f})" for e in sug.explanations)
+        + f"; {sug.draws} simulated outcomes per explanation and proposal.",
+        "",
+        "| rank | kind | measurement | expected information gain (bit) | P(decides) | "
+        "largest separation (u) | full vs surrogate (max) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for i, p in enumerate(sug.ranked[:top], start=1):
+        full = "" if p.full_max_difference is None else f"{p.full_max_difference:.2g}"
+        lines.append(
+            f"| {i} | {p.kind} | {p.label} | {p.expected_information_gain_bits:.2f} | "
+            f"{p.decide_probability:.2f} | {p.separation:.1f} | {full} |"
+        )
+    lines += ["", "**Measurements that would decide:**", "", "```", sug.text, "```"]
+    return lines
 
 
 @dataclasses.dataclass(frozen=True)
@@ -292,6 +478,7 @@ class DiagnosisReport(JsonRecord):
     vv20: dict[str, Any]
     surrogate: dict[str, Any]
     candidates: dict[str, Any]
+    suggestion: Suggestion | None = None
 
     def to_json(self) -> dict[str, Any]:
         out = self.diagnosis.to_json()
@@ -301,8 +488,20 @@ class DiagnosisReport(JsonRecord):
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> DiagnosisReport:
         own = ("data", "case", "vv20", "surrogate", "candidates")
-        rest = {k: v for k, v in data.items() if k not in own}
-        return cls(Diagnosis.from_json(rest), *(data[k] for k in own))
+        rest = {k: v for k, v in data.items() if k not in (*own, "suggestion")}
+        sug = data.get("suggestion")
+        return cls(
+            Diagnosis.from_json(rest),
+            *(data[k] for k in own),
+            suggestion=None if sug is None else Suggestion.from_json(sug),
+        )
 
 
-__all__ = ["DiagnosisReport", "markdown", "run_diagnosis"]
+__all__ = [
+    "DiagnosisReport",
+    "design_case",
+    "markdown",
+    "run_diagnosis",
+    "suggest_measurements",
+    "suggestion_markdown",
+]

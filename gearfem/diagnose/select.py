@@ -31,13 +31,18 @@ from collections.abc import Callable
 import numpy as np
 from scipy import optimize, stats
 
+from gearfem.core.errors import ParameterError
 from gearfem.core.params import require_nonnegative
 from gearfem.core.results import JsonRecord
 from gearfem.diagnose.candidates import LIBRARY, Candidate, by_name
 from gearfem.diagnose.data import Dataset, Measurement
 
 Predict = Callable[[Dataset, dict[str, float]], np.ndarray]
+#: Estimated error of a prediction of the model of the given candidates, per measurement (the
+#: surrogate's :meth:`~gearfem.diagnose.forward.Surrogate.error`); None = exact.
+ModelError = Callable[[Dataset, tuple[str, ...]], np.ndarray] | None
 CHI2_95 = 3.841
+GOF_LEVEL = 0.01
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +59,9 @@ class ModelFit(JsonRecord):
     spans_prior: tuple[str, ...]  # parameters whose interval is the whole prior
     loo_rmse_K: float | None  # leave one operating point out RMS error (top models)
     predictions_C: list[float] | None
+    # the profile threshold 3.84 is multiplied by this (chi2 / dof when the model fails the
+    # chi-square test: its intervals are then not 95 % intervals of a good fit)
+    interval_scale: float = 1.0
 
     @property
     def label(self) -> str:
@@ -94,6 +102,23 @@ class Gain(JsonRecord):
 
 
 @dataclasses.dataclass(frozen=True)
+class EdgeCheck(JsonRecord):
+    """One end of a refined profile interval checked on the full model: the corrected
+    surrogate's edge, the full model's chi2 there minus the profile threshold (0 on the exact
+    edge), the edge the full model gives and how many full-model runs (of every operating point)
+    it took; ``checked`` False: the surrogate's error estimate was too small to move the edge
+    (see :func:`refine`)."""
+
+    parameter: str
+    side: str  # "lo" or "hi"
+    surrogate_edge: float
+    full_edge: float
+    full_excess_chi2: float | None
+    full_runs: int
+    checked: bool
+
+
+@dataclasses.dataclass(frozen=True)
 class Refinement(JsonRecord):
     """The chosen model confirmed on the full model (surrogate corrected at the optimum)."""
 
@@ -104,6 +129,8 @@ class Refinement(JsonRecord):
     full_rmse_K: float | None = None
     full_vs_corrected_max_K: float | None = None
     full_C: list[float] | None = None
+    edges: tuple[EdgeCheck, ...] = ()
+    interval_scale: float = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -135,10 +162,20 @@ class Diagnosis(JsonRecord):
         return self.fit_of(())
 
 
-def _sigma(data: Dataset, u_model_K: float) -> np.ndarray:
-    """sqrt(u_D² + u_model²); u_model (surrogate and time-step error, K) on temperatures only."""
+def _sigma(
+    data: Dataset,
+    u_model_K: float,
+    names: tuple[str, ...] = (),
+    model_error: ModelError = None,
+) -> np.ndarray:
+    """sqrt(u_D² + u_model² + u_sur²): u_model (time-step and other model error, K) on
+    temperatures only, u_sur the forward model's own error estimate for the model of ``names``
+    (the surrogate's interpolation error)."""
     u_model = np.where(_temperatures(data), u_model_K, 0.0)
-    return np.sqrt(np.array([m.uncertainty for m in data.measurements]) ** 2 + u_model**2)
+    u_sur = 0.0 if model_error is None else np.asarray(model_error(data, tuple(names)))
+    return np.sqrt(
+        np.array([m.uncertainty for m in data.measurements]) ** 2 + u_model**2 + u_sur**2
+    )
 
 
 def _values(data: Dataset) -> np.ndarray:
@@ -150,15 +187,35 @@ def _temperatures(data: Dataset) -> np.ndarray:
     return np.array([m.is_temperature for m in data.measurements], dtype=bool)
 
 
-def chi2(predict: Predict, data: Dataset, model: dict[str, float], u_model_K: float) -> float:
-    r = _residuals(predict, data, model, u_model_K)
+def chi2(
+    predict: Predict,
+    data: Dataset,
+    model: dict[str, float],
+    u_model_K: float,
+    model_error: ModelError = None,
+) -> float:
+    r = _residuals(predict, data, model, _sigma(data, u_model_K, tuple(model), model_error))
     return float(r @ r)
 
 
-def _residuals(predict, data, model, u_model_K):
+def _residuals(predict, data, model, sigma):
     D = _values(data)
     w = np.sqrt(np.array(data.series_weights()))
-    return w * (predict(data, model) - D) / _sigma(data, u_model_K)
+    return w * (predict(data, model) - D) / sigma
+
+
+def gof_p_value(chi2_value: float, n: float, k: int) -> float:
+    """p-value of the chi-square goodness-of-fit test (n - k degrees of freedom, at least 1)."""
+    return float(stats.chi2.sf(chi2_value, max(n - k, 1)))
+
+
+def interval_scale(chi2_value: float, n: float, k: int) -> float:
+    """Factor on the profile threshold: 1 for a fit that passes the chi-square test at 1 %, else
+    chi2 / dof (the noise scaled until the fit is acceptable; the interval is then the range the
+    data allow if the misfit were noise, not a 95 % interval of a model that explains them)."""
+    if gof_p_value(chi2_value, n, k) >= GOF_LEVEL:
+        return 1.0
+    return max(1.0, chi2_value / max(n - k, 1))
 
 
 def fit(
@@ -168,14 +225,17 @@ def fit(
     u_model_K: float = 1.0,
     library: tuple[Candidate, ...] = LIBRARY,
     fixed: dict[str, float] | None = None,
+    model_error: ModelError = None,
 ) -> tuple[dict[str, float], float]:
     """Least-squares fit of the candidates ``names`` (others in ``fixed`` held): (params, chi2)."""
     fixed = dict(fixed or {})
     free = [n for n in names if n not in fixed]
     pars = [by_name(n, library).parameter for n in free]
+    sigma = _sigma(data, u_model_K, tuple(names), model_error)
     if not free:
         model = {**fixed}
-        return {n: model[n] for n in names}, chi2(predict, data, model, u_model_K)
+        r = _residuals(predict, data, model, sigma)
+        return {n: model[n] for n in names}, float(r @ r)
 
     def model_of(u):
         return {
@@ -184,7 +244,7 @@ def fit(
         }
 
     def res(u):
-        return _residuals(predict, data, model_of(u), u_model_K)
+        return _residuals(predict, data, model_of(u), sigma)
 
     g = np.linspace(0.0, 1.0, 11 if len(free) == 1 else 7)
     grid = list(itertools.product(g, repeat=len(free)))
@@ -194,7 +254,8 @@ def fit(
     sol = optimize.least_squares(res, u0, bounds=(0.0, 1.0), x_scale=0.1, diff_step=1e-4)
     best = sol.x if 2.0 * sol.cost <= min(vals) else u0
     model = model_of(best)
-    return {n: model[n] for n in names}, chi2(predict, data, model, u_model_K)
+    r = _residuals(predict, data, model, sigma)
+    return {n: model[n] for n in names}, float(r @ r)
 
 
 def profile_interval(
@@ -206,11 +267,14 @@ def profile_interval(
     u_model_K: float = 1.0,
     library: tuple[Candidate, ...] = LIBRARY,
     points: int = 21,
+    model_error: ModelError = None,
+    scale: float = 1.0,
 ) -> tuple[float, float, bool]:
     """95 % profile-likelihood interval of ``which`` (clipped to the prior): (lo, hi, spans whole
-    prior)."""
+    prior). ``scale`` multiplies the threshold 3.84 (:func:`interval_scale`)."""
     p = by_name(which, library).parameter
-    best, _ = fit(predict, data, names, u_model_K, library)
+    best, _ = fit(predict, data, names, u_model_K, library, model_error=model_error)
+    threshold = CHI2_95 * scale
     u_best = p.to_unit(best[which])
     us = np.unique(
         np.concatenate(
@@ -224,17 +288,25 @@ def profile_interval(
     points = len(us)
     prof = []
     for u in us:
-        _, c2 = fit(predict, data, names, u_model_K, library, fixed={which: p.from_unit(u)})
+        _, c2 = fit(
+            predict,
+            data,
+            names,
+            u_model_K,
+            library,
+            fixed={which: p.from_unit(u)},
+            model_error=model_error,
+        )
         prof.append(c2)
     prof = np.array(prof)
     chi2_min = min(chi2_min, float(prof.min()))
-    ok = prof <= chi2_min + CHI2_95
+    ok = prof <= chi2_min + threshold
     idx = np.nonzero(ok)[0]
     lo_u, hi_u = us[idx[0]], us[idx[-1]]
 
     # refine the edges by linear interpolation of the profile between grid points
     def edge(i, j):
-        a, b = prof[i] - chi2_min - CHI2_95, prof[j] - chi2_min - CHI2_95
+        a, b = prof[i] - chi2_min - threshold, prof[j] - chi2_min - threshold
         return us[i] + (us[j] - us[i]) * a / (a - b) if a != b else us[i]
 
     if idx[0] > 0:
@@ -251,6 +323,7 @@ def leave_one_point_out(
     names: tuple[str, ...],
     u_model_K: float = 1.0,
     library: tuple[Candidate, ...] = LIBRARY,
+    model_error: ModelError = None,
 ) -> float | None:
     """RMS error (K) of each operating point predicted by the model fitted to the others."""
     errs = []
@@ -259,7 +332,11 @@ def leave_one_point_out(
     for pt in data.points:
         train = data.without_point(pt)
         test = data.subset(m.point == pt for m in data.measurements)
-        model, _ = fit(predict, train, names, u_model_K, library) if names else ({}, 0.0)
+        model, _ = (
+            fit(predict, train, names, u_model_K, library, model_error=model_error)
+            if names
+            else ({}, 0.0)
+        )
         T = _temperatures(test)
         errs.extend((predict(test, model) - _values(test))[T])
     return float(np.sqrt(np.mean(np.square(errs)))) if errs else None
@@ -281,10 +358,13 @@ def diagnose(
     tie: float = 2.0,
     probes: Dataset | None = None,
     intervals: bool = True,
+    model_error: ModelError = None,
 ) -> Diagnosis:
     """Fit, rank and judge every model of up to ``max_size`` candidates (see the module docstring).
 
-    Returns the :class:`Diagnosis`: ``models`` (ranked), ``verdict``, ``gain``, counts.
+    ``model_error(data, names)``: the forward model's error estimate per measurement (the
+    surrogate's), added in quadrature to u_D and u_model. Returns the :class:`Diagnosis`:
+    ``models`` (ranked), ``verdict``, ``gain``, counts.
     """
     require_nonnegative("diagnose.u_model_K", u_model_K)
     n = data.n_effective()
@@ -295,7 +375,7 @@ def diagnose(
     kind = "AICc" if all(n - len(s) - 1 > 0 for s in sets) else "AIC"
     results = []
     for s in sets:
-        params, c2 = fit(predict, data, s, u_model_K, library)
+        params, c2 = fit(predict, data, s, u_model_K, library, model_error=model_error)
         results.append(
             {
                 "candidates": list(s),
@@ -322,7 +402,7 @@ def diagnose(
     verdict: dict = {}
     if base["delta"] - chosen["delta"] <= detect or chosen is base:
         chosen = base
-        gof = float(stats.chi2.sf(base["chi2"], max(n, 1)))
+        gof = gof_p_value(base["chi2"], n, 0)
         verdict = {
             "kind": "baseline adequate",
             "chosen": [],
@@ -346,11 +426,11 @@ def diagnose(
             "chosen": chosen["candidates"],
             "competitors": [r["candidates"] for r in rivals],
         }
-        gof = float(stats.chi2.sf(chosen["chi2"], max(n - chosen["k"], 1)))
+        gof = gof_p_value(chosen["chi2"], n, chosen["k"])
         verdict["chi2_p_value"] = gof
         if rivals:
             verdict["kind"] = "not identifiable"
-        elif gof < 0.01:
+        elif gof < GOF_LEVEL:
             verdict["kind"] = "partial"
     # intervals and held-out errors for the models that matter
     rivals_all = [
@@ -363,11 +443,20 @@ def diagnose(
     for r in results:
         r["intervals"] = {}
         r["spans_prior"] = []
+        r["interval_scale"] = interval_scale(r["chi2"], n, r["k"])
     if intervals:
         for r in top:
             for name in r["candidates"]:
                 lo, hi, whole = profile_interval(
-                    predict, data, tuple(r["candidates"]), name, r["chi2"], u_model_K, library
+                    predict,
+                    data,
+                    tuple(r["candidates"]),
+                    name,
+                    r["chi2"],
+                    u_model_K,
+                    library,
+                    model_error=model_error,
+                    scale=r["interval_scale"],
                 )
                 r["intervals"][name] = [lo, hi]
                 if whole:
@@ -377,7 +466,9 @@ def diagnose(
         verdict["unconstrained"] = chosen["spans_prior"]
     for r in results:
         r["loo_rmse_K"] = (
-            leave_one_point_out(predict, data, tuple(r["candidates"]), u_model_K, library)
+            leave_one_point_out(
+                predict, data, tuple(r["candidates"]), u_model_K, library, model_error
+            )
             if any(r is t for t in top)
             else None
         )
@@ -433,6 +524,7 @@ def _model_fit(r: dict) -> ModelFit:
         spans_prior=tuple(r["spans_prior"]),
         loo_rmse_K=r["loo_rmse_K"],
         predictions_C=r["predictions_C"],
+        interval_scale=r["interval_scale"],
     )
 
 
@@ -463,14 +555,27 @@ def separating_measurements(
 
 
 def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) -> str:
+    """The verdict in words. ``chosen`` may carry ``surrogate_params`` (the surrogate's values
+    when the parameters are full-model refined ones: quoted where they differ) and
+    ``interval_scale`` (> 1: the fit fails the chi-square test and the intervals are scaled)."""
+
     def fmt(r):
         parts = []
+        scale = r.get("interval_scale", 1.0)
         for name in r["candidates"]:
             p = by_name(name, library).parameter
             iv = r.get("intervals", {}).get(name)
             s = f"{name} ({p.name} = {r['params'][name]:.4g} {p.unit}"
-            if iv:
+            if iv and scale > 1.0:
+                s += (
+                    f", range [{iv[0]:.4g}, {iv[1]:.4g}] with the noise scaled by chi2/dof = "
+                    f"{scale:.3g}: not a 95 % interval, the fit fails"
+                )
+            elif iv:
                 s += f", 95 % profile interval [{iv[0]:.4g}, {iv[1]:.4g}]"
+            sur = r.get("surrogate_params", {}).get(name)
+            if sur is not None and abs(p.to_unit(sur) - p.to_unit(r["params"][name])) > 1e-3:
+                s += f"; full-model refined, the surrogate alone gave {sur:.4g}"
             parts.append(s + ")")
         return " + ".join(parts)
 
@@ -510,6 +615,7 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
 
 __all__ = [
     "Diagnosis",
+    "EdgeCheck",
     "Gain",
     "ModelFit",
     "Refinement",
@@ -518,6 +624,8 @@ __all__ = [
     "chi2",
     "diagnose",
     "fit",
+    "gof_p_value",
+    "interval_scale",
     "leave_one_point_out",
     "profile_interval",
     "refine",
@@ -533,6 +641,10 @@ def refine(
     final_check: bool = True,
     u_model_K: float | None = None,
     library: tuple[Candidate, ...] = LIBRARY,
+    model_error: ModelError = None,
+    edges: str = "auto",
+    edge_tol: float = 0.5,
+    edge_runs: int = 3,
 ) -> Diagnosis:
     """Confirm the chosen model on the full model and remove the surrogate's bias at the optimum.
 
@@ -540,39 +652,176 @@ def refine(
     surrogate S_surrogate(p) + delta equals the full model at p* and keeps the surrogate's
     derivatives; it is refitted (``iterations`` times, each costing one full-model run per
     operating point) and its profile intervals replace the surrogate's. ``final_check`` runs the
-    full model once more at the refined parameters. Returns ``result`` with ``refined`` set
-    (unchanged when no candidate was chosen).
+    full model once more at the refined parameters.
+
+    Interval edges on the full model (``edges``: "always", "never", or "auto": when the
+    surrogate's error estimate ``model_error`` could move chi2 at an edge by more than
+    ``edge_tol``, i.e. 2 sqrt(chi2_edge) |e/sigma| + |e/sigma|^2 > edge_tol with the weighted
+    norm over the data): the full model's chi2 (sigma without the surrogate error) is evaluated
+    at each edge of the corrected surrogate's interval (the other parameters of a pair at their
+    corrected-surrogate profile values) and, when it misses the threshold min + 3.84 s by more
+    than ``edge_tol``, the edge is moved by regula falsi on the full model (at most
+    ``edge_runs`` full-model evaluations per edge). The verdict text is rewritten with the
+    refined values (the surrogate's quoted where they differ). Returns ``result`` with
+    ``refined`` set (unchanged when no candidate was chosen).
     """
     if not result.chosen:
         return result
+    if edges not in ("auto", "always", "never"):
+        raise ParameterError("refine.edges", edges, "auto, always or never")
     u_model_K = result.u_model_K if u_model_K is None else u_model_K
     names = result.chosen
-    params = dict(result.chosen_fit.params)
+    n, k = result.n_effective, len(names)
+    params0 = dict(result.chosen_fit.params)
+    params = params0
+    full_runs: dict[tuple, np.ndarray] = {}
+
+    def full(_data, model):
+        key = tuple(sorted((a, float(b)) for a, b in model.items()))
+        if key not in full_runs:
+            full_runs[key] = np.asarray(full_predict(data, dict(model)))
+        return full_runs[key]
+
     corrections = []
     corrected = surrogate_predict
+    c2 = result.chosen_fit.chi2
     for _ in range(iterations):
-        delta = full_predict(data, params) - surrogate_predict(data, params)
+        delta = full(data, params) - surrogate_predict(data, params)
         corrections.append(float(np.max(np.abs(delta))))
 
         def corrected(d, m, _delta=delta):  # noqa: F811 - the corrected surrogate of this iteration
             return surrogate_predict(d, m) + _delta
 
-        params, c2 = fit(corrected, data, names, u_model_K, library)
+        params, c2 = fit(corrected, data, names, u_model_K, library, model_error=model_error)
+    scale = interval_scale(c2, n, k)
     ivs = {}
     for name in names:
-        lo, hi, _ = profile_interval(corrected, data, names, name, c2, u_model_K, library)
+        lo, hi, _ = profile_interval(
+            corrected,
+            data,
+            names,
+            name,
+            c2,
+            u_model_K,
+            library,
+            model_error=model_error,
+            scale=scale,
+        )
         ivs[name] = [lo, hi]
     check = {}
     D = _values(data)
     T = _temperatures(data)
     if final_check:
-        F = full_predict(data, params)
+        F = full(data, params)
         check = {
             "full_rmse_K": float(np.sqrt(np.mean((F - D)[T] ** 2))) if np.any(T) else None,
             "full_vs_corrected_max_K": float(np.max(np.abs(F - corrected(data, params)))),
             "full_C": F.tolist(),
         }
+    # the interval edges on the full model
+    sigma_full = _sigma(data, u_model_K)
+    w = np.array(data.series_weights())
+
+    def chi2_full(model):
+        r = _residuals(full, data, model, sigma_full)
+        return float(r @ r)
+
+    c_min = min(chi2_full(m) for m in [params0, params] if final_check or m is params0)
+    target = c_min + CHI2_95 * scale
+    if edges == "auto":
+        e = np.zeros(len(data)) if model_error is None else np.asarray(model_error(data, names))
+        x = float(np.sqrt(np.sum(w * (e / sigma_full) ** 2)))
+        do_check = 2.0 * np.sqrt(target) * x + x * x > edge_tol
+    else:
+        do_check = edges == "always"
+    checks = []
+    for name in names:
+        p = by_name(name, library).parameter
+        for side, bound in (("lo", 0.0), ("hi", 1.0)):
+            v_e = ivs[name][0 if side == "lo" else 1]
+            if not do_check:
+                checks.append(EdgeCheck(name, side, v_e, v_e, None, 0, False))
+                continue
+            edge, excess, runs = _full_edge(
+                chi2_full,
+                lambda v, _n=name: fit(
+                    corrected,
+                    data,
+                    names,
+                    u_model_K,
+                    library,
+                    fixed={_n: v},
+                    model_error=model_error,
+                )[0],
+                p,
+                params[name],
+                v_e,
+                bound,
+                target,
+                edge_tol,
+                edge_runs,
+            )
+            checks.append(EdgeCheck(name, side, v_e, edge, excess, runs, True))
+            ivs[name][0 if side == "lo" else 1] = edge
     refined = Refinement(
-        params=params, intervals=ivs, chi2=c2, max_correction_K=corrections, **check
+        params=params,
+        intervals=ivs,
+        chi2=c2,
+        max_correction_K=corrections,
+        edges=tuple(checks),
+        interval_scale=scale,
+        **check,
     )
-    return dataclasses.replace(result, refined=refined)
+    # the verdict quotes the refined values
+    v = result.verdict
+    chosen = {
+        "candidates": list(names),
+        "params": params,
+        "intervals": ivs,
+        "chi2": c2,
+        "interval_scale": scale,
+        "surrogate_params": params0,
+    }
+    vd = {
+        "kind": v.kind,
+        "competitors": [list(c) for c in v.competitors],
+        "chi2_p_value": v.chi2_p_value,
+        "unconstrained": list(v.unconstrained),
+        "separate_by": [dataclasses.asdict(x) for x in v.separate_by],
+    }
+    text = verdict_text(vd, chosen, library)
+    return dataclasses.replace(result, refined=refined, verdict=dataclasses.replace(v, text=text))
+
+
+def _full_edge(chi2_full, model_at, p, v_best, v_edge, bound, target, tol, max_runs):
+    """One profile edge on the full model (see :func:`refine`): (edge, chi2 - target at the
+    surrogate's edge, full-model evaluations)."""
+    u_best, u_e = p.to_unit(v_best), p.to_unit(v_edge)
+    g_best = chi2_full(model_at(v_best)) - target
+    g_e = chi2_full(model_at(v_edge)) - target
+    runs = 1
+    if abs(g_e) <= tol or g_best >= 0.0:
+        return v_edge, g_e, runs
+    if g_e < 0.0:  # the surrogate's edge is inside the full model's: look outward
+        if abs(u_e - bound) < 1e-9:
+            return v_edge, g_e, runs
+        g_b = chi2_full(model_at(p.from_unit(bound))) - target
+        runs += 1
+        if g_b <= 0.0:
+            return p.from_unit(bound), g_e, runs
+        a, ga, b, gb = u_e, g_e, bound, g_b
+    else:
+        a, ga, b, gb = u_best, g_best, u_e, g_e
+    # regula falsi: ga < 0 < gb
+    while True:
+        u = a + (b - a) * ga / (ga - gb)
+        if runs >= max_runs:
+            return p.from_unit(u), g_e, runs
+        g = chi2_full(model_at(p.from_unit(u))) - target
+        runs += 1
+        if abs(g) <= tol:
+            return p.from_unit(u), g_e, runs
+        if g < 0.0:
+            a, ga = u, g
+        else:
+            b, gb = u, g
