@@ -7,9 +7,12 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gearfem.config import load_case
+from gearfem.diagnose.data import Dataset, Measurement
+from gearfem.diagnose.report import studied_u_num
 from gearfem.refinement import KINDS, level_case
 from gearfem.uncertainty import (
     StudyUncertainty,
@@ -143,3 +146,31 @@ def test_the_built_in_case_ships_its_studies_at_its_own_resolution():
         s = StudyUncertainty.from_json(json.loads((root / key / f"{kind}.json").read_text()))
         assert s.resolution_key == key and s.kind == kind
         assert s.speed_rpm == case.operating.speed_rpm and s.torque_Nm == case.operating.torque_Nm
+
+
+def test_diagnose_takes_u_num_from_the_studies_of_the_case_resolution(store):
+    """gearfem diagnose's V&V 20 u_num: from the filed studies when every measured quantity has
+    one (scaled by the rise at another operating point), else None (the P1/P2 estimate then)."""
+    case = _unshipped_case()
+    st = dataclasses.replace(
+        _study(case, "thermal_mesh", 3.0, 0.4),
+        values={"camera_max": 113.0},
+        units={"camera_max": "C"},
+        u_num={"camera_max": 5.0},
+        asymptotic={"camera_max": False},
+    )
+    store_study(st)
+    m = dict(time_s=None, value=0.0, uncertainty=3.0, ambient_C=case.thermal.ambient_C)
+    data = Dataset(
+        (
+            Measurement(speed_rpm=1000.0, torque_Nm=8.0, quantity="camera_max", **m),
+            Measurement(speed_rpm=2000.0, torque_Nm=4.0, quantity="camera_max", **m),
+        )
+    )
+    rise = 113.0 - case.thermal.ambient_C
+    u, note = studied_u_num(case, data, np.array([113.0, 23.0 + 0.5 * rise]))
+    np.testing.assert_allclose(u, [5.0, 2.5], rtol=1e-12)
+    assert "thermal_mesh" in note
+    probe = Dataset((Measurement(speed_rpm=1000.0, torque_Nm=8.0, quantity="probe:web", **m),))
+    u, note = studied_u_num(case, probe, np.array([60.0]))
+    assert u is None and "probe:web" in note

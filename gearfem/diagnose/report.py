@@ -22,6 +22,7 @@ from gearfem.diagnose.forward import FullModel, Surrogate
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
 from gearfem.instruments.options import ProbeOptions
+from gearfem.uncertainty import run_uncertainty
 
 
 def _replace_thermal(**kw):
@@ -41,6 +42,27 @@ def _replace_material(**kw):
     return lambda c: dataclasses.replace(
         c, material=dataclasses.replace(c.material, **kw), material_wheel=None
     )
+
+
+def studied_u_num(case: Case, data: Dataset, S: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """u_num of every prediction from the refinement studies filed for the case's resolution
+    (``gearfem converge``, :func:`gearfem.uncertainty.run_uncertainty`: the kinds combined in
+    quadrature, scaled by the rise at other operating points and times), or (None, reason) when a
+    measured quantity has no study."""
+    u = np.zeros(len(S))
+    kinds: set[str] = set()
+    for i, m in enumerate(data.measurements):
+        point = case.with_operating(m.speed_rpm, m.torque_Nm)
+        point = dataclasses.replace(
+            point, thermal=dataclasses.replace(point.thermal, ambient_C=m.ambient_C)
+        )
+        run = run_uncertainty(point, {m.quantity: float(S[i])})
+        q = run.quantities.get(m.quantity) if run is not None else None
+        if q is None:
+            return None, f"no refinement study of {m.quantity!r} at the case's resolution"
+        u[i] = q.u_num
+        kinds |= set(q.parts)
+    return u, "refinement studies of the case's resolution (" + ", ".join(sorted(kinds)) + ")"
 
 
 def run_diagnosis(
@@ -69,16 +91,16 @@ def run_diagnosis(
     # V&V 20 of the baseline on the full model
     S = full.predict(data, {})
     u_D = np.array([m.uncertainty for m in data.measurements])
-    if (
-        case.thermal.degree == 1
-    ):  # numerical: P1 against P2 on the same mesh (conservative: the whole difference)
+    u_num, num_note = studied_u_num(case, data, S)
+    if u_num is None and case.thermal.degree == 1:
+        # numerical: P1 against P2 on the same mesh (conservative: the whole difference)
         S2 = full.predict(data, {}, transform=_replace_thermal(degree=2))
         u_num = np.abs(S2 - S)
-        num_note = "|S(P2) - S(P1)| on the case mesh"
-    else:
+        num_note = "|S(P2) - S(P1)| on the case mesh (no refinement study of its resolution)"
+    elif u_num is None:
         S1 = full.predict(data, {}, transform=_replace_thermal(degree=1))
         u_num = 1.25 * np.abs(S - S1) / 3.0
-        num_note = "1.25 |S(P2) - S(P1)| / (2^2 - 1)"
+        num_note = "1.25 |S(P2) - S(P1)| / (2^2 - 1) (no refinement study of its resolution)"
     mat = case.material
     # input: conductivity 0.25-0.29 W/(m K) (material.toml range), emissivity 0.90 +- 0.05
     # (assumed),
