@@ -43,7 +43,7 @@ from gearfem.core.params import require_positive
 from gearfem.core.results import JsonRecord
 from gearfem.diagnose.candidates import LIBRARY, Candidate
 from gearfem.diagnose.data import Dataset, Measurement, camera_uncertainty_K, unit_of
-from gearfem.diagnose.select import Diagnosis, ModelError, Predict, fit
+from gearfem.diagnose.select import Diagnosis, ModelError, Predict, fit, ranking_error
 
 #: Speeds of the bench grid, rpm: the thesis bench ran 1000 and 2000 rpm (6.1-6.2); 500 and 1500
 #: in between and below. Its servo motors' limits are not stated in the thesis (6.1.1); nothing
@@ -249,6 +249,7 @@ def suggest(
     h0 = _entropy_bits(prior)
     rng = np.random.default_rng(seed)
     u_model_K = result.u_model_K
+    rank_error = ranking_error(model_error)
     scored: list[tuple[Proposal, Dataset]] = []
     for kind, label, rows in proposals(data, grid):
         pred = {e.label: predict(rows, e.params) for e in expl}
@@ -281,7 +282,7 @@ def suggest(
                                     f.candidates,
                                     u_model_K,
                                     library,
-                                    model_error=model_error,
+                                    model_error=rank_error,
                                 )[1],
                                 len(f.candidates),
                                 n,

@@ -204,6 +204,16 @@ def _residuals(predict, data, model, sigma):
     return w * (predict(data, model) - D) / sigma
 
 
+def ranking_error(model_error: ModelError) -> ModelError:
+    """The error estimate used when models are compared: the part common to every model (the
+    ambient axis), not each model's own candidates. With each model's own error in sigma, a
+    candidate whose table is poor would lower its model's chi2 by widening its sigma and win the
+    ranking for it (seen: a steep glass-transition axis joining every friction law as a pair)."""
+    if model_error is None:
+        return None
+    return lambda data, names: model_error(data, ())
+
+
 def gof_p_value(chi2_value: float, n: float, k: int) -> float:
     """p-value of the chi-square goodness-of-fit test (n - k degrees of freedom, at least 1)."""
     return float(stats.chi2.sf(chi2_value, max(n - k, 1)))
@@ -363,7 +373,9 @@ def diagnose(
     """Fit, rank and judge every model of up to ``max_size`` candidates (see the module docstring).
 
     ``model_error(data, names)``: the forward model's error estimate per measurement (the
-    surrogate's), added in quadrature to u_D and u_model. Returns the :class:`Diagnosis`:
+    surrogate's), added in quadrature to u_D and u_model: in the ranking only its part common to
+    every model (:func:`ranking_error`), in the intervals and held-out refits each model's own.
+    Returns the :class:`Diagnosis`:
     ``models`` (ranked), ``verdict``, ``gain``, counts.
     """
     require_nonnegative("diagnose.u_model_K", u_model_K)
@@ -374,8 +386,9 @@ def diagnose(
         sets += [s for s in itertools.combinations(names, size) if size < n]
     kind = "AICc" if all(n - len(s) - 1 > 0 for s in sets) else "AIC"
     results = []
+    rank_error = ranking_error(model_error)
     for s in sets:
-        params, c2 = fit(predict, data, s, u_model_K, library, model_error=model_error)
+        params, c2 = fit(predict, data, s, u_model_K, library, model_error=rank_error)
         results.append(
             {
                 "candidates": list(s),
@@ -446,13 +459,19 @@ def diagnose(
         r["interval_scale"] = interval_scale(r["chi2"], n, r["k"])
     if intervals:
         for r in top:
+            # intervals with the model's own surrogate error in sigma
+            own = (
+                fit(predict, data, tuple(r["candidates"]), u_model_K, library, None, model_error)[1]
+                if r["candidates"]
+                else r["chi2"]
+            )
             for name in r["candidates"]:
                 lo, hi, whole = profile_interval(
                     predict,
                     data,
                     tuple(r["candidates"]),
                     name,
-                    r["chi2"],
+                    own,
                     u_model_K,
                     library,
                     model_error=model_error,
@@ -628,6 +647,7 @@ __all__ = [
     "interval_scale",
     "leave_one_point_out",
     "profile_interval",
+    "ranking_error",
     "refine",
 ]
 
