@@ -335,7 +335,9 @@ def bench(out: Path, degree: int = 2) -> None:
             if plot:
                 IMAGES.mkdir(parents=True, exist_ok=True)
                 tag = "constant" if name.startswith("constant") else "glass_0.1"
-                shutil.copy(d / "friction_maps.png", IMAGES / f"maps_{tag}_1000rpm_8Nm.png")
+                shutil.copy(
+                    d / "thermal" / "friction_maps.png", IMAGES / f"maps_{tag}_1000rpm_8Nm.png"
+                )
             f = s.get("friction", {})
             ss = s.get("steady_state_C", {})
             br = f.get("distinct_steady_states")

@@ -405,7 +405,7 @@ def test_cycle_one_and_two_ranks_agree(comms):
 def test_condensed_cycle_matches_the_full_solver(loaded, loaded_full):
     """The whole loaded cycle (8 N m, μ = 0.5, 12 positions and the periodicity check): loads
     per tooth and TE within 0.5 %, pitch-point pressure within 1 %, friction power and the U_max
-    field within 1 %, the same effective contact ratio (issue 14). Measured: all within 1e-10."""
+    field within 1 %, the same effective contact ratio (issue 14). Measured: all within 2e-7."""
     a, b = loaded_full, loaded
     assert a.info["solver"] == "full" and b.info["solver"] == "condensed"
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=5e-3)
@@ -421,9 +421,15 @@ def test_condensed_cycle_matches_the_full_solver(loaded, loaded_full):
         assert np.abs(ub - ua).max() <= 1e-2 * np.abs(ua).max()
     assert b.effective_contact_ratio() == a.effective_contact_ratio()
     assert b.periodicity["te_shifted_m"] == pytest.approx(a.periodicity["te_shifted_m"], rel=5e-3)
-    # the same discrete problem: the same Newton path, to round-off
-    np.testing.assert_array_equal(b.newton_iterations, a.newton_iterations)
+    # the same discrete problem solved to the Newton tolerance: the two solvers measure the
+    # residual on different DOF sets (the condensed one on the contact DOFs), so a position near
+    # the tolerance may take one iteration more in one of them (measured: 2 of 12 positions, TE
+    # 5e-9, loads 4e-9, friction power 6e-9, U_max 2e-7 apart)
+    assert np.all(np.abs(b.newton_iterations - a.newton_iterations) <= 1)
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=1e-8)
+    np.testing.assert_allclose(
+        b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-7
+    )
     assert b.info["back_substitution_error"] < 1e-9
 
 
