@@ -69,6 +69,9 @@ from gearfem.uncertainty import RunUncertainty, run_uncertainty
 
 log = logging.getLogger(__name__)
 
+#: How many times :func:`steady_after_transient` continues a transient (doubling each time).
+STEADY_CONTINUATIONS = 6
+
 
 # ------------------------------------------------------------------------------------------------
 # results
@@ -641,20 +644,26 @@ def friction_outputs(
 def steady_after_transient(problem, case: Case):
     """The steady state from the end of the transient: (record, the transient's end field, the
     time the transient had to be continued to, or None). A friction law whose heat may rise with
-    temperature can leave the transient between branches (a runaway under way): Newton from there
-    may find no steady state, so the transient is continued (by its duration and at least 1800 s,
-    three times at most) until the steady solve from its end converges; the branch it reaches is
-    the physical one (collective)."""
+    temperature can leave the transient between branches: just past the fold of the cool branch
+    the transient creeps through a bottleneck (seen: 600 rpm / 8 N m, glassy mu 0.2, the hottest
+    node rising 106 -> 112 -> 122 -> 142 C over 1860-12660 s) and Newton from there finds no
+    steady state.
+    The transient is then continued, by max(duration, 1800 s) doubled each time (at most
+    :data:`STEADY_CONTINUATIONS` times: 63 durations, 31 h of running at the default), until the
+    steady solve from its end converges; the branch it reaches is the physical one. A transient
+    still moving after that is a runaway (collective)."""
     end = problem.T.x.array.copy()
     try:
         return problem.solve_steady(), end, None
     except ConvergenceError:
         if not case.friction_law().may_rise_with_temperature:
             raise
-    for _ in range(3):
+    start_s = problem.time_s
+    for k in range(STEADY_CONTINUATIONS):
         # the failed solve changed T only; the transient's history is intact
         log.info("no steady state from t = %g s yet: continuing the transient", problem.time_s)
-        problem.integrate(duration_s=problem.time_s + max(case.thermal.duration_s, 1800.0))
+        span = max(case.thermal.duration_s, 1800.0) * 2**k
+        problem.integrate(duration_s=problem.time_s + span)
         end = problem.T.x.array.copy()
         try:
             return problem.solve_steady(), end, problem.time_s
@@ -662,7 +671,8 @@ def steady_after_transient(problem, case: Case):
             continue
     raise ConvergenceError(
         "thermal Newton",
-        "no steady state from the transient's end",
+        "no steady state from the transient's end (a runaway, or a transient that had not "
+        f"settled after {problem.time_s - start_s:g} s more)",
         step=f"transient continued to t = {problem.time_s:g} s",
     )
 
