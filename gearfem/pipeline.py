@@ -346,11 +346,12 @@ def observed_thermal(
     write_fields: bool = True,
     steady: bool = True,
     write_plot: bool = True,
+    branch_search: bool = True,
 ) -> tuple[dict[str, Any], dict[str, dict[str, Any]], FieldSnapshot | None]:
     """The thermal runs the instruments need: ``[thermal] body`` into ``out/thermal`` and, when
     the instruments read the other gear too, that gear into ``out/thermal_<body>``. Returns the
     main summary, the other summaries by body, and the fields' snapshot (rank 0; None on the other
-    ranks and when no instrument reads a field)."""
+    ranks and when no instrument reads a field). ``branch_search``: see :func:`thermal_field`."""
     record = needs_fields(case.instruments)
     main = case.thermal.body
     th, field = thermal_field(
@@ -363,6 +364,7 @@ def observed_thermal(
         steady=steady,
         write_plot=write_plot,
         record=record,
+        branch_search=branch_search,
     )
     fields = {main: field}
     others: dict[str, dict[str, Any]] = {}
@@ -381,6 +383,7 @@ def observed_thermal(
                 steady=steady,
                 write_plot=write_plot,
                 record=True,
+                branch_search=branch_search,
             )
     snapshot = None
     if comm.rank == 0 and (record or case.instruments.torque.enabled):
@@ -498,10 +501,14 @@ def thermal_field(
     steady: bool = True,
     write_plot: bool = True,
     record: bool = False,
+    branch_search: bool = True,
 ) -> tuple[dict[str, Any], BodyField | None]:
     """:func:`thermal`, and with ``record`` the body's field at the reported times gathered for
     the instruments (a :class:`~gearfem.instruments.snapshot.BodyField` on rank 0, None on the
-    other ranks and without ``record``)."""
+    other ranks and without ``record``). ``branch_search=False`` skips the search for other steady
+    states of a friction law whose heat may rise with temperature (:func:`friction_branches`;
+    the temperatures, taken before it, are the same): a caller that needs only the branch the
+    transient reached, such as the diagnosis surrogate, saves its three extra steady solves."""
 
     body = case.thermal.body
     if body not in ("pinion", "wheel"):
@@ -585,7 +592,7 @@ def thermal_field(
             if recording is not None:  # problem.T holds the steady state
                 recording.recorder.record("steady", None, out["steady_state_C"])
         if friction is not None:
-            friction.update(friction_branches(problem, case, end, steady))
+            friction.update(friction_branches(problem, case, end, steady, branch_search))
             out["friction"] = friction
         return out
 
@@ -677,12 +684,20 @@ def steady_after_transient(problem, case: Case):
     )
 
 
-def friction_branches(problem, case: Case, transient_end, steady: bool) -> dict[str, Any]:
+def friction_branches(
+    problem, case: Case, transient_end, steady: bool, search: bool = True
+) -> dict[str, Any]:
     """Where the law's heat may rise with temperature: the steady states from a cold, the
-    transient's and a hot start, with their stability, and which one the transient picked."""
+    transient's and a hot start, with their stability, and which one the transient picked
+    (``steady`` and ``search``: a steady state was asked for, and the caller wants the search)."""
     law = case.friction_law()
-    if not (steady and law.may_rise_with_temperature):
+    if not law.may_rise_with_temperature:
         return {"branch_search": "not needed: the friction heat cannot rise with temperature"}
+    if not (steady and search):
+        return {
+            "branch_search": "not done: "
+            + ("skipped by the caller" if steady else "no steady state asked for")
+        }
     found = steady_states(problem, branch_starts(problem, law, transient_end))
     distinct = [s for s in found if s.converged and s.same_as is None]
     picked = next((s for s in found if s.start == "transient"), None)

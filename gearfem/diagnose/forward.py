@@ -171,7 +171,9 @@ class FullModel:
 
         ``transform(case) -> case`` changes the thermal run only (input-uncertainty studies); the
         structural cycle stays that of the unchanged case."""
-        return self.evaluate_state(speed_rpm, torque_Nm, ambient_C, model, transform).temperatures_C
+        return self._evaluate(
+            speed_rpm, torque_Nm, ambient_C, model, transform, branch_search=False
+        ).temperatures_C
 
     def evaluate_state(
         self,
@@ -183,8 +185,13 @@ class FullModel:
     ) -> ForwardState:
         """As :meth:`evaluate`, with the friction heat and, where the friction law's heat may rise
         with temperature, the steady states found and the one the transient from ambient picked
-        (:class:`ForwardState`)."""
+        (:class:`ForwardState`). The temperatures are those of :meth:`evaluate`, which skips the
+        search for the other steady states."""
+        return self._evaluate(speed_rpm, torque_Nm, ambient_C, model, transform, branch_search=True)
 
+    def _evaluate(
+        self, speed_rpm, torque_Nm, ambient_C, model, transform, branch_search: bool
+    ) -> ForwardState:
         case = self.point_case(speed_rpm, torque_Nm, ambient_C, model or {})
         if transform is not None:
             case = transform(case)
@@ -192,7 +199,14 @@ class FullModel:
         out = self.work_dir / f"run{self.solves}"
         cyc = self.cycle(torque_Nm)
         summ, _, snapshot = pipeline.observed_thermal(
-            case, out, self.comm, cyc, write_fields=False, steady=True, write_plot=False
+            case,
+            out,
+            self.comm,
+            cyc,
+            write_fields=False,
+            steady=True,
+            write_plot=False,
+            branch_search=branch_search,
         )
         self.solves += 1
         res: dict[Request, float] = {}
