@@ -292,7 +292,12 @@ def test_forward_state_returns_friction_heat_and_branch(friction_models):
     assert 0.2 * base.friction_per_gear_W - 1e-9 <= st.friction_per_gear_W
     assert st.friction_per_gear_W <= base.friction_per_gear_W * (1 + 1e-6)
     assert {b["start"] for b in st.branches} >= {"cold", "transient", "hot"}
-    assert st.temperatures_C == full.evaluate(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
+    # evaluate skips the branch search, which runs after the temperatures are taken: the same
+    # temperatures to round-off (two evaluations of one model differ by up to 2e-12 K run to run)
+    again = full.evaluate(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
+    assert again.keys() == st.temperatures_C.keys()
+    for k, v in again.items():
+        assert v == pytest.approx(st.temperatures_C[k], abs=1e-9), k
 
 
 # ---------------------------------------------------------------- mu(T) on the friction flux

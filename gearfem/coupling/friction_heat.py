@@ -57,6 +57,7 @@ every residual evaluation (:class:`ThermalFrictionFlux`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 
@@ -281,13 +282,29 @@ def reference_instances(cycle, bands: ContactBands) -> Instances:
 
 @dataclasses.dataclass
 class FluxState:
-    """The flux of a law at given target temperatures (see :class:`FrictionFlux`)."""
+    """The flux of a law at given target temperatures (see :class:`FrictionFlux`): per target the
+    flux and its derivative; per instance (computed when first read) mu, the contact temperature
+    (flank temperature of its target + flash) and the flash temperature."""
 
     flux_W_m2: np.ndarray  # per target
     dflux_dT_W_m2K: np.ndarray  # per target
-    mu: np.ndarray  # per instance
-    contact_K: np.ndarray  # per instance (flank temperature of its target + flash)
-    flash_K: np.ndarray  # per instance
+    _pair: np.ndarray  # the (target, group) pair of each instance
+    _pair_mu_T: np.ndarray  # mu_T per pair (before the pressure/speed factor)
+    _pair_flank_K: np.ndarray  # flank temperature per pair
+    _pair_flash_K: np.ndarray  # flash temperature per pair
+    _factor: np.ndarray  # pressure/speed factor per instance
+
+    @functools.cached_property
+    def mu(self) -> np.ndarray:
+        return self._pair_mu_T[self._pair] * self._factor
+
+    @functools.cached_property
+    def flash_K(self) -> np.ndarray:
+        return self._pair_flash_K[self._pair]
+
+    @functools.cached_property
+    def contact_K(self) -> np.ndarray:
+        return self._pair_flank_K[self._pair] + self.flash_K
 
 
 @dataclasses.dataclass(frozen=True)
@@ -436,12 +453,21 @@ class FrictionFlux:
         gb = inst.group_band
         # flash temperature per unit mu_T of each group (the band's mean pressure/speed factor)
         self._flash0 = bands.flash_per_flux_K_m2_W[gb] * bands.q0_W_m2[gb] * fg
+        # the (target, group) pairs: mu_T and the flash temperature are evaluated per pair
+        key = inst.target.astype(np.int64) * max(ng, 1) + inst.group
+        pairs, self._pair = np.unique(key, return_inverse=True)
+        self._pair = self._pair.ravel()
+        self._pair_target = pairs // max(ng, 1)
+        self._pair_group = pairs % max(ng, 1)
+        self._pair_weight = np.bincount(
+            self._pair, weights=self._hw * self._fpv, minlength=len(pairs)
+        )
         self.table = None
         if self.flash and law.depends_on_temperature:
             top = float(np.max(self._flash0)) if len(self._flash0) else 0.0
             self.table = FlashTable.build(law, top)
             a, s = self.table.weights(self._flash0)
-            self._row, self._sw = a[inst.group], s[inst.group]
+            self._row, self._sw = a[self._pair_group], s[self._pair_group]
 
     def _reduce(self, a: np.ndarray) -> np.ndarray:
         if self.comm is None or self.comm.size == 1:
@@ -449,22 +475,25 @@ class FrictionFlux:
         return self.comm.allreduce(a, op=MPI.SUM)
 
     def evaluate(self, T_target_K: np.ndarray) -> FluxState:
-        """Flux (and derivative) at the targets' flank temperatures ``T_target_K``."""
-        inst, law = self.inst, self.law
-        T = np.asarray(T_target_K, dtype=float)[inst.target]
+        """Flux (and derivative) at the targets' flank temperatures ``T_target_K``. mu_T and the
+        flash temperature of an instance depend only on its group (band on one tooth) and its
+        target's temperature, so they are evaluated once per (target, group) pair and the
+        instances' pressure/speed factors and weights summed per pair beforehand (exact: the same
+        sums in another order)."""
+        law = self.law
+        T = np.asarray(T_target_K, dtype=float)[self._pair_target]
         if self.table is not None:
             muT, dmuT, theta = self.table.lookup(self._row, self._sw, T)
         elif self.flash:  # mu independent of T: the flash temperature is flash0 mu
             muT = law.mu_of_T(T)
             dmuT = np.zeros_like(T)
-            theta = self._flash0[inst.group] * muT
+            theta = self._flash0[self._pair_group] * muT
         else:
             muT, dmuT, theta = law.mu_of_T(T), law.dmu_of_T_dT(T), np.zeros_like(T)
-        mu, dmu = muT * self._fpv, dmuT * self._fpv
-        n = inst.num_targets
-        q = np.bincount(inst.target, weights=mu * self._hw, minlength=n)
-        dq = np.bincount(inst.target, weights=dmu * self._hw, minlength=n)
-        return FluxState(q, dq, mu, T + theta, theta)
+        n = self.inst.num_targets
+        q = np.bincount(self._pair_target, weights=muT * self._pair_weight, minlength=n)
+        dq = np.bincount(self._pair_target, weights=dmuT * self._pair_weight, minlength=n)
+        return FluxState(q, dq, self._pair, muT, T, theta, self._fpv)
 
 
 def reference_flux(
