@@ -51,11 +51,18 @@ TINY = MeshOptions(
 POSITIONS = 12
 
 
-def _case(torque: float, mu: float, mesh: MeshOptions = TINY, **cycle) -> Case:
+def _case(
+    torque: float,
+    mu: float,
+    mesh: MeshOptions = TINY,
+    positions: int = POSITIONS,
+    contact: dict | None = None,
+    **cycle,
+) -> Case:
     c = Case(
         mesh=mesh,
-        contact=ContactOptions(friction_coefficient=mu),
-        cycle=CycleOptions(positions_per_pitch=POSITIONS, check_periodicity=True, **cycle),
+        contact=ContactOptions(friction_coefficient=mu, **(contact or {})),
+        cycle=CycleOptions(positions_per_pitch=positions, check_periodicity=True, **cycle),
     )
     return c.with_operating(torque_Nm=torque)
 
@@ -80,10 +87,34 @@ def loaded():
     return solve_cycle(_model(_case(8.0, 0.5)))
 
 
+#: Positions per pitch of the condensed-vs-full comparison (the full solver costs 15 s a position
+#: on TINY; the agreement is per position).
+COMPARED_POSITIONS = 4
+#: Newton tolerance of their augmented-Lagrangian passes before the last (default 1e-5): the
+#: multiplier updates take the gaps of those passes, so at the default the two solvers' cycles
+#: differ by 1.7e-8 in TE (measured at 4 positions); solved to the final tolerance, they are
+#: the one discrete problem to that tolerance.
+COMPARED_UZAWA_NEWTON_RTOL = 1e-9
+
+
 @pytest.fixture(scope="module")
-def loaded_full():
-    """The loaded cycle with the full 3D solver (the reference of the default condensed one)."""
-    return solve_cycle(_model(_case(8.0, 0.5, solver="full")))
+def solver_pair():
+    """The loaded cycle (8 N m, μ = 0.5) with the full 3D solver (the reference) and the default
+    condensed one, at :data:`COMPARED_POSITIONS` positions and the periodicity check."""
+    return {
+        s: solve_cycle(
+            _model(
+                _case(
+                    8.0,
+                    0.5,
+                    positions=COMPARED_POSITIONS,
+                    contact={"uzawa_newton_rtol": COMPARED_UZAWA_NEWTON_RTOL},
+                    solver=s,
+                )
+            )
+        )
+        for s in ("full", "condensed")
+    }
 
 
 def _check_periodic(r):
@@ -402,11 +433,12 @@ def test_cycle_one_and_two_ranks_agree(comms):
 
 
 @pytest.mark.slow
-def test_condensed_cycle_matches_the_full_solver(loaded, loaded_full):
-    """The whole loaded cycle (8 N m, μ = 0.5, 12 positions and the periodicity check): loads
-    per tooth and TE within 0.5 %, pitch-point pressure within 1 %, friction power and the U_max
-    field within 1 %, the same effective contact ratio (issue 14). Measured: all within 2e-7."""
-    a, b = loaded_full, loaded
+def test_condensed_cycle_matches_the_full_solver(solver_pair):
+    """The loaded cycle (8 N m, μ = 0.5, 4 positions and the periodicity check): loads per tooth
+    and TE within 0.5 %, pitch-point pressure within 1 %, friction power and the U_max field
+    within 1 %, the same effective contact ratio (issue 14); and, being the same discrete problem,
+    the same to the Newton tolerance."""
+    a, b = solver_pair["full"], solver_pair["condensed"]
     assert a.info["solver"] == "full" and b.info["solver"] == "condensed"
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=5e-3)
     total = sum(np.asarray(v) for v in a.tooth_load_N.values())
@@ -423,8 +455,8 @@ def test_condensed_cycle_matches_the_full_solver(loaded, loaded_full):
     assert b.periodicity["te_shifted_m"] == pytest.approx(a.periodicity["te_shifted_m"], rel=5e-3)
     # the same discrete problem solved to the Newton tolerance: the two solvers measure the
     # residual on different DOF sets (the condensed one on the contact DOFs), so a position near
-    # the tolerance may take one iteration more in one of them (measured: 2 of 12 positions, TE
-    # 5e-9, loads 4e-9, friction power 6e-9, U_max 2e-7 apart)
+    # the tolerance may take one iteration more in one of them (measured at 12 positions: 2 of
+    # 12, TE 5e-9, loads 4e-9, friction power 6e-9, U_max 2e-7 apart)
     assert np.all(np.abs(b.newton_iterations - a.newton_iterations) <= 1)
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=1e-8)
     np.testing.assert_allclose(
@@ -434,31 +466,15 @@ def test_condensed_cycle_matches_the_full_solver(loaded, loaded_full):
 
 
 @pytest.mark.slow
-def test_condensed_cycle_matches_the_full_solver_on_the_coarse_case():
-    """tests/cases/coarse.toml (6 of 30 teeth, 8 positions, 8 N m, μ = 0.5): the condensed
-    solver solves on teeth 1-4 of each gear and guards teeth 0 and 5, and gives the full
-    solver's cycle."""
+def test_condensed_solver_guards_the_teeth_next_to_the_cuts_on_the_coarse_case():
+    """tests/cases/coarse.toml (6 of 30 teeth): the condensed solver solves on teeth 1-4 of each
+    gear and guards teeth 0 and 5 (a contact there is an error naming the tooth,
+    test_condensed.py). Its cycle equals the full solver's: test above on TINY; on the built-in
+    case, docs/cycle.md (cycle_solver_agreement, 1e-12)."""
     case = load_case(Path(__file__).resolve().parent / "cases" / "coarse.toml")
-    out = {}
-    for solver in ("full", "condensed"):
-        c = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, solver=solver))
-        m = _model(c)
-        out[solver] = solve_cycle(m)
-        if solver == "condensed":
-            assert m.contact_teeth == {"pinion": [1, 2, 3, 4], "wheel": [1, 2, 3, 4]}
-    a, b = out["full"], out["condensed"]
-    total = sum(np.asarray(v) for v in a.tooth_load_N.values())
-    np.testing.assert_allclose(b.te_m, a.te_m, rtol=5e-3)
-    for k in a.tooth_load_N:
-        assert np.all(np.abs(b.tooth_load_N[k] - a.tooth_load_N[k]) <= 5e-3 * total), k
-    np.testing.assert_allclose(b.p_max_mid_Pa[0], a.p_max_mid_Pa[0], rtol=1e-2)
-    np.testing.assert_allclose(
-        b.friction_power_W_per_rad_s, a.friction_power_W_per_rad_s, rtol=1e-2
-    )
-    for g in ("pinion", "wheel"):
-        ua, ub = a.fields[g].u_max_J_m3, b.fields[g].u_max_J_m3
-        assert np.abs(ub - ua).max() <= 1e-2 * np.abs(ua).max()
-    assert b.effective_contact_ratio() == a.effective_contact_ratio()
+    assert case.cycle.solver == "condensed"
+    m = _model(case)
+    assert m.contact_teeth == {"pinion": [1, 2, 3, 4], "wheel": [1, 2, 3, 4]}
 
 
 @pytest.mark.parametrize(
