@@ -316,6 +316,10 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         np.testing.assert_allclose(q3, 0.6 * q, rtol=1e-13)
         # the profile half-width of the loaded bands agrees with Hertz on the same load (the
         # corner contacts of the tip rounds are narrower than the involute radii say)
+        # a band one point across has no profile width: it takes its load's Hertz width (TINY
+        # has such bands; their mean flux was infinite and their flash temperature NaN)
+        assert np.all(bands.half_width_m > 0) and np.all(np.isfinite(bands.q0_W_m2))
+        assert np.all(np.isfinite(bands.flash_per_flux_K_m2_W))
         hw = np.bincount(bands.band, weights=bands.heat * bands.weight_m2)
         ratio = np.sum(hw * bands.half_width_m / bands.hertz_half_width_m) / np.sum(hw)
         assert 0.6 < ratio < 1.4, ratio

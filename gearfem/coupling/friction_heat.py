@@ -93,7 +93,9 @@ class ContactBands:
     Per band: ``q0_W_m2`` (mean flux over the band per unit mu), ``flash_per_flux_K_m2_W``
     (theta / q_bar for this gear's surface), ``fraction`` (share of the band's heat into this gear),
     ``peclet`` and ``mate_peclet``, ``half_width_m``, ``hertz_half_width_m``,
-    ``load_per_length_N_m``, ``position``, ``tooth``.
+    ``load_per_length_N_m``, ``position``, ``tooth``. A band whose points all lie at one profile
+    coordinate (a contact narrower than the quadrature spacing) has no measurable profile width:
+    its half-width is the Hertz half-width of its load (``unresolved_width_bands`` counts them).
     """
 
     body: str
@@ -118,6 +120,7 @@ class ContactBands:
     tooth: np.ndarray
     dropped_heat_fraction: float
     low_peclet_bands: int
+    unresolved_width_bands: int = 0
 
     @property
     def num_bands(self) -> int:
@@ -186,7 +189,10 @@ def contact_bands(
     hb = np.maximum(np.bincount(band, weights=hw, minlength=nb), 1e-300)
     first = np.zeros(nb, dtype=np.int64)
     first[band[::-1]] = np.arange(len(band))[::-1]
+    a_hertz = h.hertz_half_width_m[ev][first]
     a = h.half_width_m[ev][first]
+    unresolved = ~(a > 0.0)
+    a = np.where(unresolved, a_hertz, a)
     q0 = hb / (2.0 * a * h.z_bin_m)
     mate = BODIES[1 - BODIES.index(body)]
     ms, mm = materials[body], materials[mate]
@@ -221,12 +227,13 @@ def contact_bands(
         peclet=pe_s,
         mate_peclet=pe_m,
         half_width_m=a,
-        hertz_half_width_m=h.hertz_half_width_m[ev][first],
+        hertz_half_width_m=a_hertz,
         load_per_length_N_m=h.load_per_length_N_m[ev][first],
         position=h.position[ev][first],
         tooth=h.tooth[ev][first],
         dropped_heat_fraction=dropped,
         low_peclet_bands=low_s + low_m,
+        unresolved_width_bands=int(np.count_nonzero(unresolved)),
     )
 
 
