@@ -303,6 +303,7 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
     )
     mats, speed = Case().materials, 1000.0
     omega = 2 * math.pi * speed / 60
+    unresolved = 0
     for b in BODIES:
         f = r.fields[b]
         q, _, bands = reference_flux(r, b, FrictionOptions().law_for(0.5), mats, speed, 300.0)
@@ -314,14 +315,17 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         )
         q3, _, _ = reference_flux(r, b, FrictionOptions(mu=0.3).law_for(0.5), mats, speed, 0.0)
         np.testing.assert_allclose(q3, 0.6 * q, rtol=1e-13)
-        # the profile half-width of the loaded bands agrees with Hertz on the same load (the
-        # corner contacts of the tip rounds are narrower than the involute radii say)
         # a band one point across has no profile width: it takes its load's Hertz width (TINY
         # has such bands; their mean flux was infinite and their flash temperature NaN)
+        unresolved += int(np.count_nonzero(bands.hertz_width_used))
         assert np.all(bands.half_width_m > 0) and np.all(np.isfinite(bands.q0_W_m2))
         assert np.all(np.isfinite(bands.flash_per_flux_K_m2_W))
+        # the profile half-width of the loaded bands (where one was measured) agrees with Hertz
+        # on the same load (the corner contacts of the tip rounds are narrower than the involute
+        # radii say)
         hw = np.bincount(bands.band, weights=bands.heat * bands.weight_m2)
-        ratio = np.sum(hw * bands.half_width_m / bands.hertz_half_width_m) / np.sum(hw)
+        hm = np.where(bands.hertz_width_used, 0.0, hw)
+        ratio = np.sum(hm * bands.half_width_m / bands.hertz_half_width_m) / np.sum(hm)
         assert 0.6 < ratio < 1.4, ratio
         # Peclet numbers of a gear at 1000 rpm: high (Blok's regime) wherever heat is made
         pe = np.minimum(bands.peclet, bands.mate_peclet)
@@ -333,6 +337,7 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         np.testing.assert_allclose(
             blok.fraction[hi], np.sqrt(v1) / (np.sqrt(v1) + np.sqrt(v2)), rtol=5e-3
         )
+    assert unresolved > 0  # the finiteness checks above met such bands
 
 
 def _thermal_tiny(cycle, friction: FrictionOptions, comm=MPI.COMM_WORLD, prefix="tiny_fr_"):
@@ -459,8 +464,8 @@ def test_condensed_cycle_matches_the_full_solver(solver_pair):
     assert b.periodicity["te_shifted_m"] == pytest.approx(a.periodicity["te_shifted_m"], rel=5e-3)
     # the same discrete problem solved to the Newton tolerance: the two solvers measure the
     # residual on different DOF sets (the condensed one on the contact DOFs), so a position near
-    # the tolerance may take one iteration more in one of them (measured at 12 positions: 2 of
-    # 12, TE 5e-9, loads 4e-9, friction power 6e-9, U_max 2e-7 apart)
+    # the tolerance may take one iteration more in one of them (measured at 12 positions with
+    # the default passes: 2 of 12, TE 5e-9, loads 4e-9, friction power 6e-9, U_max 2e-7 apart)
     assert np.all(np.abs(b.newton_iterations - a.newton_iterations) <= 1)
     np.testing.assert_allclose(b.te_m, a.te_m, rtol=1e-8)
     np.testing.assert_allclose(

@@ -95,7 +95,7 @@ class ContactBands:
     ``peclet`` and ``mate_peclet``, ``half_width_m``, ``hertz_half_width_m``,
     ``load_per_length_N_m``, ``position``, ``tooth``. A band whose points all lie at one profile
     coordinate (a contact narrower than the quadrature spacing) has no measurable profile width:
-    its half-width is the Hertz half-width of its load (``unresolved_width_bands`` counts them).
+    its half-width is the Hertz half-width of its load (``hertz_width_used`` marks them).
     """
 
     body: str
@@ -120,7 +120,7 @@ class ContactBands:
     tooth: np.ndarray
     dropped_heat_fraction: float
     low_peclet_bands: int
-    unresolved_width_bands: int = 0
+    hertz_width_used: np.ndarray  # per band: no profile width measured, a = the Hertz width
 
     @property
     def num_bands(self) -> int:
@@ -233,7 +233,7 @@ def contact_bands(
         tooth=h.tooth[ev][first],
         dropped_heat_fraction=dropped,
         low_peclet_bands=low_s + low_m,
-        unresolved_width_bands=int(np.count_nonzero(unresolved)),
+        hertz_width_used=unresolved,
     )
 
 
@@ -461,11 +461,11 @@ class FrictionFlux:
         # flash temperature per unit mu_T of each group (the band's mean pressure/speed factor)
         self._flash0 = bands.flash_per_flux_K_m2_W[gb] * bands.q0_W_m2[gb] * fg
         # the (target, group) pairs: mu_T and the flash temperature are evaluated per pair
-        key = inst.target.astype(np.int64) * max(ng, 1) + inst.group
+        stride = max(ng, 1)
+        key = inst.target.astype(np.int64) * stride + inst.group
         pairs, self._pair = np.unique(key, return_inverse=True)
         self._pair = self._pair.ravel()
-        self._pair_target = pairs // max(ng, 1)
-        self._pair_group = pairs % max(ng, 1)
+        self._pair_target, self._pair_group = np.divmod(pairs, stride)
         self._pair_weight = np.bincount(
             self._pair, weights=self._hw * self._fpv, minlength=len(pairs)
         )
