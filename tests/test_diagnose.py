@@ -317,6 +317,28 @@ def test_friction_temperature_options():
     assert case.friction_law().may_rise_with_temperature
 
 
+def test_end_values_of_a_rising_friction_law_come_from_the_transient(tmp_path):
+    """End values only: a law whose heat cannot rise is solved as a steady state directly; a
+    glass step or a falling mu(T) (bistable: Newton from ambient may find no steady state, seen
+    for mu_g 0.1 at both bench points of the built-in case) runs the transient from ambient first
+    and takes the steady state from its end."""
+    from gearfem.diagnose.forward import BRANCH_TRANSIENT_S, FullModel
+
+    full = FullModel(Case(), MPI.COMM_SELF, work_dir=tmp_path)
+    for model, mode in (
+        ({}, "steady"),
+        ({"friction_temperature": 0.004}, "steady"),
+        ({"friction_glass_transition": 0.1}, "transient"),
+        ({"friction_temperature": -0.002}, "transient"),
+    ):
+        th = full.point_case(2000.0, 4.0, 21.0, model).thermal
+        assert th.mode == mode, model
+        assert th.output_times_s == () and th.ambient_C == 21.0
+        if mode == "transient":
+            assert th.duration_s == min(Case().thermal.duration_s, BRANCH_TRANSIENT_S)
+            assert th.initial_C is None  # from ambient
+
+
 @pytest.mark.slow
 def test_friction_temperature_reduces_friction_heat_within_bounds(models, tmp_path):
     """mu(T) = mu_ref exp(-beta (T - T_ref)) on the flux: the friction heat F must lie between
@@ -684,3 +706,9 @@ def test_suggest_measurements_path(tmp_path):
         p.kind == "operating point" for p in s.ranked
     )
     assert design.Suggestion.from_json(s.to_json()) == s
+    # the report's plots include the ranked proposals and the deciding reading
+    from gearfem.diagnose.report import _plots
+
+    _plots(r, d, tmp_path, s)
+    for name in ("prediction_vs_data.png", "ranking.png", "suggestion.png"):
+        assert (tmp_path / name).stat().st_size > 10_000, name

@@ -45,7 +45,7 @@ from scipy import interpolate
 
 from gearfem import pipeline
 from gearfem.config import Case, case_to_dict
-from gearfem.core.errors import ParameterError
+from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.params import require_positive
 from gearfem.core.provenance import source_hash
 from gearfem.diagnose.candidates import LIBRARY, AmbientOffset, Candidate, apply_all, by_name
@@ -70,6 +70,13 @@ class ForwardState:
     steady_states: int | None = None
     transient_branch: str | None = None
     branches: tuple[dict, ...] = ()
+
+
+#: Length of the transient from ambient (s) before the steady solve of an end value when the
+#: friction heat may rise with temperature (:meth:`FullModel.point_case`): twice the bench's
+#: 15 min run (thesis 6.1.1); the steady solve from its end picks the branch it is heading for,
+#: and the transient is continued while that solve fails.
+BRANCH_TRANSIENT_S = 1800.0
 
 
 class FullModel:
@@ -139,7 +146,9 @@ class FullModel:
         self, speed_rpm: float, torque_Nm: float, ambient_C: float, model: dict[str, float]
     ) -> Case:
         """The case of one run: operating point, ambient, candidates applied, transient to the last
-        sample time (or steady when only end values are wanted)."""
+        sample time (or steady when only end values are wanted; with a friction law whose heat may
+        rise with temperature, a transient of :data:`BRANCH_TRANSIENT_S` and the steady state from
+        its end)."""
         case = self.case.with_operating(speed_rpm=speed_rpm, torque_Nm=torque_Nm)
         th = case.thermal
         if self.times_s:
@@ -156,8 +165,23 @@ class FullModel:
             th = dataclasses.replace(
                 th, mode="steady", output_times_s=(), ambient_C=ambient_C, initial_C=None
             )
-        case = dataclasses.replace(case, thermal=th)
-        return apply_all(case, model, self.library)
+        case = apply_all(dataclasses.replace(case, thermal=th), model, self.library)
+        if case.thermal.mode == "steady" and case.friction_law().may_rise_with_temperature:
+            # a friction heat that may rise with temperature can have several steady states (a
+            # glass step is bistable): the end value is the one the transient from ambient
+            # reaches (BRANCH_TRANSIENT_S or the case's shorter duration, then the steady solve
+            # from its end, continued as pipeline.steady_after_transient does while it fails),
+            # not whichever one Newton finds from ambient
+            th = case.thermal
+            th = dataclasses.replace(
+                th,
+                mode="transient",
+                output_times_s=(),
+                duration_s=min(th.duration_s, BRANCH_TRANSIENT_S),
+                dt_initial_s=min(th.dt_initial_s, th.dt_max_s, BRANCH_TRANSIENT_S),
+            )
+            case = dataclasses.replace(case, thermal=th)
+        return case
 
     def evaluate(
         self,
@@ -198,16 +222,23 @@ class FullModel:
         case = dataclasses.replace(case, instruments=self._instruments(case))
         out = self.work_dir / f"run{self.solves}"
         cyc = self.cycle(torque_Nm)
-        summ, _, snapshot = pipeline.observed_thermal(
-            case,
-            out,
-            self.comm,
-            cyc,
-            write_fields=False,
-            steady=True,
-            write_plot=False,
-            branch_search=branch_search,
-        )
+        try:
+            summ, _, snapshot = pipeline.observed_thermal(
+                case,
+                out,
+                self.comm,
+                cyc,
+                write_fields=False,
+                steady=True,
+                write_plot=False,
+                branch_search=branch_search,
+            )
+        except ConvergenceError as e:  # say which run of the diagnosis failed
+            where = (
+                f"{e.step}; diagnosis run at {speed_rpm:g} rpm / {torque_Nm:g} N m, ambient "
+                f"{ambient_C:g} C, model {model or 'baseline'}"
+            )
+            raise ConvergenceError(e.solver, e.reason, where, e.iteration, e.residual) from e
         self.solves += 1
         res: dict[Request, float] = {}
         end = (
