@@ -12,14 +12,22 @@ With ``--diagnose DIAG_CASE.toml`` it also runs ``gearfem diagnose`` on the benc
 that case (the bench read as ``camera_max``) into ``OUT/bench_diagnosis`` and writes its V&V 20
 table and verdict into docs/diagnosis.md (block ``bench_camera_diagnosis``).
 
+With ``--verdict`` (issue 16, second round) it runs ``gearfem diagnose --suggest`` on the bench
+file against ``--case`` (default: the built-in case, whose refinement studies give u_num) into
+``OUT/bench_verdict``, compares the baseline's hottest nodes with its camera reading (how much of
+the gap the instrument model closes), and writes the verdict, ranking, gain and the suggested
+measurements into docs/diagnosis.md (block ``bench_verdict``) with its plots in
+docs/images/diagnosis/bench_verdict_*.png.
+
 Run (each point's structural cycle is cached after its first run):
     mpirun -n 2 python demos/bench_camera.py [--case CASE.toml] [--out results]
-        [--diagnose DIAG_CASE.toml]
+        [--diagnose DIAG_CASE.toml] [--verdict --skip-runs]
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import shutil
 from pathlib import Path
@@ -30,8 +38,9 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import case_to_dict, load_case
 from gearfem.core.doctables import markdown_table, replace_block
-from gearfem.diagnose.data import read_csv
-from gearfem.diagnose.report import run_diagnosis
+from gearfem.diagnose.data import Dataset, read_csv
+from gearfem.diagnose.forward import FullModel
+from gearfem.diagnose.report import run_diagnosis, suggestion_markdown
 from gearfem.pipeline import RunSummary
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -54,11 +63,18 @@ def main() -> None:
     p.add_argument("--out", default=str(ROOT / "results"), help="where the runs go")
     p.add_argument("--no-doc", action="store_true", help="do not write into docs/")
     p.add_argument("--diagnose", default=None, help="also diagnose the bench against this case")
+    p.add_argument(
+        "--verdict",
+        action="store_true",
+        help="second-round verdict with --suggest against --case (default: built-in case)",
+    )
     p.add_argument("--skip-runs", action="store_true", help="only the diagnosis")
     a = p.parse_args()
     comm = MPI.COMM_WORLD
     if a.diagnose:
         diagnosis(a.diagnose, Path(a.out) / "bench_diagnosis", comm, doc=not a.no_doc)
+    if a.verdict:
+        verdict(a.case, Path(a.out) / "bench_verdict", comm, doc=not a.no_doc)
     if a.skip_runs:
         return
     base = load_case(a.case)
@@ -187,6 +203,115 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
         print(text)
         if doc:
             replace_block(ROOT / "docs" / "diagnosis.md", "bench_camera_diagnosis", text)
+
+
+def verdict(case_path: str | None, out: Path, comm, doc: bool) -> None:
+    """Issue 16's second round: ``gearfem diagnose --suggest`` of the bench (as camera_max)
+    against ``case_path`` (None: the built-in case); its verdict, the instrument model's share of
+    the gap, the ranking and the suggested measurements into docs/diagnosis.md (block
+    ``bench_verdict``), its plots into docs/images/diagnosis/."""
+    case = load_case(case_path)
+    data = read_csv(BENCH)
+    r = run_diagnosis(data, case, out, comm, max_size=2, suggest_next=True)
+    d = r.diagnosis
+    # the baseline's hottest node (pinion): what gearfem compared before the instrument models
+    rows = tuple(dataclasses.replace(m, quantity="max_surface") for m in data.measurements)
+    hot = FullModel(case, comm).predict(Dataset(rows, "hottest node"), {})
+    vv = r.vv20["rows"]
+    fit = d.chosen_fit
+    ref = d.refined
+    after = ref.full_C if ref is not None and ref.full_C is not None else fit.predictions_C
+    head = (
+        "bench point",
+        "bench camera (C)",
+        "hottest node, pinion (C)",
+        "camera_max baseline (C)",
+        "u_val (K)",
+        f"camera_max, {fit.label} (C)",
+    )
+    rows = []
+    for i, m in enumerate(data.measurements):
+        row = [
+            f"{m.speed_rpm:g} rpm, {m.torque_Nm:g} N m",
+            f"{m.value:.0f} ± {m.uncertainty:.1f}",
+            f"{hot[i]:.1f}",
+            f"{vv[i]['S_C']:.1f}",
+            f"{vv[i]['u_val_K']:.1f}",
+            f"{after[i]:.1f}",
+        ]
+        rows.append(tuple(row))
+    table = markdown_table(head, rows)
+    gap_hot = [float(hot[i] - m.value) for i, m in enumerate(data.measurements)]
+    gap_cam = [vv[i]["E_K"] for i in range(len(vv))]
+    ranking = markdown_table(
+        ("model", "parameter (95 % profile interval)", "chi2", f"Δ{d.criterion}"),
+        [
+            (
+                m.label,
+                ", ".join(
+                    f"{n} = {m.params[n]:.3g}"
+                    + (
+                        f" [{m.intervals[n][0]:.3g}, {m.intervals[n][1]:.3g}]"
+                        if n in m.intervals
+                        else ""
+                    )
+                    for n in m.candidates
+                )
+                or "-",
+                f"{m.chi2:.1f}",
+                f"{m.delta:.1f}",
+            )
+            for m in d.models
+            if len(m.candidates) <= 1
+        ][:11],
+    )
+    g = d.gain
+    fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"
+    closes = "; ".join(
+        f"{m.speed_rpm:g} rpm / {m.torque_Nm:g} N m: hottest node {gh:+.1f} K, camera {gc:+.1f} K"
+        for m, gh, gc in zip(data.measurements, gap_hot, gap_cam, strict=True)
+    )
+    images = ("prediction_vs_data", "ranking", "suggestion")
+    text = "\n".join(
+        [
+            table,
+            "",
+            f"Case {case.name!r} ({case_path or 'built-in'}), thermal degree "
+            f"{case.thermal.degree}; u_num: {r.vv20['u_num_method']}. Model minus bench, "
+            f"{closes}.",
+            "",
+            f"**Verdict: {d.verdict.text}** Held-out RMS error {fmt(g.loo_rmse_before_K)} "
+            f"before, {fmt(g.loo_rmse_after_K)} after; in-sample {fmt(g.rmse_before_K)} before, "
+            f"{fmt(g.rmse_after_K)} after.",
+            "",
+            "Single candidates, ranked (pairs have as many parameters as the bench has data and "
+            "are not ranked):",
+            "",
+            ranking,
+            *(suggestion_markdown(r.suggestion) if r.suggestion is not None else []),
+            "",
+            *(
+                f"![{n}](images/diagnosis/bench_verdict_{n}.png)\n"
+                for n in images
+                if (out / f"{n}.png").is_file()
+            ),
+            f"Measured by `mpirun -n {comm.size} python demos/bench_camera.py --verdict "
+            f"--skip-runs{' --case ' + case_path if case_path else ''}` (report: "
+            f"{_relative(out)}/report.md; {r.surrogate['full_model_solves']} full-model solves "
+            f"for the diagnosis' surrogate; 1-minute load average {os.getloadavg()[0]:.1f} at "
+            "the end).",
+        ]
+    )
+    if comm.rank == 0:
+        print(text)
+        if doc:
+            for n in images:
+                if (out / f"{n}.png").is_file():
+                    shutil.copyfile(
+                        out / f"{n}.png",
+                        ROOT / "docs" / "images" / "diagnosis" / f"bench_verdict_{n}.png",
+                    )
+            replace_block(ROOT / "docs" / "diagnosis.md", "bench_verdict", text)
 
 
 if __name__ == "__main__":

@@ -150,8 +150,12 @@ def _uncertainty(quantity: str, value: float, torque_u_Nm: float) -> float:
     return PROBE_UNCERTAINTY_K
 
 
+#: Models within this criterion difference of the best still stand as explanations.
+STANDING_DELTA = 6.0
+
+
 def standing_explanations(
-    result: Diagnosis, standing: float = 6.0, max_explanations: int = 4
+    result: Diagnosis, standing: float = STANDING_DELTA, max_explanations: int = 4
 ) -> tuple[Explanation, ...]:
     """The ranked models within ``standing`` of the best (at most ``max_explanations``), with
     their Akaike weights renormalised over them."""

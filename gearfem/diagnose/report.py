@@ -17,7 +17,14 @@ from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY, by_name
 from gearfem.diagnose.data import Dataset, Measurement, unit_of
-from gearfem.diagnose.design import Grid, Suggestion, bench_grid, standing_explanations, suggest
+from gearfem.diagnose.design import (
+    STANDING_DELTA,
+    Grid,
+    Suggestion,
+    bench_grid,
+    standing_explanations,
+    suggest,
+)
 from gearfem.diagnose.forward import FullModel, Surrogate
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
@@ -186,7 +193,7 @@ def run_diagnosis(
         suggestion=suggestion,
     )
     if comm.rank == 0:
-        _plots(result, data, out)
+        _plots(result, data, out, suggestion)
         if suggestion is not None:
             write_json(out / "suggestion.json", suggestion)
         (out / "report.md").write_text(markdown(report, data))
@@ -313,7 +320,9 @@ def _probes(sur: Surrogate, data: Dataset) -> Dataset:
     return Dataset(tuple(rows), "probes")
 
 
-def _plots(result: Diagnosis, data: Dataset, out: Path) -> None:
+def _plots(
+    result: Diagnosis, data: Dataset, out: Path, suggestion: Suggestion | None = None
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -329,6 +338,17 @@ def _plots(result: Diagnosis, data: Dataset, out: Path) -> None:
     ax[0].plot(x, base.predictions_C, "rs", label="baseline")
     if chosen is not base:
         ax[0].plot(x, chosen.predictions_C, "b^", label=chosen.label)
+    # the other explanations still standing (within the design's window of the best)
+    others = [
+        m
+        for m in result.models
+        if m.delta <= STANDING_DELTA
+        and m is not chosen
+        and m.predictions_C is not None
+        and m.candidates
+    ][:4]
+    for j, m in enumerate(others):
+        ax[0].plot(x + 0.08 * (j + 1), m.predictions_C, "x", ms=7, label=m.label)
     ax[0].set_xticks(x, labels, rotation=80, fontsize=6)
     ax[0].set_ylabel("temperature (C)")
     ax[0].legend()
@@ -353,6 +373,45 @@ def _plots(result: Diagnosis, data: Dataset, out: Path) -> None:
     ax.set_title("ranking")
     fig.tight_layout()
     fig.savefig(out / "ranking.png", dpi=110)
+    plt.close(fig)
+    if suggestion is not None and suggestion.ranked:
+        _suggestion_plot(suggestion, out / "suggestion.png", plt)
+
+
+def _suggestion_plot(sug: Suggestion, path: Path, plt, top: int = 12) -> None:
+    """Left: the ranked proposals' expected information gain (bars) and probability of deciding
+    (dots). Right: at the best proposal's most separating row, each explanation's predicted
+    reading (full model where re-run) with the row's +-2u band."""
+    ranked = sug.ranked[:top]
+    colours = {"operating point": "tab:blue", "time": "tab:orange", "instrument": "tab:green"}
+    fig, ax = plt.subplots(1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1.6, 1]})
+    y = np.arange(len(ranked))
+    ax[0].barh(
+        y,
+        [p.expected_information_gain_bits for p in ranked],
+        color=[colours.get(p.kind, "grey") for p in ranked],
+    )
+    ax[0].axvline(sug.prior_entropy_bits, color="k", ls="--", lw=0.8, label="prior entropy")
+    ax[0].plot([p.decide_probability for p in ranked], y, "k.", label="P(decides)")
+    ax[0].set_yticks(y, [f"{p.label} ({p.kind})" for p in ranked], fontsize=7)
+    ax[0].invert_yaxis()
+    ax[0].set_xlabel("expected information gain (bit); P(decides) as dots")
+    ax[0].set_title("what to measure next")
+    ax[0].legend(fontsize=7, loc="lower right")
+    best = ranked[0]
+    vals = best.full_predicted or best.predicted
+    arr = np.array(list(vals.values()))
+    u = np.array(best.uncertainty)
+    i = int(np.argmax((arr.max(axis=0) - arr.min(axis=0)) / u))
+    names = list(vals)
+    v = arr[:, i]
+    ax[1].errorbar(range(len(names)), v, yerr=2 * u[i], fmt="o", capsize=4)
+    ax[1].set_xticks(range(len(names)), names, rotation=30, ha="right", fontsize=7)
+    ax[1].set_ylabel(f"predicted reading ({unit_of(best.quantities[i])})")
+    ax[1].set_xlim(-0.5, len(names) - 0.5)
+    ax[1].set_title(f"best proposal, most separating row:\n{best.rows[i]} (±2u)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -458,6 +517,8 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "![ranking](ranking.png)",
         "",
     ]
+    if report.suggestion is not None and report.suggestion.ranked:
+        lines += ["![what to measure next](suggestion.png)", ""]
     return "\n".join(lines)
 
 
