@@ -38,6 +38,7 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import case_to_dict, load_case
 from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.log import setup_logging
 from gearfem.diagnose.data import Dataset, read_csv
 from gearfem.diagnose.forward import FullModel
 from gearfem.diagnose.report import run_diagnosis, suggestion_markdown
@@ -70,6 +71,7 @@ def main() -> None:
     )
     p.add_argument("--skip-runs", action="store_true", help="only the diagnosis")
     a = p.parse_args()
+    setup_logging()  # $GEARFEM_LOG_LEVEL or INFO, rank 0
     comm = MPI.COMM_WORLD
     if a.diagnose:
         diagnosis(a.diagnose, Path(a.out) / "bench_diagnosis", comm, doc=not a.no_doc)
