@@ -38,10 +38,12 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import case_to_dict, load_case
 from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.errors import ParameterError
 from gearfem.core.log import setup_logging
 from gearfem.diagnose.data import Dataset, read_csv
+from gearfem.diagnose.design import Grid, bench_grid, check_grid
 from gearfem.diagnose.forward import FullModel
-from gearfem.diagnose.report import run_diagnosis, suggestion_markdown
+from gearfem.diagnose.report import design_case, run_diagnosis, suggestion_markdown
 from gearfem.pipeline import RunSummary
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -69,6 +71,12 @@ def main() -> None:
         action="store_true",
         help="second-round verdict with --suggest against --case (default: built-in case)",
     )
+    p.add_argument(
+        "--suggest-points",
+        default=None,
+        help="with --verdict: the design grid's speeds and torques, 'rpm,rpm/Nm,Nm' "
+        "(default: the bench grid of gearfem.diagnose.design)",
+    )
     p.add_argument("--skip-runs", action="store_true", help="only the diagnosis")
     a = p.parse_args()
     setup_logging()  # $GEARFEM_LOG_LEVEL or INFO, rank 0
@@ -76,7 +84,7 @@ def main() -> None:
     if a.diagnose:
         diagnosis(a.diagnose, Path(a.out) / "bench_diagnosis", comm, doc=not a.no_doc)
     if a.verdict:
-        verdict(a.case, Path(a.out) / "bench_verdict", comm, doc=not a.no_doc)
+        verdict(a.case, Path(a.out) / "bench_verdict", comm, not a.no_doc, a.suggest_points)
     if a.skip_runs:
         return
     base = load_case(a.case)
@@ -207,14 +215,32 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
             replace_block(ROOT / "docs" / "diagnosis.md", "bench_camera_diagnosis", text)
 
 
-def verdict(case_path: str | None, out: Path, comm, doc: bool) -> None:
+def _grid(case, points: str | None) -> Grid | None:
+    """The design grid of ``--suggest-points`` ('rpm,rpm/Nm,Nm'), None for the default."""
+    if points is None:
+        return None
+    try:
+        speeds, torques = (tuple(float(x) for x in part.split(",")) for part in points.split("/"))
+    except ValueError as e:
+        raise ParameterError("--suggest-points", points, "'rpm,rpm,.../Nm,Nm,...'") from e
+    quantities = tuple(q for q in design_case(case).instruments.quantities if q != "efficiency")
+    base = bench_grid(quantities)
+    return check_grid(
+        dataclasses.replace(
+            base, speeds_rpm=speeds, torques_Nm=torques, source="given on the command line"
+        )
+    )
+
+
+def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | None = None) -> None:
     """Issue 16's second round: ``gearfem diagnose --suggest`` of the bench (as camera_max)
     against ``case_path`` (None: the built-in case); its verdict, the instrument model's share of
     the gap, the ranking and the suggested measurements into docs/diagnosis.md (block
     ``bench_verdict``), its plots into docs/images/diagnosis/."""
     case = load_case(case_path)
     data = read_csv(BENCH)
-    r = run_diagnosis(data, case, out, comm, max_size=2, suggest_next=True)
+    grid = _grid(case, points)
+    r = run_diagnosis(data, case, out, comm, max_size=2, suggest_next=True, grid=grid)
     d = r.diagnosis
     # the baseline's hottest node (pinion): what gearfem compared before the instrument models
     rows = tuple(dataclasses.replace(m, quantity="max_surface") for m in data.measurements)
@@ -298,7 +324,8 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool) -> None:
                 if (out / f"{n}.png").is_file()
             ),
             f"Measured by `mpirun -n {comm.size} python demos/bench_camera.py --verdict "
-            f"--skip-runs{' --case ' + case_path if case_path else ''}` (report: "
+            f"--skip-runs{' --case ' + case_path if case_path else ''}"
+            f"{' --suggest-points ' + points if points else ''}` (report: "
             f"{_relative(out)}/report.md; {r.surrogate['full_model_solves']} full-model solves "
             f"for the diagnosis' surrogate; 1-minute load average {os.getloadavg()[0]:.1f} at "
             "the end).",
