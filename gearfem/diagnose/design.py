@@ -126,6 +126,18 @@ class Proposal(JsonRecord):
         u = np.array(self.uncertainty)
         return float(np.max((vals.max(axis=0) - vals.min(axis=0)) / u)) if len(vals) else 0.0
 
+    @property
+    def readings(self) -> dict[str, list[float]]:
+        """Each explanation's predicted rows: the full model's where re-run, else the
+        surrogate's."""
+        return self.full_predicted or self.predicted
+
+    def deciding_row(self) -> int:
+        """Index of the row where the explanations' :attr:`readings` differ most, in units of
+        the row's uncertainty."""
+        arr = np.array(list(self.readings.values()))
+        return int(np.argmax((arr.max(axis=0) - arr.min(axis=0)) / np.array(self.uncertainty)))
+
 
 @dataclasses.dataclass(frozen=True)
 class Suggestion(JsonRecord):
@@ -376,11 +388,9 @@ def suggestion_text(
     head = "standing: " + ", ".join(f"{e.label} (p = {e.probability:.2f})" for e in expl)
     lines = [head]
     for k, p in enumerate(decisive, start=1):
-        vals = p.full_predicted or p.predicted
-        # the row where the explanations differ most, in units of its uncertainty
-        arr = np.array(list(vals.values()))
+        vals = p.readings
         u = np.array(p.uncertainty)
-        i = int(np.argmax((arr.max(axis=0) - arr.min(axis=0)) / u))
+        i = p.deciding_row()
         unit = unit_of(p.quantities[i])
         outcomes = "; ".join(
             f"{v[i]:.3g} {unit} -> {name}"

@@ -399,13 +399,10 @@ def _suggestion_plot(sug: Suggestion, path: Path, plt, top: int = 12) -> None:
     ax[0].set_title("what to measure next")
     ax[0].legend(fontsize=7, loc="lower right")
     best = ranked[0]
-    vals = best.full_predicted or best.predicted
-    arr = np.array(list(vals.values()))
-    u = np.array(best.uncertainty)
-    i = int(np.argmax((arr.max(axis=0) - arr.min(axis=0)) / u))
-    names = list(vals)
-    v = arr[:, i]
-    ax[1].errorbar(range(len(names)), v, yerr=2 * u[i], fmt="o", capsize=4)
+    i = best.deciding_row()
+    names = list(best.readings)
+    v = [best.readings[n][i] for n in names]
+    ax[1].errorbar(range(len(names)), v, yerr=2 * best.uncertainty[i], fmt="o", capsize=4)
     ax[1].set_xticks(range(len(names)), names, rotation=30, ha="right", fontsize=7)
     ax[1].set_ylabel(f"predicted reading ({unit_of(best.quantities[i])})")
     ax[1].set_xlim(-0.5, len(names) - 0.5)
