@@ -102,6 +102,28 @@ class FacetReference:
         """Reference facet as a counter-clockwise polygon (n_vertices, 2)."""
         return np.asarray(basix.geometry(self.facet_type))[self.vertex_cycle]
 
+    @cached_property
+    def power_exponents(self) -> np.ndarray:
+        """Exponents (i, j) of the monomials ξ₁^i ξ₂^j spanning the facet element (P_d: i + j ≤ d,
+        Q_d: i, j ≤ d), in the order of :attr:`power_basis`'s rows."""
+        d = self.degree
+        if self.facet_type == basix.CellType.triangle:
+            pairs = [(i, k - i) for k in range(d + 1) for i in range(k, -1, -1)]
+        else:
+            pairs = [(i, j) for j in range(d + 1) for i in range(d + 1)]
+        return np.array(pairs, dtype=np.int64)
+
+    @cached_property
+    def power_basis(self) -> np.ndarray:
+        """Matrix P (n_monomials, n_nodes): P @ nodal values are the coefficients of the same
+        polynomial in the monomials of :attr:`power_exponents` (the inverse of their Vandermonde
+        matrix at the facet element's nodes). Evaluating a facet map from these coefficients costs
+        a few vector operations per point instead of a tabulation of every shape function."""
+        pts = np.asarray(self.element.points, dtype=np.float64)
+        e = self.power_exponents
+        V = pts[:, None, 0] ** e[None, :, 0] * pts[:, None, 1] ** e[None, :, 1]
+        return np.linalg.inv(V)
+
     def tabulate(self, xi: np.ndarray, derivatives: int = 1) -> np.ndarray:
         """Shape functions at reference points ``xi`` (n, 2): array (n_deriv, n, n_nodes).
 
