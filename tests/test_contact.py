@@ -16,7 +16,14 @@ import pytest
 from mpi4py import MPI
 
 from gearfem.contact import ContactInterface, ContactOptions
-from gearfem.contact.kinematics import evaluate, project, segment
+from gearfem.contact.interface import _box_pairs
+from gearfem.contact.kinematics import (
+    evaluate,
+    evaluate_power,
+    power_coefficients,
+    project,
+    segment,
+)
 from gearfem.contact.output import summary, write_vtx
 from gearfem.contact.rigid import RigidMotion
 from gearfem.contact.verification import (
@@ -399,3 +406,40 @@ def test_closed_form_facet_shape_functions_equal_basix(cell, degree):
     ref = FacetReference.create(cell, degree)
     xi = np.random.default_rng(0).uniform(-0.2, 1.2, (40, 2))
     np.testing.assert_allclose(ref.tabulate(xi, 2), ref.element.tabulate(2, xi)[..., 0], atol=1e-12)
+
+
+@pytest.mark.parametrize("cell", [basix.CellType.tetrahedron, basix.CellType.hexahedron])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_power_basis_maps_equal_the_shape_function_maps(cell, degree):
+    """The projection's power-coefficient evaluation gives the facet map and its first and second
+    derivatives of the shape-function evaluation, inside and beyond the reference facet."""
+    ref = FacetReference.create(cell, degree)
+    rng = np.random.default_rng(1)
+    nodes = rng.normal(size=(30, ref.num_nodes, 3))
+    xi = rng.uniform(-0.3, 1.3, (30, 2))
+    x, t1, t2, _, (x11, x12, x22) = evaluate(ref, nodes, xi, derivatives=2)
+    got = evaluate_power(ref, power_coefficients(ref, nodes), xi, derivatives=2)
+    for want, have in zip((x, t1, t2, x11, x12, x22), got, strict=True):
+        np.testing.assert_allclose(have, want, rtol=0.0, atol=1e-12)
+
+
+def test_box_pairs_are_every_pair_of_overlapping_grown_boxes():
+    """The candidate search pairs exactly the facets whose node boxes (the slave's grown by its
+    margin) overlap, on long thin facets (a layered face width) where bounding spheres pair
+    nearly everything: compared with the brute-force test of every pair."""
+    rng = np.random.default_rng(2)
+    n = 300
+    base = rng.uniform(0.0, 10.0, (2 * n, 1, 3))
+    # facets 0.2 long in x and y, 4 long in z
+    nodes = base + rng.uniform(0.0, 1.0, (2 * n, 6, 3)) * np.array([0.2, 0.2, 4.0])
+    xs, xm = nodes[:n], nodes[n:]
+    margin = rng.uniform(0.05, 0.3, n)
+    si, mj = _box_pairs(xs, xm, margin)
+    lo_s, hi_s = xs.min(axis=1) - margin[:, None], xs.max(axis=1) + margin[:, None]
+    lo_m, hi_m = xm.min(axis=1), xm.max(axis=1)
+    overlap = np.all(
+        (lo_s[:, None] <= hi_m[None]) & (lo_m[None] <= hi_s[:, None]), axis=2
+    )  # (n, n)
+    want = np.argwhere(overlap)
+    assert len(want) > 20  # the test has pairs to find
+    np.testing.assert_array_equal(np.column_stack([si, mj]), want)  # same pairs, same order

@@ -103,8 +103,9 @@ class MasterCandidates:
         rows = np.repeat(np.arange(len(slave_facets)), cnt)
         if not len(slave_facets):
             return rows, np.zeros(0, np.int64)
-        idx = np.concatenate([np.arange(self.ptr[f], self.ptr[f + 1]) for f in slave_facets])
-        return rows, self.facets[idx]
+        start = np.repeat(self.ptr[slave_facets], cnt)
+        first = np.repeat(np.cumsum(cnt) - cnt, cnt)
+        return rows, self.facets[start + np.arange(len(rows)) - first]
 
 
 @dataclasses.dataclass
@@ -121,6 +122,11 @@ class Segmentation:
     weight_ref: np.ndarray  # reference-facet quadrature weight
     candidates: MasterCandidates
     slip_direction: np.ndarray | None = None
+    # the closest-point foot of each point on its segmented master facet at the last evaluation:
+    # the next projection starts there (within a solve the surfaces move little)
+    foot_guess: np.ndarray | None = None
+    # |T1 × T2| of the slave map in the reference configuration at the points (small strain)
+    area_scale: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -136,12 +142,18 @@ class _Placement:
     master_motion: RigidMotion
 
 
-def _closest_master_points(ref_m, xm: np.ndarray, fm: np.ndarray, x: np.ndarray):
-    """Closest-point projection of the points ``x`` onto the master facets ``fm`` (an affine
-    first guess on the facet's vertex triangle, then Newton on the curved facet): (ζ, distance)."""
-    nv = ref_m.num_vertices
-    v = xm[fm, :nv]
-    zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[:, 0, :]
+def _closest_master_points(
+    ref_m, xm: np.ndarray, fm: np.ndarray, x: np.ndarray, zeta0: np.ndarray | None = None
+):
+    """Closest-point projection of the points ``x`` onto the master facets ``fm`` (Newton on the
+    curved facet from ``zeta0``, by default an affine first guess on the facet's vertex
+    triangle): (ζ, distance)."""
+    if zeta0 is None:
+        nv = ref_m.num_vertices
+        v = xm[fm, :nv]
+        zeta0 = _affine_coords(v[:, 0], v[:, 1] - v[:, 0], v[:, 2] - v[:, 0], x[:, None, :])[
+            :, 0, :
+        ]
     return project(ref_m, xm[fm], x, zeta0)
 
 
@@ -223,8 +235,10 @@ class ContactInterface:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Slave/master facet pairs that are close and face each other.
 
-        A pair is kept when (i) the facets' bounding spheres, grown by the search margin (the
-        slave facet size times ``search_distance_rel``), overlap, (ii) their normals are opposed
+        A pair is kept when (i) the facets' bounding boxes and their bounding spheres, grown by the
+        search margin (the slave facet size times ``search_distance_rel``), overlap (the boxes
+        first: a layered face width makes the flank facets long and thin, and spheres alone pair
+        every facet with most of its tooth), (ii) their normals are opposed
         within ``max_normal_angle_deg`` and (iii) the slave facet reaches into the slab of
         ± margin around the master facet's plane.
         """
@@ -235,11 +249,7 @@ class ContactInterface:
         rs = np.linalg.norm(xs[:, :nv] - cs[:, None], axis=2).max(axis=1)
         rm = np.linalg.norm(xm[:, :nv] - cm[:, None], axis=2).max(axis=1)
         margin = self.options.search_distance_rel * ps.slave.local.size
-        tree = cKDTree(cm)
-        lists = tree.query_ball_point(cs, rs + rm.max() + margin)
-        counts = np.fromiter((len(v) for v in lists), dtype=np.int64, count=len(lists))
-        si = np.repeat(np.arange(len(lists)), counts)
-        mj = np.fromiter((j for v in lists for j in v), dtype=np.int64, count=int(counts.sum()))
+        si, mj = _box_pairs(xs, xm, margin)
         if len(si) == 0:
             return si, mj
         keep = np.linalg.norm(cs[si] - cm[mj], axis=1) < rs[si] + rm[mj] + margin[si]
@@ -344,8 +354,10 @@ class ContactInterface:
         ref_s, ref_m = ps.slave.ref, ps.master.ref
         fs, xi = seg.slave_facet, seg.xi
         x, _, _, Ns = evaluate(ref_s, place.xs[fs], xi)
-        _, T1, T2, _ = evaluate(ref_s, place.slave_data.X[fs], xi)  # reference area (small strain)
-        jac = np.linalg.norm(np.cross(T1, T2), axis=1)
+        if seg.area_scale is None:  # reference area (small strain): fixed with the points
+            _, T1, T2, _ = evaluate(ref_s, place.slave_data.X[fs], xi)
+            seg.area_scale = np.linalg.norm(np.cross(T1, T2), axis=1)
+        jac = seg.area_scale
         fm, zeta, valid = self._master_feet(ref_m, place.xm, x, seg)
         xmp, t1, t2, Nm = evaluate(ref_m, place.xm[fm], zeta)
         normal, _ = unit_normal(t1, t2, place.master_data.orientation[fm])
@@ -420,7 +432,8 @@ class ContactInterface:
         penetrations.
         """
         fm = seg.master_facet
-        zeta, _ = _closest_master_points(ref_m, xm, fm, x)
+        zeta, _ = _closest_master_points(ref_m, xm, fm, x, seg.foot_guess)
+        seg.foot_guess = zeta
         tol = self.options.projection_tolerance
         valid = ref_m.inside(zeta, tol=tol)
         if valid.all():
@@ -657,6 +670,28 @@ class ContactInterface:
             worst = max(worst, float(pen.max(initial=0.0)))
             ps.lam[:] = new
         return self.a.comm.allreduce(worst, op=_mpi_max())
+
+
+def _box_pairs(xs: np.ndarray, xm: np.ndarray, margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(slave, master) facet pairs whose axis-aligned bounding boxes (of all facet nodes; the
+    slave's grown by ``margin``) overlap, sorted by slave then master facet.
+
+    Candidates come from one k-d tree query in coordinates scaled per axis by the largest sum of
+    half-widths (Chebyshev radius 1: every overlapping pair is found), then the exact test."""
+    lo_s, hi_s = xs.min(axis=1) - margin[:, None], xs.max(axis=1) + margin[:, None]
+    lo_m, hi_m = xm.min(axis=1), xm.max(axis=1)
+    cs, hs = 0.5 * (lo_s + hi_s), 0.5 * (hi_s - lo_s)
+    cm, hm = 0.5 * (lo_m + hi_m), 0.5 * (hi_m - lo_m)
+    scale = hs.max(axis=0) + hm.max(axis=0)
+    scale = np.where(scale > 0.0, scale, 1.0)
+    near = cKDTree(cs / scale).sparse_distance_matrix(
+        cKDTree(cm / scale), 1.0 + 1e-12, p=np.inf, output_type="ndarray"
+    )
+    si, mj = near["i"].astype(np.int64), near["j"].astype(np.int64)
+    keep = np.all(np.abs(cs[si] - cm[mj]) <= hs[si] + hm[mj], axis=1)
+    si, mj = si[keep], mj[keep]
+    order = np.lexsort((mj, si))
+    return si[order], mj[order]
 
 
 def _unique_pairs(slave: np.ndarray, master: np.ndarray) -> np.ndarray:
