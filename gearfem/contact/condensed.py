@@ -379,7 +379,10 @@ class CondensedContactProblem(ContactProblem):
         can reach: nothing else is read before :meth:`newton` refreshes u_c = ū + C g)."""
         ctl = self.controlled
         n = self.num_condensed
-        a = np.unique(np.concatenate([st.rows, st.cols]))
+        on = np.zeros(n, dtype=bool)  # the active DOFs, sorted (a mask: no sort of the COO)
+        on[st.rows] = True
+        on[st.cols] = True
+        a = np.nonzero(on)[0]
         pos = np.full(n, -1, dtype=np.int64)
         pos[a] = np.arange(len(a))
         Kaa = sp.csr_matrix((st.vals, (pos[st.rows], pos[st.cols])), shape=(len(a), len(a)))
