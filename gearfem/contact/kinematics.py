@@ -67,14 +67,17 @@ def evaluate_power(
     ref: FacetReference, coef: np.ndarray, xi: np.ndarray, derivatives: int = 1
 ) -> tuple[np.ndarray, ...]:
     """Position and derivatives of facet maps given by their power coefficients (m, n, 3) at
-    ``xi`` (n, 2): (x, t1, t2) and with ``derivatives=2`` also (x11, x12, x22), each (n, 3).
+    ``xi`` (n, 2): (x,) with ``derivatives=0``, (x, t1, t2) with 1, and with 2 also (x11, x12,
+    x22), each (n, 3).
 
     The same values as :func:`evaluate` on the nodes (to round-off) at a fraction of the cost: a
     sum of a few scaled coefficient rows instead of a tabulation of every shape function and a
     batched product with the nodes (the closest-point iteration evaluates millions of points per
     meshing cycle)."""
     a, b = xi[:, 0:1], xi[:, 1:2]
-    orders = [(0, 0), (1, 0), (0, 1)]
+    orders = [(0, 0)]
+    if derivatives >= 1:
+        orders += [(1, 0), (0, 1)]
     if derivatives == 2:
         orders += [(2, 0), (1, 1), (0, 2)]
     out = []
@@ -140,7 +143,7 @@ def project(
         np.clip(step, -0.5, 0.5, out=step)  # keep the iteration near the facet
         xi[todo] += step
         todo = todo[np.max(np.abs(step), axis=1) >= tol]
-    xm = evaluate_power(ref, coef, xi, derivatives=1)[0]
+    xm = evaluate_power(ref, coef, xi, derivatives=0)[0]
     return xi, np.linalg.norm(x - xm, axis=1)
 
 
