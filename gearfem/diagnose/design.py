@@ -122,9 +122,13 @@ class Proposal(JsonRecord):
     def separation(self) -> float:
         """Largest difference between two explanations' predictions over the rows, in units
         of the rows' uncertainty."""
-        vals = np.array(list(self.predicted.values()))
-        u = np.array(self.uncertainty)
-        return float(np.max((vals.max(axis=0) - vals.min(axis=0)) / u)) if len(vals) else 0.0
+        return float(np.max(self._row_spread(self.predicted))) if self.predicted else 0.0
+
+    def _row_spread(self, vals: dict[str, list[float]]) -> np.ndarray:
+        """Per row, the largest difference between two explanations' ``vals``, in units of the
+        row's uncertainty."""
+        arr = np.array(list(vals.values()))
+        return (arr.max(axis=0) - arr.min(axis=0)) / np.array(self.uncertainty)
 
     @property
     def readings(self) -> dict[str, list[float]]:
@@ -135,8 +139,7 @@ class Proposal(JsonRecord):
     def deciding_row(self) -> int:
         """Index of the row where the explanations' :attr:`readings` differ most, in units of
         the row's uncertainty."""
-        arr = np.array(list(self.readings.values()))
-        return int(np.argmax((arr.max(axis=0) - arr.min(axis=0)) / np.array(self.uncertainty)))
+        return int(np.argmax(self._row_spread(self.readings)))
 
 
 @dataclasses.dataclass(frozen=True)
