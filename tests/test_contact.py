@@ -16,7 +16,7 @@ import pytest
 from mpi4py import MPI
 
 from gearfem.contact import ContactInterface, ContactOptions
-from gearfem.contact.interface import _box_pairs
+from gearfem.contact.interface import MasterCandidates, Segmentation, _box_pairs
 from gearfem.contact.kinematics import (
     evaluate,
     evaluate_power,
@@ -421,6 +421,58 @@ def test_power_basis_maps_equal_the_shape_function_maps(cell, degree):
     got = evaluate_power(ref, power_coefficients(ref, nodes), xi, derivatives=2)
     for want, have in zip((x, t1, t2, x11, x12, x22), got, strict=True):
         np.testing.assert_allclose(have, want, rtol=0.0, atol=1e-12)
+
+
+def test_a_point_crossing_a_master_facet_edge_moves_its_force_continuously():
+    """A slave point sliding across the edge between two curved P2 master facets keeps a
+    continuous gap and passes its force from one facet's nodes to the other's without a jump:
+    it changes facet on the shared edge, not where its foot leaves the first facet by the
+    projection tolerance (where the extrapolated shape functions differ from the neighbour's by
+    about the tolerance, and Newton cycled on the refined gear cycle)."""
+    ref = FacetReference.create(basix.CellType.tetrahedron, 2)
+    pts = basix.create_element(
+        basix.ElementFamily.P, basix.CellType.triangle, 2, basix.LagrangeVariant.equispaced
+    ).points
+
+    def lift(xy):  # a curved master surface
+        return np.column_stack([xy, 0.1 * xy[:, 0] ** 2 + 0.05 * xy[:, 0] * xy[:, 1]])
+
+    def facet(v0, v1, v2):
+        v0, v1, v2 = (np.array(v, float) for v in (v0, v1, v2))
+        return lift(v0 + pts[:, :1] * (v1 - v0) + pts[:, 1:] * (v2 - v0))
+
+    # facets A and B share the edge from (1, 0) to (0, 1)
+    xm = np.stack([facet((0, 0), (1, 0), (0, 1)), facet((1, 1), (0, 1), (1, 0))])
+    nodes, ids = np.unique(np.round(xm.reshape(-1, 3), 12), axis=0, return_inverse=True)
+    ids = ids.reshape(2, 6)
+    assert len(nodes) == 9  # the shared edge's three nodes are common
+    t = np.linspace(0.0, 1.0, 4001)
+    xy = np.column_stack([0.3 + 0.45 * t, 0.35 + 0.4 * t])  # crosses x + y = 1 at t = 0.41
+    x = lift(xy) + np.array([0.0, 0.0, 0.01])
+    stub = type("Stub", (), {"options": ContactOptions()})()
+    seg = Segmentation(  # every point segmented against facet A, both facets candidates
+        slave_facet=np.zeros(len(t), np.int64),
+        master_facet=np.zeros(len(t), np.int64),
+        xi=np.zeros((len(t), 2)),
+        weight_ref=np.ones(len(t)),
+        candidates=MasterCandidates(np.array([0, 2]), np.array([0, 1])),
+    )
+    fm, zeta, valid = ContactInterface._master_feet(stub, ref, xm, x, seg)
+    assert valid.all() and set(fm[t < 0.4]) == {0} and set(fm[t > 0.42]) == {1}
+    N = ref.tabulate(zeta, 0)[0]
+    share = np.zeros((len(t), len(nodes)))  # each master node's share of the point's force
+    np.add.at(share, (np.repeat(np.arange(len(t)), 6), ids[fm].ravel()), N.ravel())
+    switch = np.nonzero(np.diff(fm))[0]
+    assert len(switch) == 1
+    # the switch happens with the feet on the shared edge (both facets' zeta sum to 1 there)
+    k = switch[0]
+    assert abs(zeta[k].sum() - 1.0) < 2e-3 and abs(zeta[k + 1].sum() - 1.0) < 2e-3
+    step = np.abs(np.diff(share, axis=0)).max()
+    smooth = np.abs(np.diff(share, axis=0))[np.arange(len(t) - 1) != k].max()
+    assert step < 2.0 * smooth + 1e-9  # no jump at the switch larger than an ordinary step
+    xp = np.einsum("pk,pkd->pd", N, xm[fm])
+    dist = np.linalg.norm(x - xp, axis=1)
+    assert np.abs(np.diff(dist)).max() < 2.0 * np.abs(np.diff(dist))[: k - 1].max() + 1e-12
 
 
 def test_box_pairs_are_every_pair_of_overlapping_grown_boxes():

@@ -423,31 +423,46 @@ class ContactInterface:
         """Master facet, reference coordinates and validity of the closest-point foot of each
         slave point.
 
-        A point whose foot left the master facet it was segmented against is projected onto the
-        other master facets overlapping the same slave facet and takes the one its foot lies on:
-        the gap stays the (continuous) distance to the master surface, and the segmentation only
-        partitions the slave facet for integration. Points with no foot on any of them (beyond the
-        master surface) carry no contact; without this test facets that overlap in the slave plane
-        but are not closest-point neighbours would extrapolate the master polynomial and invent
-        penetrations.
+        A point whose foot left the master facet it was segmented against (even within
+        ``projection_tolerance``) is projected onto the other master facets overlapping the same
+        slave facet, and takes the facet nearest to it: the one whose foot, clamped to the
+        reference facet, is closest in space, among the facets whose foot lies on them within the
+        tolerance. The gap stays the (continuous) distance to the master surface, the segmentation
+        only partitions the slave facet for integration, and a point crossing the edge between two
+        master facets changes facet where both feet are on that edge, so that its force moves
+        continuously from one facet's nodes to the other's. (Keeping a foot up to the tolerance
+        outside its facet instead, as long as it is within it, makes the switch happen at the
+        tolerance: the force jumps between the extrapolated and the true shape functions, and
+        Newton can cycle at a residual of that jump.) Points with no foot on any candidate facet
+        within the tolerance (beyond the master surface) carry no contact; without this test
+        facets that overlap in the slave plane but are not closest-point neighbours would
+        extrapolate the master polynomial and invent penetrations.
         """
         fm = seg.master_facet
         zeta, _ = _closest_master_points(ref_m, xm, fm, x, seg.foot_guess)
         seg.foot_guess = zeta
         tol = self.options.projection_tolerance
+        on_facet = ref_m.inside(zeta)
+        if on_facet.all():
+            return fm, zeta, on_facet
         valid = ref_m.inside(zeta, tol=tol)
-        if valid.all():
-            return fm, zeta, valid
-        fm, zeta = fm.copy(), zeta.copy()
-        bad = np.nonzero(~valid)[0]
+        bad = np.nonzero(~on_facet)[0]
         rows, mcand = seg.candidates.of(seg.slave_facet[bad])
         rows = bad[rows]
         keep = mcand != fm[rows]
         rows, mcand = rows[keep], mcand[keep]
+        z, _ = _closest_master_points(ref_m, xm, mcand, x[rows]) if len(rows) else (None, None)
+        # every candidate foot within the tolerance, the segmented facet's among them
+        rows = np.concatenate([bad, rows])
+        mcand = np.concatenate([fm[bad], mcand])
+        z = zeta[bad] if z is None else np.concatenate([zeta[bad], z])
+        ok = ref_m.inside(z, tol=tol)
+        rows, mcand, z = rows[ok], mcand[ok], z[ok]
+        fm, zeta, valid = fm.copy(), zeta.copy(), valid.copy()
+        valid[bad] = False
         if len(rows):
-            z, dist = _closest_master_points(ref_m, xm, mcand, x[rows])
-            ok = ref_m.inside(z, tol=tol)
-            rows, mcand, z, dist = rows[ok], mcand[ok], z[ok], dist[ok]
+            xc, _, _, _ = evaluate(ref_m, xm[mcand], ref_m.clamp(z))
+            dist = np.linalg.norm(x[rows] - xc, axis=1)
             order = np.lexsort((dist, rows))
             pick = order[np.unique(rows[order], return_index=True)[1]]
             fm[rows[pick]] = mcand[pick]
