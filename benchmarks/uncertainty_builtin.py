@@ -2,8 +2,8 @@
 gearfem and written into docs/refinement.md.
 
 For each kind (thermal mesh, structural contact zone, positions per pitch, tip elements) this runs
-:func:`gearfem.refinement.refinement_study` on the built-in thesis case (its resolution the
-coarsest of three levels), then (rank 0):
+:func:`gearfem.refinement.refinement_study` on the built-in thesis case (its resolution the middle
+of three levels by default: one coarser, one finer), then (rank 0):
 
 * files the study as package data, ``gearfem/data/uncertainty/<resolution key>/<kind>.json``:
   ``gearfem run`` of the built-in case reads u_num from there (tests/test_uncertainty.py checks
@@ -15,7 +15,7 @@ coarsest of three levels), then (rank 0):
 Usage (2 ranks; the cycles of the refined levels are cached under cache/cycles):
 
     mpirun -n 2 python benchmarks/uncertainty_builtin.py [--kinds thermal_mesh positions ...]
-        [--factor 1.5] [--out results/uncertainty]
+        [--factor 1.5] [--case-level middle] [--out results/uncertainty]
 """
 
 from __future__ import annotations
@@ -57,6 +57,12 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     p.add_argument("--factor", type=float, default=1.5)
+    p.add_argument(
+        "--case-level",
+        default="middle",
+        choices=("coarsest", "middle"),
+        help="where the built-in case's resolution sits among the three levels",
+    )
     p.add_argument("--out", default="results/uncertainty")
     p.add_argument(
         "--file-only",
@@ -85,15 +91,20 @@ def main() -> None:
                 )
         else:
             study = refinement_study(
-                case, Path(args.out) / kind, comm, kind=kind, factor=args.factor
+                case,
+                Path(args.out) / kind,
+                comm,
+                kind=kind,
+                factor=args.factor,
+                case_level=args.case_level,
             )
         wall = time.perf_counter() - t0
         if comm.rank == 0:
             write_json(DATA / study.resolution_key / f"{kind}.json", study_uncertainty(case, study))
             caption = (
                 f"\n\n`mpirun -n {comm.size} python benchmarks/uncertainty_builtin.py --kinds "
-                f"{kind}`: {wall:.0f} s on {comm.size} ranks, load average "
-                f"{os.getloadavg()[0]:.1f}."
+                f"{kind} --case-level {args.case_level}`: {wall:.0f} s on {comm.size} ranks, "
+                f"load average {os.getloadavg()[0]:.1f}."
             )
             if args.file_only:
                 caption = f"\n\n{args.note or 'Filed from ' + args.out + '/' + kind}."

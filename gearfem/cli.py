@@ -26,7 +26,9 @@ from gearfem.diagnose.design import bench_grid, check_grid
 from gearfem.diagnose.report import design_case, run_diagnosis
 from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair
 from gearfem.pipeline import read_case, run_thermal_case
+from gearfem.refinement import CASE_LEVELS as REFINEMENT_CASE_LEVELS
 from gearfem.refinement import KINDS as REFINEMENT_KINDS
+from gearfem.refinement import LEVELS as REFINEMENT_LEVELS
 from gearfem.refinement import refinement_study
 from gearfem.study import load_study, run_study
 
@@ -282,14 +284,22 @@ def _cmd_converge(args: argparse.Namespace) -> int:
         case = dataclasses.replace(
             case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s)
         )
-    study = refinement_study(case, args.out, MPI.COMM_WORLD, kind=args.kind, factor=args.factor)
+    study = refinement_study(
+        case,
+        args.out,
+        MPI.COMM_WORLD,
+        kind=args.kind,
+        factor=args.factor,
+        case_level=args.case_level,
+    )
     _say(
         f"{args.kind} refinement of {case.name}: DOFs {', '.join(str(n) for n in study.dofs)} "
-        "(the case's resolution first)"
+        f"(coarse to fine; the case's resolution is the {args.case_level})"
     )
+    case_value = REFINEMENT_LEVELS - 1 - study.case_level  # row values are fine to coarse
     for r in study.rows:
         _say(
-            f"  {r.quantity:26s} {r.values[2]:10.4g} {r.unit:3s} (case), order "
+            f"  {r.quantity:26s} {r.values[case_value]:10.4g} {r.unit:3s} (case), order "
             f"{r.observed_order:5.2f}, extrapolated {r.extrapolated:10.4g}, u_num of the case "
             f"{r.u_num_case:8.3g}{'' if r.asymptotic else ' (not asymptotic)'}"
         )
@@ -520,7 +530,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--kind",
         default="thermal_mesh",
         choices=REFINEMENT_KINDS,
-        help="what is refined (the case's resolution is the coarsest of three levels)",
+        help="what is refined",
+    )
+    s.add_argument(
+        "--case-level",
+        default="coarsest",
+        choices=tuple(REFINEMENT_CASE_LEVELS),
+        help="where the case's resolution sits among the three levels: the coarsest (levels 1, "
+        "r, r^2 times finer) or the middle (1/r, 1, r: u_num from one coarser and one finer "
+        "solution)",
     )
     s.add_argument("--duration-s", type=float, default=None, help="override [thermal] duration_s")
     s.set_defaults(func=_cmd_converge)

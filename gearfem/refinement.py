@@ -4,19 +4,22 @@
 systematically refined discretisations, one direction (kind) at a time, and estimates for each
 reported quantity the observed order, the extrapolated value and the grid convergence index with
 the numerical standard uncertainty u_num (:mod:`gearfem.core.gci`) — of the solution at the
-case's own resolution, which is one of the three levels:
+case's own resolution, which is one of the three levels: the coarsest (``case_level =
+"coarsest"``, levels 1, r, r² times finer than the case) or the middle one (``"middle"``, levels
+1/r, 1 and r: the case's u_num then comes from one coarser and one finer solution, the GCI of the
+medium grid of Celik et al.). Per kind:
 
 * ``thermal_mesh``: the thermal model's mesh (``[thermal_mesh]``; every element size and the size
-  gradient divided by the factor, the layer count multiplied by it), the case's level the
-  coarsest; the structural cycle is the case's, solved once. h = N^(-1/3) for N temperature DOFs.
+  gradient divided by the factor, the layer count multiplied by it and rounded up); the
+  structural cycle is the case's, solved once. h = N^(-1/3) for N temperature DOFs.
 * ``structural_mesh``: the contact zone of the structural mesh (flank, tip, root and tooth element
   sizes divided by the factor; body size, size gradient and layers kept: the contact pressures and
-  the friction flux live there), the case's level the coarsest; the thermal mesh stays the case's.
+  the friction flux live there); the thermal mesh stays the case's.
   h = the flank element size.
 * ``positions``: the pinion positions per pitch of the cycle (multiplied by the factor and
-  rounded), the case's level the coarsest; h = 1 / positions per pitch.
-* ``tip``: the tip element size alone (the tip rounds), the case's level the coarsest: the
-  largest contact pressure of the cycle sits on the mating gear's tip round (docs/cycle.md).
+  rounded); h = 1 / positions per pitch.
+* ``tip``: the tip element size alone (the tip rounds): the largest contact pressure of the cycle
+  sits on the mating gear's tip round (docs/cycle.md).
 
 Quantities: every temperature of the thermal summary at the end of the run, and for the kinds that
 re-solve the cycle (and for every kind when the sources come from a cycle) the friction power, the
@@ -52,6 +55,8 @@ from gearfem.uncertainty import StudyUncertainty, resolution_key, store_study
 
 LEVELS = 3
 KINDS = ("thermal_mesh", "structural_mesh", "positions", "tip")
+#: where the case's own resolution sits among the three levels -> index of the case (coarse to fine)
+CASE_LEVELS = {"coarsest": 0, "middle": 1}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,42 +116,50 @@ class RefinementStudy(JsonRecord):
 def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
     """``options`` refined geometrically similarly: every element size and the size gradient
     divided by ``factor`` (the size grows linearly with the distance from the fine curves, so the
-    gradient must shrink too for the whole mesh to refine by ``factor``), the layers multiplied."""
-    if not factor >= 1.0:
-        raise ParameterError("refinement factor", factor, ">= 1")
+    gradient must shrink too for the whole mesh to refine by ``factor``), the layers multiplied
+    and rounded up. A factor below 1 coarsens."""
+    if not factor > 0.0:
+        raise ParameterError("refinement factor", factor, "> 0")
     return dataclasses.replace(
         options,
-        size_flank_mm=options.size_flank_mm / factor,
-        size_tip_mm=options.size_tip_mm / factor,
-        size_root_mm=options.size_root_mm / factor,
-        size_tooth_mm=options.size_tooth_mm / factor,
-        size_body_mm=options.size_body_mm / factor,
-        size_growth=options.size_growth / factor,
+        size_flank_mm=_divided(options.size_flank_mm, factor),
+        size_tip_mm=_divided(options.size_tip_mm, factor),
+        size_root_mm=_divided(options.size_root_mm, factor),
+        size_tooth_mm=_divided(options.size_tooth_mm, factor),
+        size_body_mm=_divided(options.size_body_mm, factor),
+        size_growth=_divided(options.size_growth, factor),
         layers=max(1, math.ceil(options.layers * factor - 1e-9)),
     )
 
 
 def refined_contact_zone(options: MeshOptions, factor: float) -> MeshOptions:
     """The contact zone of ``options`` refined: flank, tip, root and tooth element sizes divided
-    by ``factor`` (body size, size gradient and layers kept)."""
-    if not factor >= 1.0:
-        raise ParameterError("refinement factor", factor, ">= 1")
+    by ``factor`` (body size, size gradient and layers kept). A factor below 1 coarsens."""
+    if not factor > 0.0:
+        raise ParameterError("refinement factor", factor, "> 0")
     return dataclasses.replace(
         options,
-        size_flank_mm=options.size_flank_mm / factor,
-        size_tip_mm=options.size_tip_mm / factor,
-        size_root_mm=options.size_root_mm / factor,
-        size_tooth_mm=options.size_tooth_mm / factor,
+        size_flank_mm=_divided(options.size_flank_mm, factor),
+        size_tip_mm=_divided(options.size_tip_mm, factor),
+        size_root_mm=_divided(options.size_root_mm, factor),
+        size_tooth_mm=_divided(options.size_tooth_mm, factor),
     )
 
 
+def _divided(size: float, factor: float) -> float:
+    """``size / factor`` to 12 significant digits: a level reached by refining and coarsening
+    again (0.14 / (1 / 1.5)) is the same mesh, with the same cache key, as the one it came from."""
+    return float(f"{size / factor:.12g}")
+
+
 def level_case(case: Case, kind: str, factor: float) -> Case:
-    """The case refined by ``factor`` (>= 1) in direction ``kind``. The thermal mesh is pinned to
-    the case's (``[thermal_mesh]``, or ``[mesh]`` when absent) in every kind but ``thermal_mesh``,
-    so that refining the structural mesh does not refine the thermal one with it. The
-    reconstruction of the cycle's facet flux (``[sources] flux_smoothing_*_mm``) is part of the
-    structural discretisation: its profile width shrinks with the structural flank size and with
-    the positions' spacing (the contact zone's refinement keeps the layers, and the axial width)."""
+    """The case refined by ``factor`` (> 0; below 1: coarsened) in direction ``kind``. The
+    thermal mesh is pinned to the case's (``[thermal_mesh]``, or ``[mesh]`` when absent) in every
+    kind but ``thermal_mesh``, so that refining the structural mesh does not refine the thermal
+    one with it. The reconstruction of the cycle's facet flux (``[sources]
+    flux_smoothing_*_mm``) is part of the structural discretisation: its profile width shrinks
+    with the structural flank size and with the positions' spacing (the contact zone's refinement
+    keeps the layers, and the axial width)."""
     require_choice("refinement kind", kind, KINDS)
     pinned = dataclasses.replace(case, thermal_mesh=case.thermal_mesh_options)
     if kind == "thermal_mesh":
@@ -156,20 +169,20 @@ def level_case(case: Case, kind: str, factor: float) -> Case:
     src = case.sources
     if kind == "structural_mesh":  # the flux reconstruction shrinks with the facets it smooths
         smooth = dataclasses.replace(
-            src, flux_smoothing_profile_mm=src.flux_smoothing_profile_mm / factor
+            src, flux_smoothing_profile_mm=_divided(src.flux_smoothing_profile_mm, factor)
         )
         return dataclasses.replace(
             pinned, mesh=refined_contact_zone(case.mesh, factor), sources=smooth
         )
     if kind == "tip":
-        mesh = dataclasses.replace(case.mesh, size_tip_mm=case.mesh.size_tip_mm / factor)
+        mesh = dataclasses.replace(case.mesh, size_tip_mm=_divided(case.mesh.size_tip_mm, factor))
         return dataclasses.replace(pinned, mesh=mesh)
     n = round(case.cycle.positions_per_pitch * factor)
     smooth = dataclasses.replace(  # and with the spacing of the positions along the profile
         src,
-        flux_smoothing_profile_mm=src.flux_smoothing_profile_mm
-        * case.cycle.positions_per_pitch
-        / n,
+        flux_smoothing_profile_mm=_divided(
+            src.flux_smoothing_profile_mm, n / case.cycle.positions_per_pitch
+        ),
     )
     return dataclasses.replace(
         pinned, cycle=dataclasses.replace(case.cycle, positions_per_pitch=n), sources=smooth
@@ -190,12 +203,20 @@ def _size_and_setting(case: Case, kind: str, thermal: dict, cycle) -> tuple[floa
 
 
 def refinement_study(
-    case: Case, out_dir: str | Path, comm: MPI.Comm, kind: str = "thermal_mesh", factor: float = 1.5
+    case: Case,
+    out_dir: str | Path,
+    comm: MPI.Comm,
+    kind: str = "thermal_mesh",
+    factor: float = 1.5,
+    case_level: str = "coarsest",
 ) -> RefinementStudy:
     """Run the refinement study of ``case`` in direction ``kind`` (collective); see the module
-    docstring. The case's own resolution is the coarsest of the three levels."""
+    docstring. ``case_level``: ``"coarsest"`` or ``"middle"``, where the case's own resolution
+    sits among the three levels."""
     require_choice("refinement kind", kind, KINDS)
     require_range("refinement factor", factor, 1.2, 3.0)
+    require_choice("refinement case_level", case_level, tuple(CASE_LEVELS))
+    at = CASE_LEVELS[case_level]
     if kind != "thermal_mesh" and case.sources.mode != "cycle":
         raise ParameterError(
             "sources.mode", case.sources.mode, "'cycle'", f"a {kind} study re-solves the cycle"
@@ -206,7 +227,7 @@ def refinement_study(
     if kind == "thermal_mesh" and case.sources.mode == "cycle":
         cyc_fixed, _, _ = pipeline.cycle(case, comm)
     for level in range(LEVELS):
-        c = level_case(case, kind, factor**level)
+        c = case if level == at else level_case(case, kind, factor ** (level - at))
         cyc = cyc_fixed
         if cyc is None and c.sources.mode == "cycle":
             cyc, _, _ = pipeline.cycle(c, comm)
@@ -240,11 +261,11 @@ def refinement_study(
                 conv.gci,
                 conv.u_num,
                 conv.asymptotic,
-                conv.u_num_at(LEVELS - 1),  # the case's level: the coarsest
+                conv.u_num_at(LEVELS - 1 - at),  # the case's level (values fine to coarse)
             )
         )
     key = resolution_key(case)
-    study = RefinementStudy(case.name, kind, factor, 0, key, tuple(levels), tuple(rows))
+    study = RefinementStudy(case.name, kind, factor, at, key, tuple(levels), tuple(rows))
     if comm.rank == 0:
         _write_table(study, out)
         _plot(study, out)
@@ -322,11 +343,14 @@ def markdown(study: RefinementStudy) -> str:
     """The study as a Markdown table with its one-line caption (for refinement.md and docs/)."""
     dofs = ", ".join(str(lv.dofs) for lv in study.levels)
     sizes = ", ".join(f"{lv.size:.4g}" for lv in study.levels)
+    where = {0: "coarsest", 1: "middle"}.get(study.case_level, f"level {study.case_level}")
+    head = ["fine", "medium", "coarse"]  # row values are fine to coarse
+    head[LEVELS - 1 - study.case_level] += " (case)"
     lines = [
         f"{_TITLES[study.kind]}, factor {study.factor:g}: levels coarse to fine with h = {sizes} "
-        f"and {dofs} DOFs; the case's resolution is the coarsest. Values at the end of the run.",
+        f"and {dofs} DOFs; the case's resolution is the {where}. Values at the end of the run.",
         "",
-        "| quantity | unit | fine | medium | coarse (case) | observed order | extrapolated | "
+        f"| quantity | unit | {' | '.join(head)} | observed order | extrapolated | "
         "u_num fine | u_num case |",
         "|---|---|---|---|---|---|---|---|---|",
     ]

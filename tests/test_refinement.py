@@ -11,8 +11,9 @@ import pytest
 
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
+from gearfem.core.gci import grid_convergence
 from gearfem.geometry.options import MeshOptions
-from gearfem.refinement import RefinementStudy, refined_mesh, thermal_refinement
+from gearfem.refinement import RefinementStudy, refined_mesh, refinement_study
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -41,22 +42,36 @@ def test_refined_mesh_scales_sizes_and_layers():
     m = refined_mesh(MeshOptions(layers=2, size_flank_mm=0.3, size_growth=0.6), 1.5)
     assert m.size_flank_mm == pytest.approx(0.2) and m.layers == 3
     assert m.size_growth == pytest.approx(0.4)  # geometrically similar refinement
-    with pytest.raises(ParameterError):
-        refined_mesh(MeshOptions(), 0.5)
+    # coarsening (the level below a case in the middle of a study) and refining back: the same
+    # options, exactly (the same mesh and cache key)
+    c = refined_mesh(MeshOptions(layers=4, size_flank_mm=0.14), 1.0 / 1.5)
+    assert c.size_flank_mm == 0.21 and c.layers == 3
+    assert refined_mesh(refined_mesh(m, 1.0 / 1.5), 1.5) == m
+    with pytest.raises(ParameterError, match="refinement factor"):
+        refined_mesh(MeshOptions(), 0.0)
 
 
 @pytest.mark.mpi
-def test_thermal_refinement_study(tmp_out, comm):
-    out = tmp_out / "converge"
-    study = thermal_refinement(_small_case(), out, comm, factor=1.5)
+@pytest.mark.parametrize("case_level", ["coarsest", "middle"])
+def test_thermal_refinement_study(tmp_out, comm, case_level):
+    out = tmp_out / f"converge_{case_level}"
+    case = _small_case()
+    study = refinement_study(case, out, comm, "thermal_mesh", factor=1.5, case_level=case_level)
     assert study.dofs[0] < study.dofs[1] < study.dofs[2]
+    # the case's own resolution is the level named, and its u_num is that level's
+    at = {"coarsest": 0, "middle": 1}[case_level]
+    assert study.case_level == at
+    assert study.levels[at].setting == dataclasses.asdict(case.thermal_mesh_options)
+    for r in study.rows:
+        conv = grid_convergence(list(r.values), list(r.sizes), formal_order=2.0)
+        assert r.u_num_case == pytest.approx(conv.u_num_at(2 - at), rel=1e-12, abs=1e-12)
     assert {r.quantity for r in study.rows} >= {"max_surface", "mean_bulk", "flank_max"}
     for r in study.rows:
         assert math.isfinite(r.gci) and r.gci >= 0.0 and r.u_num == pytest.approx(r.gci / 1.15)
         if r.asymptotic:  # the fine value lies within its GCI of the extrapolation
             assert abs(r.values[0] - r.extrapolated) <= r.gci * (1 + 1e-9)
-    bulk = study.row("mean_bulk")
-    assert bulk.u_num < 2.0  # the bulk is smooth: well resolved even on these meshes
+    if case_level == "coarsest":  # (coarsened, this test mesh has a single layer)
+        assert study.row("mean_bulk").u_num < 2.0  # the bulk is smooth: well resolved
     comm.barrier()
     data = json.loads((out / "refinement.json").read_text())
     assert RefinementStudy.from_json(data) == study

@@ -124,13 +124,17 @@ def test_mms_spatial_order(degree, sizes, order, k_of_T):
 def test_gci_recovers_the_mms_order_and_brackets_the_error(degree, sizes):
     """The refinement tool (gearfem.core.gci) on a quantity with a known exact value: the L2
     error (exact value 0) on three meshes with r = 1.5. It recovers the order p + 1 and its
-    uncertainty of the finest value brackets the true error of that value."""
+    uncertainty of the finest value, and that of the medium one, bracket the true errors of those
+    values."""
     errors = _mms_steady_errors(degree, sizes, k_of_T=False)
     conv = grid_convergence(errors, [1.0 / n for n in sizes], formal_order=degree + 1)
     assert conv.observed_order == pytest.approx(degree + 1, abs=0.15), conv
     assert conv.asymptotic
     assert conv.gci >= abs(errors[-1] - 0.0)  # the exact value of an error norm is 0
     assert abs(conv.extrapolated) < 0.2 * errors[-1]
+    # a case in the middle of the study (gearfem converge --case-level middle): the medium
+    # value's uncertainty brackets its error too
+    assert conv.gci_at(1) >= abs(errors[1] - 0.0)
 
 
 @pytest.mark.parametrize("cp_of_T", [False, True])
