@@ -382,8 +382,6 @@ def test_hertz_one_and_two_ranks_agree(comms):
         ({"method": "lagrange"}, "contact.method"),
         ({"penalty_factor": 0.0}, "contact.penalty_factor"),
         ({"quadrature_degree": 0}, "contact.quadrature_degree"),
-        ({"slip_relaxation": 0.0}, "contact.slip_relaxation"),
-        ({"slip_relaxation_pass": 0}, "contact.slip_relaxation_pass"),
     ],
 )
 def test_bad_contact_options_name_the_parameter(kwargs, name):

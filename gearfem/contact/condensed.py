@@ -485,7 +485,7 @@ class CondensedContactProblem(ContactProblem):
         self.uc = self.comm.bcast(self.uc, root=ROOT)
         self.write_uc()
         for itf in self.interfaces:
-            itf.update_segmentation(self.u.x.array, self.motions, self._slip_u)
+            itf.update_segmentation(self.u.x.array, self.motions)
         self._set_zone()
         system = _CondensedSystem(self, rtol, label)
         report = newton_solve(system, self.newton_settings(), "contact Newton (condensed)", label)

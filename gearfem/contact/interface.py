@@ -264,15 +264,8 @@ class ContactInterface:
         keep = (d.min(axis=1) < margin[si]) & (d.max(axis=1) > -margin[si])
         return si[keep], mj[keep]
 
-    def update_segmentation(
-        self,
-        u_array: np.ndarray,
-        motions: dict[str, RigidMotion],
-        slip_u: np.ndarray | None = None,
-    ) -> None:
-        """Find candidate pairs and integration points for the current configuration (collective),
-        and freeze the slip directions there (at ``slip_u`` instead when given: a relaxed
-        configuration of the outer iteration, see ``ContactOptions.slip_relaxation``).
+    def update_segmentation(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> None:
+        """Find candidate pairs and integration points for the current configuration (collective).
 
         The segmentation is kept until the next call: within one Newton solve only gaps, normals and
         projections follow the iterates, so the residual is a piecewise-smooth function of u (a
@@ -290,7 +283,7 @@ class ContactInterface:
             ptr = np.searchsorted(used[:, 0], np.arange(xs.shape[0] + 1))
             cand = MasterCandidates(ptr, used[:, 1])
             self._segments.append(Segmentation(si, mj, xi, wref, cand))
-        self.update_slip(u_array if slip_u is None else slip_u, motions)
+        self.update_slip(u_array, motions)
 
     def _overlaps(self, ps: _Pass, xs: np.ndarray, xm: np.ndarray, mdata):
         """The segment points of one pass in the configuration (xs, xm): slave facet, master facet,

@@ -41,12 +41,6 @@ class ContactOptions:
             tangent non-symmetric; it adds a pressure of about δ²/(4εg) at open gaps.
         slip_tolerance: The friction slip directions are frozen within a Newton solve and updated
             between solves until they change by less than this (norm of the change of ŝ).
-        slip_relaxation, slip_relaxation_pass: from outer pass ``slip_relaxation_pass`` on, the
-            slip directions are evaluated at a relaxed configuration ũ ← ũ + ω (u − ũ) (ω =
-            ``slip_relaxation``) instead of the last solution u. Near the pitch point (|v_T| of the
-            order of v_ε) the plain fixed point can oscillate between two sets of directions just
-            above ``slip_tolerance``; the relaxed one has the same fixed point, and positions that
-            converge before that pass are solved exactly as without it.
         friction_coefficient: Coulomb μ in [0, 2].
         slip_regularization_m_s: v_ε.
         two_pass: both surfaces act as slave in turn, each pass weighted 1/2.
@@ -84,8 +78,6 @@ class ContactOptions:
     penetration_tolerance_m: float | None = None
     max_uzawa: int = 25
     slip_tolerance: float = 0.02
-    slip_relaxation: float = 0.5
-    slip_relaxation_pass: int = 8
     pressure_smoothing_Pa: float = 0.0
     friction_coefficient: float = 0.0
     slip_regularization_m_s: float = 1e-5
@@ -122,8 +114,6 @@ class ContactOptions:
         require_int("contact.max_uzawa", self.max_uzawa, 1, 1000)
         require_nonnegative("contact.pressure_smoothing_Pa", self.pressure_smoothing_Pa)
         require_range("contact.slip_tolerance", self.slip_tolerance, 0.0, 2.0, lo_open=True)
-        require_range("contact.slip_relaxation", self.slip_relaxation, 0.0, 1.0, lo_open=True)
-        require_int("contact.slip_relaxation_pass", self.slip_relaxation_pass, 1, 1000)
         require_range("contact.friction_coefficient", self.friction_coefficient, 0.0, 2.0)
         require_positive("contact.slip_regularization_m_s", self.slip_regularization_m_s)
         require_int("contact.quadrature_degree", self.quadrature_degree, 1, 12)

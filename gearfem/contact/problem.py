@@ -155,9 +155,6 @@ class ContactProblem:
         self.factorizations = 0
         self.linear_solves = 0
         self.stalled = 0  # Newton solves accepted at a stall (see ContactOptions.newton_stall_rtol)
-        # where the slip directions of the next Newton solve are evaluated (None: at u; a relaxed
-        # configuration in the late outer passes, see ContactOptions.slip_relaxation)
-        self._slip_u: np.ndarray | None = None
         self.last_points: list[list[ContactPoints]] = []
 
     @property
@@ -343,7 +340,7 @@ class ContactProblem:
         rtol = o.newton_rtol if rtol is None else rtol
         self._apply_bc_values()
         for itf in self.interfaces:
-            itf.update_segmentation(self.u.x.array, self.motions, self._slip_u)
+            itf.update_segmentation(self.u.x.array, self.motions)
         system = _ContactSystem(self, rtol, label)
         try:
             report = newton_solve(system, self.newton_settings(), "contact Newton", label)
@@ -374,7 +371,6 @@ class ContactProblem:
         # and the change of the slip directions are within tolerance. Intermediate Newton solves
         # may be loose; the last one is tightened.
         loose = max(o.uzawa_newton_rtol, o.newton_rtol) if (al or friction) else o.newton_rtol
-        self._slip_u = None
         for uz in range(1, o.max_uzawa + 1):
             its, rnorm = self.newton(f"{label} (outer {uz})", rtol=loose)
             total_it += its
@@ -413,15 +409,7 @@ class ContactProblem:
             if pen <= tol and dslip <= o.slip_tolerance:
                 constraint_pen = pen
                 break
-            if friction and uz >= o.slip_relaxation_pass:
-                u = self.u.x.array
-                self._slip_u = (
-                    u.copy()
-                    if self._slip_u is None
-                    else self._slip_u + o.slip_relaxation * (u - self._slip_u)
-                )
         else:
-            self._slip_u = None
             raise ConvergenceError(
                 "contact outer iteration (Uzawa / slip directions)",
                 f"max penetration {pen:.3e} m (tolerance {tol:.3e} m), slip direction change "
@@ -429,7 +417,6 @@ class ContactProblem:
                 step=label,
                 iteration=uz,
             )
-        self._slip_u = None  # the last pass: directions at the solution
         if loose > o.newton_rtol or al:  # the last pass: final multipliers, final tolerance
             its, rnorm = self.newton(f"{label} (final)")
             total_it += its
