@@ -73,11 +73,12 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
 
 def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     case = load_case(None)
-    assert case.thermal_mesh is None  # the built-in case's thermal mesh is its [mesh]
+    # the built-in case's thermal model has a mesh of its own ([thermal_mesh])
+    assert case.thermal_mesh is not None and case.thermal_mesh != case.mesh
     s = level_case(case, "structural_mesh", 2.0)
     assert s.mesh.size_flank_mm == pytest.approx(case.mesh.size_flank_mm / 2)
     assert s.mesh.layers == case.mesh.layers and s.mesh.size_body_mm == case.mesh.size_body_mm
-    assert s.thermal_mesh_options == case.mesh  # the thermal mesh does not follow
+    assert s.thermal_mesh_options == case.thermal_mesh  # the thermal mesh does not follow
     # the reconstruction of the facet flux follows the facets and the positions' spacing
     src = case.sources
     assert s.sources.flux_smoothing_profile_mm == pytest.approx(src.flux_smoothing_profile_mm / 2)
@@ -86,12 +87,16 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
     assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
     p = level_case(case, "positions", 1.5)
-    assert p.cycle.positions_per_pitch == 18 and p.thermal_mesh_options == case.mesh
+    assert p.cycle.positions_per_pitch == 18 and p.thermal_mesh_options == case.thermal_mesh
     assert p.sources.flux_smoothing_profile_mm == pytest.approx(
         src.flux_smoothing_profile_mm * 12 / 18
     )
     th = level_case(case, "thermal_mesh", 1.5)
-    assert th.mesh == case.mesh and th.thermal_mesh.layers == 3
+    assert th.mesh == case.mesh and th.thermal_mesh.layers == 6
+    # coarser levels (a case in the middle of a study), and back
+    assert level_case(case, "positions", 1 / 1.5).cycle.positions_per_pitch == 8
+    coarse = level_case(case, "structural_mesh", 1 / 1.5)
+    assert level_case(coarse, "structural_mesh", 1.5).mesh == case.mesh
 
 
 def _unshipped_case():
