@@ -139,7 +139,10 @@ def test_thermal_mesh_table_is_the_thermal_models_own(tmp_path):
     It does not touch the structural cycle's key (the cycle never sees the thermal mesh)."""
     from gearfem.config import write_case
 
-    assert CASE.thermal_mesh is None and CASE.thermal_mesh_options == CASE.mesh
+    plain = tmp_path / "plain.toml"
+    plain.write_text("[mesh]\nsize_flank_mm = 0.3\n")
+    p = load_case(plain)
+    assert p.thermal_mesh is None and p.thermal_mesh_options == p.mesh
     case = tmp_path / "case.toml"
     case.write_text(
         "[mesh]\nsize_flank_mm = 0.3\n\n[thermal_mesh]\nsize_flank_mm = 0.1\nlayers = 6\n"
