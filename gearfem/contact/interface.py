@@ -442,11 +442,10 @@ class ContactInterface:
         zeta, _ = _closest_master_points(ref_m, xm, fm, x, seg.foot_guess)
         seg.foot_guess = zeta
         tol = self.options.projection_tolerance
-        on_facet = ref_m.inside(zeta)
-        if on_facet.all():
-            return fm, zeta, on_facet
-        valid = ref_m.inside(zeta, tol=tol)
-        bad = np.nonzero(~on_facet)[0]
+        valid = ref_m.inside(zeta)  # on its segmented facet; the others get a facet below
+        if valid.all():
+            return fm, zeta, valid
+        bad = np.nonzero(~valid)[0]
         rows, mcand = seg.candidates.of(seg.slave_facet[bad])
         rows = bad[rows]
         keep = mcand != fm[rows]
@@ -458,8 +457,7 @@ class ContactInterface:
         z = zeta[bad] if z is None else np.concatenate([zeta[bad], z])
         ok = ref_m.inside(z, tol=tol)
         rows, mcand, z = rows[ok], mcand[ok], z[ok]
-        fm, zeta, valid = fm.copy(), zeta.copy(), valid.copy()
-        valid[bad] = False
+        fm, zeta = fm.copy(), zeta.copy()
         if len(rows):
             xc, _, _, _ = evaluate(ref_m, xm[mcand], ref_m.clamp(z))
             dist = np.linalg.norm(x[rows] - xc, axis=1)
