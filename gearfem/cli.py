@@ -28,7 +28,6 @@ from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair
 from gearfem.pipeline import read_case, run_thermal_case
 from gearfem.refinement import CASE_LEVELS as REFINEMENT_CASE_LEVELS
 from gearfem.refinement import KINDS as REFINEMENT_KINDS
-from gearfem.refinement import LEVELS as REFINEMENT_LEVELS
 from gearfem.refinement import refinement_study
 from gearfem.study import load_study, run_study
 
@@ -296,10 +295,10 @@ def _cmd_converge(args: argparse.Namespace) -> int:
         f"{args.kind} refinement of {case.name}: DOFs {', '.join(str(n) for n in study.dofs)} "
         f"(coarse to fine; the case's resolution is the {args.case_level})"
     )
-    case_value = REFINEMENT_LEVELS - 1 - study.case_level  # row values are fine to coarse
+    at = study.case_value_index
     for r in study.rows:
         _say(
-            f"  {r.quantity:26s} {r.values[case_value]:10.4g} {r.unit:3s} (case), order "
+            f"  {r.quantity:26s} {r.values[at]:10.4g} {r.unit:3s} (case), order "
             f"{r.observed_order:5.2f}, extrapolated {r.extrapolated:10.4g}, u_num of the case "
             f"{r.u_num_case:8.3g}{'' if r.asymptotic else ' (not asymptotic)'}"
         )

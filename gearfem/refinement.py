@@ -104,6 +104,16 @@ class RefinementStudy(JsonRecord):
     def dofs(self) -> tuple[int, ...]:
         return tuple(lv.dofs for lv in self.levels)
 
+    @property
+    def case_value_index(self) -> int:
+        """Index of the case's own value in each row's ``values`` (fine to coarse)."""
+        return _value_index(self.case_level)
+
+    @property
+    def case_level_name(self) -> str:
+        """``"coarsest"`` or ``"middle"`` (:data:`CASE_LEVELS`)."""
+        return next(k for k, v in CASE_LEVELS.items() if v == self.case_level)
+
     def row(self, quantity: str) -> RefinementRow:
         try:
             return next(r for r in self.rows if r.quantity == quantity)
@@ -111,6 +121,11 @@ class RefinementStudy(JsonRecord):
             raise ParameterError(
                 "refinement quantity", quantity, ", ".join(r.quantity for r in self.rows)
             ) from None
+
+
+def _value_index(case_level: int) -> int:
+    """Index in a row's values (fine to coarse) of level ``case_level`` (coarse to fine)."""
+    return LEVELS - 1 - case_level
 
 
 def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
@@ -261,7 +276,7 @@ def refinement_study(
                 conv.gci,
                 conv.u_num,
                 conv.asymptotic,
-                conv.u_num_at(LEVELS - 1 - at),  # the case's level (values fine to coarse)
+                conv.u_num_at(_value_index(at)),  # the case's level
             )
         )
     key = resolution_key(case)
@@ -285,7 +300,7 @@ def thermal_refinement(
 def study_uncertainty(case: Case, study: RefinementStudy) -> StudyUncertainty:
     """What the uncertainty store keeps of a study: the case level's value and u_num per
     quantity, with the operating point they were measured at."""
-    level = LEVELS - 1 - study.case_level  # row values are fine to coarse
+    level = study.case_value_index
     return StudyUncertainty(
         kind=study.kind,
         resolution_key=study.resolution_key,
@@ -343,12 +358,12 @@ def markdown(study: RefinementStudy) -> str:
     """The study as a Markdown table with its one-line caption (for refinement.md and docs/)."""
     dofs = ", ".join(str(lv.dofs) for lv in study.levels)
     sizes = ", ".join(f"{lv.size:.4g}" for lv in study.levels)
-    where = {0: "coarsest", 1: "middle"}.get(study.case_level, f"level {study.case_level}")
     head = ["fine", "medium", "coarse"]  # row values are fine to coarse
-    head[LEVELS - 1 - study.case_level] += " (case)"
+    head[study.case_value_index] += " (case)"
     lines = [
         f"{_TITLES[study.kind]}, factor {study.factor:g}: levels coarse to fine with h = {sizes} "
-        f"and {dofs} DOFs; the case's resolution is the {where}. Values at the end of the run.",
+        f"and {dofs} DOFs; the case's resolution is the {study.case_level_name}. Values at the "
+        "end of the run.",
         "",
         f"| quantity | unit | {' | '.join(head)} | observed order | extrapolated | "
         "u_num fine | u_num case |",
