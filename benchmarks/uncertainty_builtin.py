@@ -11,7 +11,9 @@ of three levels for the thermal mesh, the coarsest for the other kinds: :data:`C
   that the shipped studies belong to the built-in case's current resolution, so a change of
   resolution without re-running this script fails the test suite);
 * replaces the block ``refinement_<kind>`` of docs/refinement.md with the study's table
-  (gearfem.core.doctables) and copies its plot to docs/images/refinement_<kind>.png.
+  (gearfem.core.doctables) and copies its plot to docs/images/refinement_<kind>.png;
+* at the end, replaces the block ``refinement_summary`` with the u_num of the case per kind and
+  combined, from the filed studies (``--summary-only``: only that).
 
 Usage (2 ranks; the cycles of the refined levels are cached under cache/cycles):
 
@@ -31,7 +33,7 @@ from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.config import load_case
-from gearfem.core.doctables import replace_block
+from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.io import read_json, write_json
 from gearfem.refinement import (
     CASE_LEVELS,
@@ -41,7 +43,7 @@ from gearfem.refinement import (
     refinement_study,
     study_uncertainty,
 )
-from gearfem.uncertainty import resolution_key
+from gearfem.uncertainty import resolution_key, run_uncertainty, stored_studies
 
 #: The docs/refinement.md block of each kind.
 BLOCKS = {
@@ -60,6 +62,8 @@ CASE_LEVEL = {
     "positions": "coarsest",
     "tip": "coarsest",
 }
+#: The quantities of the summary block (docs/refinement.md, refinement_summary).
+SUMMARY = ("camera_max", "mean_bulk", "flank_mean", "max_surface", "friction_power_W")
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "gearfem" / "data" / "uncertainty"
 DOC = ROOT / "docs" / "refinement.md"
@@ -84,10 +88,15 @@ def main() -> None:
         "written last by a complete study) and write their tables",
     )
     p.add_argument("--note", help="with --file-only: how the study was run (the table's caption)")
+    p.add_argument(
+        "--summary-only",
+        action="store_true",
+        help="only write the block refinement_summary from the filed studies",
+    )
     args = p.parse_args()
     comm = MPI.COMM_WORLD
     case = load_case(None)
-    for kind in args.kinds:
+    for kind in () if args.summary_only else args.kinds:
         t0 = time.perf_counter()
         case_level = args.case_level or CASE_LEVEL[kind]
         if args.file_only and not (Path(args.out) / kind / "refinement.json").is_file():
@@ -129,6 +138,30 @@ def main() -> None:
             )
             print(markdown(study), flush=True)
         comm.barrier()
+    if comm.rank == 0:
+        replace_block(DOC, "refinement_summary", summary_table(case))
+
+
+def summary_table(case) -> str:
+    """u_num of the built-in case per kind and combined, as ``gearfem run`` combines the filed
+    studies (:func:`gearfem.uncertainty.run_uncertainty` at the case's own values)."""
+    found = stored_studies(resolution_key(case))
+    values = {
+        q: next(study.values[q] for study, _ in found.values() if q in study.values)
+        for q in SUMMARY
+    }
+    run = run_uncertainty(case, values)
+    rows = []
+    for q in SUMMARY:
+        u = run.quantities[q]
+        parts = [f"{u.parts[k]:.3g}" if k in u.parts else "-" for k in KINDS]
+        rows.append([q, f"{values[q]:.4g}", *parts, f"{u.u_num:.3g}"])
+    table = markdown_table(("quantity", "value of the case", *KINDS, "combined"), rows)
+    missing = f" Kinds without a study: {', '.join(run.missing)}." if run.missing else ""
+    return (
+        f"u_num of the case (units of the quantity) per refinement kind, combined in quadrature as "
+        f"`gearfem run` does; resolution {run.resolution_key}.{missing}\n\n{table}"
+    )
 
 
 if __name__ == "__main__":
