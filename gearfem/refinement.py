@@ -133,14 +133,8 @@ def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
     divided by ``factor`` (the size grows linearly with the distance from the fine curves, so the
     gradient must shrink too for the whole mesh to refine by ``factor``), the layers multiplied
     and rounded up. A factor below 1 coarsens."""
-    if not factor > 0.0:
-        raise ParameterError("refinement factor", factor, "> 0")
     return dataclasses.replace(
-        options,
-        size_flank_mm=_divided(options.size_flank_mm, factor),
-        size_tip_mm=_divided(options.size_tip_mm, factor),
-        size_root_mm=_divided(options.size_root_mm, factor),
-        size_tooth_mm=_divided(options.size_tooth_mm, factor),
+        refined_contact_zone(options, factor),
         size_body_mm=_divided(options.size_body_mm, factor),
         size_growth=_divided(options.size_growth, factor),
         layers=max(1, math.ceil(options.layers * factor - 1e-9)),
