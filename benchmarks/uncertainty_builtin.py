@@ -1,7 +1,8 @@
 """The built-in case's numerical uncertainty: refinement studies in every direction, filed with
 gearfem and written into docs/refinement.md.
 
-For each kind (thermal mesh, structural contact zone, positions per pitch, tip elements) this runs
+For each kind (thermal mesh, structural contact zone, structural layers, positions per pitch, tip
+elements) this runs
 :func:`gearfem.refinement.refinement_study` on the built-in thesis case (its resolution the middle
 of three levels for the thermal mesh, the coarsest for the other kinds: :data:`CASE_LEVEL`), then
 (rank 0):
@@ -49,16 +50,19 @@ from gearfem.uncertainty import resolution_key, run_uncertainty, stored_studies
 BLOCKS = {
     "thermal_mesh": "refinement_thermal_mesh",
     "structural_mesh": "refinement_structural_mesh",
+    "structural_layers": "refinement_structural_layers",
     "positions": "refinement_positions",
     "tip": "refinement_tip",
 }
 #: Where the built-in case sits in each kind's study (the shipped studies): in the middle of the
 #: thermal-mesh study (the coarsest convention's finest level would have about 400k DOFs per
 #: gear), the coarsest of the others (a contact zone 1.5x coarser than the case's is outside the
-#: range where the pitch-point pressure has converged, docs/cycle.md).
+#: range where the pitch-point pressure has converged, docs/cycle.md; 2 layers coarsened by 1.5
+#: round back up to 2).
 CASE_LEVEL = {
     "thermal_mesh": "middle",
     "structural_mesh": "coarsest",
+    "structural_layers": "coarsest",
     "positions": "coarsest",
     "tip": "coarsest",
 }

@@ -517,8 +517,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser(
         "converge",
-        help="refinement study (thermal mesh, structural contact zone, positions per pitch or tip "
-        "elements): observed order, extrapolation, GCI and u_num per reported quantity",
+        help="refinement study (thermal mesh, structural contact zone, structural layers, "
+        "positions per pitch or tip elements): observed order, extrapolation, GCI and u_num per "
+        "reported quantity",
     )
     s.add_argument("case", nargs="?", default=None, help="case TOML (default: built-in thesis)")
     s.add_argument("--out", required=True, help="output directory")

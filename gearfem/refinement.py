@@ -16,6 +16,10 @@ medium grid of Celik et al.). Per kind:
   sizes divided by the factor; body size, size gradient and layers kept: the contact pressures and
   the friction flux live there); the thermal mesh stays the case's.
   h = the flank element size.
+* ``structural_layers``: the element layers of the structural mesh across the face width
+  (multiplied by the factor and rounded up: 2, 3, 5 from 2 by 1.5), which set the axial
+  distribution of the contact pressure and of the friction heat near the side faces, where the
+  camera looks; the thermal mesh stays the case's. h = 1 / layers.
 * ``positions``: the pinion positions per pitch of the cycle (multiplied by the factor and
   rounded); h = 1 / positions per pitch.
 * ``tip``: the tip element size alone (the tip rounds): the largest contact pressure of the cycle
@@ -51,10 +55,9 @@ from gearfem.core.params import require_choice, require_range
 from gearfem.core.results import JsonRecord
 from gearfem.geometry.options import MeshOptions
 from gearfem.instruments.evaluate import evaluate
-from gearfem.uncertainty import StudyUncertainty, resolution_key, store_study
+from gearfem.uncertainty import KINDS, StudyUncertainty, resolution_key, store_study
 
 LEVELS = 3
-KINDS = ("thermal_mesh", "structural_mesh", "positions", "tip")
 #: where the case's own resolution sits among the three levels -> index of the case (coarse to fine)
 CASE_LEVELS = {"coarsest": 0, "middle": 1}
 
@@ -137,8 +140,13 @@ def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
         refined_contact_zone(options, factor),
         size_body_mm=_divided(options.size_body_mm, factor),
         size_growth=_divided(options.size_growth, factor),
-        layers=max(1, math.ceil(options.layers * factor - 1e-9)),
+        layers=_layers(options.layers, factor),
     )
+
+
+def _layers(layers: int, factor: float) -> int:
+    """``layers`` multiplied by ``factor`` and rounded up (at least 1)."""
+    return max(1, math.ceil(layers * factor - 1e-9))
 
 
 def refined_contact_zone(options: MeshOptions, factor: float) -> MeshOptions:
@@ -167,8 +175,8 @@ def level_case(case: Case, kind: str, factor: float) -> Case:
     kind but ``thermal_mesh``, so that refining the structural mesh does not refine the thermal
     one with it. The reconstruction of the cycle's facet flux (``[sources]
     flux_smoothing_*_mm``) is part of the structural discretisation: its profile width shrinks
-    with the structural flank size and with the positions' spacing (the contact zone's refinement
-    keeps the layers, and the axial width)."""
+    with the structural flank size and with the positions' spacing, its axial width with the
+    structural layers (the contact zone's refinement keeps the layers, and the axial width)."""
     require_choice("refinement kind", kind, KINDS)
     pinned = dataclasses.replace(case, thermal_mesh=case.thermal_mesh_options)
     if kind == "thermal_mesh":
@@ -183,6 +191,16 @@ def level_case(case: Case, kind: str, factor: float) -> Case:
         return dataclasses.replace(
             pinned, mesh=refined_contact_zone(case.mesh, factor), sources=smooth
         )
+    if kind == "structural_layers":  # and the axial reconstruction with the layers' thickness
+        layers = _layers(case.mesh.layers, factor)
+        smooth = dataclasses.replace(
+            src,
+            flux_smoothing_axial_mm=_divided(
+                src.flux_smoothing_axial_mm, layers / case.mesh.layers
+            ),
+        )
+        mesh = dataclasses.replace(case.mesh, layers=layers)
+        return dataclasses.replace(pinned, mesh=mesh, sources=smooth)
     if kind == "tip":
         mesh = dataclasses.replace(case.mesh, size_tip_mm=_divided(case.mesh.size_tip_mm, factor))
         return dataclasses.replace(pinned, mesh=mesh)
@@ -207,6 +225,8 @@ def _size_and_setting(case: Case, kind: str, thermal: dict, cycle) -> tuple[floa
         return case.mesh.size_flank_mm * 1e-3, dofs, dataclasses.asdict(case.mesh)
     if kind == "tip":
         return case.mesh.size_tip_mm * 1e-3, dofs, {"size_tip_mm": case.mesh.size_tip_mm}
+    if kind == "structural_layers":
+        return 1.0 / case.mesh.layers, dofs, {"layers": case.mesh.layers}
     n = case.cycle.positions_per_pitch
     return 1.0 / n, dofs, {"positions_per_pitch": n}
 
@@ -230,13 +250,23 @@ def refinement_study(
         raise ParameterError(
             "sources.mode", case.sources.mode, "'cycle'", f"a {kind} study re-solves the cycle"
         )
+    cases = [
+        case if level == at else level_case(case, kind, factor ** (level - at))
+        for level in range(LEVELS)
+    ]
+    if len({resolution_key(c) for c in cases}) < LEVELS:  # rounded counts can coincide
+        raise ParameterError(
+            "refinement factor",
+            factor,
+            f"a factor that gives {LEVELS} different {kind} levels around the case "
+            f"(case_level {case_level!r})",
+        )
     out = prepare_output(out_dir, "refinement.json", comm)
     levels, quantities = [], []
     cyc_fixed = None
     if kind == "thermal_mesh" and case.sources.mode == "cycle":
         cyc_fixed, _, _ = pipeline.cycle(case, comm)
-    for level in range(LEVELS):
-        c = case if level == at else level_case(case, kind, factor ** (level - at))
+    for level, c in enumerate(cases):
         cyc = cyc_fixed
         if cyc is None and c.sources.mode == "cycle":
             cyc, _, _ = pipeline.cycle(c, comm)
@@ -313,6 +343,7 @@ def study_uncertainty(case: Case, study: RefinementStudy) -> StudyUncertainty:
 _TITLES = {
     "thermal_mesh": "Thermal mesh refinement",
     "structural_mesh": "Structural mesh (contact zone) refinement",
+    "structural_layers": "Structural layers across the face width",
     "positions": "Positions per pitch",
     "tip": "Tip element size",
 }
@@ -383,18 +414,22 @@ def _plot(study: RefinementStudy, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
-    for r in study.rows:
-        if r.unit != "C" or not r.quantity.endswith(("max", "mean", "surface", "bulk")):
-            continue
+    fig, ax = plt.subplots(figsize=(9.0, 4.8))
+    rows = [
+        r
+        for r in study.rows
+        if r.unit == "C" and r.quantity.endswith(("max", "mean", "surface", "bulk"))
+    ]
+    colours = plt.get_cmap("tab20").colors  # one colour per quantity (the default cycle has 10)
+    for r, colour in zip(rows, colours[::2] + colours[1::2]):
         h = [x / r.sizes[0] for x in r.sizes]
-        (line,) = ax.plot(h, r.values, "o-", label=f"{r.quantity} (±{r.u_num_case:.1f} K)")
-        ax.plot([0.0], [r.extrapolated], "*", color=line.get_color(), ms=10)
+        ax.plot(h, r.values, "o-", color=colour, label=f"{r.quantity} (±{r.u_num_case:.1f} K)")
+        ax.plot([0.0], [r.extrapolated], "*", color=colour, ms=10)
     ax.set_xlabel("relative size h / h_fine (★: extrapolated to h = 0)")
     ax.set_ylabel("temperature at the end (°C)")
     ax.set_title(f"{_TITLES[study.kind]}, factor {study.factor:g} (±: u_num of the case)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
     fig.savefig(out / "refinement.png", dpi=120)
     plt.close(fig)

@@ -2,12 +2,12 @@
 
 A refinement study (:mod:`gearfem.refinement`, ``gearfem converge``) measures, for one case's
 resolution and one refinement direction (*kind*: thermal mesh, structural contact-zone mesh,
-positions per pitch, tip elements), the numerical standard uncertainty u_num of every reported
-quantity at that resolution (the grid convergence index of :mod:`gearfem.core.gci`, divided by
-1.15 as in ASME V&V 20). The studies are filed by the case's :func:`resolution_key` — a hash of
-everything that sets the discretisation (geometry, both meshes, positions, thermal degree and time
-error, contact discretisation) and nothing that sets only the physics (materials, convection,
-friction, sources, operating point):
+structural layers across the face width, positions per pitch, tip elements), the numerical
+standard uncertainty u_num of every reported quantity at that resolution (the grid convergence
+index of :mod:`gearfem.core.gci`, divided by 1.15 as in ASME V&V 20). The studies are filed by
+the case's :func:`resolution_key` — a hash of everything that sets the discretisation (geometry,
+both meshes, positions, thermal degree and time error, contact discretisation) and nothing that
+sets only the physics (materials, convection, friction, sources, operating point):
 
 * ``gearfem/data/uncertainty/<key>/<kind>.json``: shipped studies (the built-in case), and
 * ``<cache root>/uncertainty/<key>/<kind>.json``: studies written by ``gearfem converge``
@@ -38,7 +38,7 @@ from gearfem.core.params import to_dict
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
 
-KINDS = ("thermal_mesh", "structural_mesh", "positions", "tip")
+KINDS = ("thermal_mesh", "structural_mesh", "structural_layers", "positions", "tip")
 
 # the [thermal] and [contact] keys that set the discretisation (the rest is physics)
 _THERMAL_RESOLUTION = (

@@ -51,6 +51,17 @@ def test_refined_mesh_scales_sizes_and_layers():
         refined_mesh(MeshOptions(), 0.0)
 
 
+def test_levels_that_round_to_the_same_discretisation_are_refused(tmp_path, comm):
+    """Counts are rounded: 2 layers coarsened by 1.5 round back up to 2, and a study whose levels
+    are not three different discretisations has no order to observe. Refused before anything
+    runs or is written."""
+    case = load_case(None)  # 2 structural layers
+    out = tmp_path / "degenerate"
+    with pytest.raises(ParameterError, match="refinement factor.*structural_layers"):
+        refinement_study(case, out, comm, "structural_layers", 1.5, case_level="middle")
+    assert not out.exists()
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize("case_level", ["coarsest", "middle"])
 def test_thermal_refinement_study(tmp_out, comm, case_level):

@@ -58,10 +58,7 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
     ]
     for c in physics:
         assert resolution_key(c) == key
-    resolution = [
-        level_case(case, kind, 1.5)
-        for kind in ("thermal_mesh", "structural_mesh", "positions", "tip")
-    ] + [
+    resolution = [level_case(case, kind, 1.5) for kind in KINDS] + [
         dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, degree=1)),
         dataclasses.replace(
             case, sources=dataclasses.replace(case.sources, flux_smoothing_axial_mm=3.0)
@@ -83,6 +80,14 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     src = case.sources
     assert s.sources.flux_smoothing_profile_mm == pytest.approx(src.flux_smoothing_profile_mm / 2)
     assert s.sources.flux_smoothing_axial_mm == src.flux_smoothing_axial_mm
+    lay = level_case(case, "structural_layers", 1.5)  # 2 -> 3 layers, nothing else
+    assert lay.mesh == dataclasses.replace(case.mesh, layers=3)
+    assert lay.thermal_mesh_options == case.thermal_mesh
+    assert lay.sources.flux_smoothing_axial_mm == pytest.approx(
+        src.flux_smoothing_axial_mm * 2 / 3
+    )  # the axial reconstruction follows the layers' thickness
+    assert lay.sources.flux_smoothing_profile_mm == src.flux_smoothing_profile_mm
+    assert level_case(lay, "structural_layers", 1.5).mesh.layers == 5  # 4.5 rounded up
     t = level_case(case, "tip", 2.0)
     assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
     assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
@@ -119,7 +124,7 @@ def test_studies_combine_in_quadrature_and_scale_with_the_rise(store):
     assert q.u_num == pytest.approx(5.0) and not q.scaled and not q.asymptotic
     assert run.quantities["mean_bulk"].u_num == pytest.approx(0.5)
     assert "tip_max" not in run.quantities  # no study measured it: no number invented
-    assert run.missing == ("structural_mesh", "tip")
+    assert run.missing == ("structural_mesh", "structural_layers", "tip")
     # another operating point: scaled by the rise above ambient (23 C)
     other = case.with_operating(speed_rpm=2000.0, torque_Nm=4.0)
     run2 = run_uncertainty(other, {"max_surface": 23.0 + 0.5 * (250.0 - 23.0)})

@@ -51,8 +51,9 @@ class SourceOptions:
             ``layers``, and without the reconstruction the finer thermal meshes resolve that
             sampling (a comb of bands one facet wide) instead of the heat. Of the order of the
             structural flank element and a third of a layer; refined with the structural mesh
-            (``gearfem converge --kind structural_mesh`` scales them). 0: none (piecewise constant
-            per structural facet).
+            (``gearfem converge --kind structural_mesh`` scales the profile width,
+            ``structural_layers`` the axial one, ``positions`` the profile width with the
+            positions' spacing). 0: none (piecewise constant per structural facet).
         flank_heat_per_gear_W, u_max_J_m3, flanks: Prescribed mode only (see
             :class:`gearfem.thermal.source_terms.PrescribedSources`).
     """
