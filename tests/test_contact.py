@@ -495,3 +495,60 @@ def test_box_pairs_are_every_pair_of_overlapping_grown_boxes():
     want = np.argwhere(overlap)
     assert len(want) > 20  # the test has pairs to find
     np.testing.assert_array_equal(np.column_stack([si, mj]), want)  # same pairs, same order
+
+
+def test_slip_directions_settle_with_the_multipliers_held_after_max_uzawa_passes():
+    """The outer loop: after ``max_uzawa`` passes with the penetration within tolerance but the
+    slip directions still changing, the multipliers are held (their Uzawa update moves the
+    surfaces by a fraction of the tolerance, which near the pitch point turns the directions by a
+    few 1e-2: the gear cycle at 0.14 mm / 18 positions cycled so at 4.000 deg) and the directions
+    iterate alone. Here the first passes' slip change is reported as unsettled (1.0); the solve
+    continues past max_uzawa, holds λ from then on, ends within both tolerances; without friction
+    there is nothing to hold for and the same report raises at max_uzawa."""
+    opts = ContactOptions(
+        method="augmented_lagrangian", penalty_Pa_m=100.0, friction_coefficient=0.3, max_uzawa=3
+    )
+    case = block_case(
+        MPI.COMM_SELF, opts, compression_m=1e-3, upper_velocity_m_s=(1.0, 0.0, 0.0), clamped=True
+    )
+    prob = case.problem
+    itf = prob.interfaces[0]
+    true_slip, true_update = itf.update_slip, itf.update_multipliers
+    calls, lams = [], []
+
+    def unsettled_slip(u, motions):
+        d = true_slip(u, motions)
+        return 1.0 if len(calls) <= opts.max_uzawa + 1 else d
+
+    def recorded_update(u, motions, hold_within_m=None):
+        pen = true_update(u, motions, hold_within_m)
+        calls.append((pen, hold_within_m))
+        lams.append(np.concatenate([ps.lam.ravel() for ps in itf.passes]))
+        return pen
+
+    itf.update_slip, itf.update_multipliers = unsettled_slip, recorded_update
+    rep = prob.solve("held")
+    tol = itf.penetration_tolerance()
+    n = len(calls)
+    # passes 1..max_uzawa + 1 reported unsettled, the next one settles: two held passes
+    assert rep.uzawa_iterations == n and n == opts.max_uzawa + 2
+    assert [h for _, h in calls] == [None] * opts.max_uzawa + [tol] * (n - opts.max_uzawa)
+    assert all(pen <= tol for pen, _ in calls[opts.max_uzawa :])
+    for k in range(opts.max_uzawa, n):  # held: the multipliers of the last updating pass
+        np.testing.assert_array_equal(lams[k], lams[opts.max_uzawa - 1])
+    assert not np.array_equal(lams[0], lams[opts.max_uzawa - 1])  # they did move before
+    # a penetration out of tolerance at max_uzawa: nothing to hold the multipliers for
+    case2 = block_case(
+        MPI.COMM_SELF, opts, compression_m=1e-3, upper_velocity_m_s=(1.0, 0.0, 0.0), clamped=True
+    )
+    itf2 = case2.problem.interfaces[0]
+    passes = []
+
+    def too_deep(u, motions, hold_within_m=None):
+        passes.append(hold_within_m)
+        return 10.0 * tol
+
+    itf2.update_multipliers = too_deep
+    with pytest.raises(ConvergenceError, match="after 3 passes"):
+        case2.problem.solve("too deep")
+    assert passes == [None] * opts.max_uzawa

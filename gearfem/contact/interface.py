@@ -636,10 +636,17 @@ class ContactInterface:
         )
 
     # -------------------------------------------------------------------------------------------
-    def update_multipliers(self, u_array: np.ndarray, motions: dict[str, RigidMotion]) -> float:
+    def update_multipliers(
+        self,
+        u_array: np.ndarray,
+        motions: dict[str, RigidMotion],
+        hold_within_m: float | None = None,
+    ) -> float:
         """Uzawa step λ ← ⟨λ − εg⟩ at the fixed points; returns the largest penetration (global,
-        m)."""
+        m). With ``hold_within_m``, the multipliers are kept as they are when that penetration is
+        within it (collective decision)."""
         worst = 0.0
+        updated = []
         for ps in self.passes:
             ms, mm = motions[ps.slave.body], motions[ps.master.body]
             _sdata, xs = self._nodes(ps.slave, u_array, ms, gathered=False)
@@ -681,8 +688,12 @@ class ContactInterface:
             )
             pen = np.where(has & (new > 0.0), -gaps, 0.0)
             worst = max(worst, float(pen.max(initial=0.0)))
-            ps.lam[:] = new
-        return self.a.comm.allreduce(worst, op=_mpi_max())
+            updated.append(new)
+        worst = self.a.comm.allreduce(worst, op=_mpi_max())
+        if hold_within_m is None or worst > hold_within_m:
+            for ps, new in zip(self.passes, updated):
+                ps.lam[:] = new
+        return worst
 
 
 def _box_pairs(xs: np.ndarray, xm: np.ndarray, margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -34,7 +34,10 @@ class ContactOptions:
         penetration_tolerance_rel: AL stop: max penetration / facet size.
         penetration_tolerance_m: AL stop as a length (overrides the relative one).
         max_uzawa: Outer iterations (multiplier updates, slip-direction updates) before giving up
-            (raises ConvergenceError).
+            (raises ConvergenceError). With friction and the augmented Lagrangian, a solve whose
+            penetration is within tolerance after them but whose slip directions still change
+            holds the multipliers for up to ``max_uzawa`` more passes while the directions settle
+            (near the pitch point the multiplier updates alone can keep them cycling).
         pressure_smoothing_Pa: δ of the C1 pressure ramp p = (t + sqrt(t² + δ²))/2, t = λ − εg
             (0: the exact ramp max(0, t)). A δ far below the contact pressures removes the kink
             at the edge of the contact zone on which Newton can cycle when friction makes the
