@@ -8,6 +8,7 @@ projection on a curved facet, segmentation areas).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import basix
@@ -473,6 +474,16 @@ def test_a_point_crossing_a_master_facet_edge_moves_its_force_continuously():
     xp = np.einsum("pk,pkd->pd", N, xm[fm])
     dist = np.linalg.norm(x - xp, axis=1)
     assert np.abs(np.diff(dist)).max() < 2.0 * np.abs(np.diff(dist))[: k - 1].max() + 1e-12
+    # the next evaluation (the surfaces moved a little within the solve) starts the points that
+    # took facet B there; it gives what the search over all candidates gives
+    assert set(seg.moved_facet[fm == 1]) == {1} and set(seg.moved_facet[fm == 0]) == {-1}
+    x2 = x + np.array([2e-3, -1e-3, 0.0])
+    fm2, zeta2, valid2 = ContactInterface._master_feet(stub, ref, xm, x2, seg)
+    fresh = dataclasses.replace(seg, foot_guess=None, moved_facet=None, moved_foot=None)
+    fm3, zeta3, valid3 = ContactInterface._master_feet(stub, ref, xm, x2, fresh)
+    np.testing.assert_array_equal(fm2, fm3)
+    np.testing.assert_array_equal(valid2, valid3)
+    np.testing.assert_allclose(zeta2, zeta3, atol=1e-12)
 
 
 def test_box_pairs_are_every_pair_of_overlapping_grown_boxes():

@@ -127,6 +127,10 @@ class Segmentation:
     foot_guess: np.ndarray | None = None
     # |T1 × T2| of the slave map in the reference configuration at the points (small strain)
     area_scale: np.ndarray | None = None
+    # a point whose foot had left its segmented master facet at the last evaluation: the facet
+    # it took instead (-1: none) and its foot there (see ContactInterface._master_feet)
+    moved_facet: np.ndarray | None = None
+    moved_foot: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -155,6 +159,32 @@ def _closest_master_points(
             :, 0, :
         ]
     return project(ref_m, xm[fm], x, zeta0)
+
+
+def _nearest_candidates(ref_m, xm, x, seg, bad, fm, zeta, valid, tol: float) -> None:
+    """For the points ``bad`` (feet off their segmented facets ``fm``): the candidate facet
+    nearest to each, among those whose foot lies on them within ``tol``
+    (see :meth:`ContactInterface._master_feet`); writes ``fm``, ``zeta`` and ``valid`` in
+    place."""
+    rows, mcand = seg.candidates.of(seg.slave_facet[bad])
+    rows = bad[rows]
+    keep = mcand != fm[rows]
+    rows, mcand = rows[keep], mcand[keep]
+    z, _ = _closest_master_points(ref_m, xm, mcand, x[rows]) if len(rows) else (None, None)
+    # every candidate foot within the tolerance, the segmented facet's among them
+    rows = np.concatenate([bad, rows])
+    mcand = np.concatenate([fm[bad], mcand])
+    z = zeta[bad] if z is None else np.concatenate([zeta[bad], z])
+    ok = ref_m.inside(z, tol=tol)
+    rows, mcand, z = rows[ok], mcand[ok], z[ok]
+    if len(rows):
+        xc, _, _, _ = evaluate(ref_m, xm[mcand], ref_m.clamp(z))
+        dist = np.linalg.norm(x[rows] - xc, axis=1)
+        order = np.lexsort((dist, rows))
+        pick = order[np.unique(rows[order], return_index=True)[1]]
+        fm[rows[pick]] = mcand[pick]
+        zeta[rows[pick]] = z[pick]
+        valid[rows[pick]] = True
 
 
 class ContactInterface:
@@ -437,35 +467,36 @@ class ContactInterface:
         within the tolerance (beyond the master surface) carry no contact; without this test
         facets that overlap in the slave plane but are not closest-point neighbours would
         extrapolate the master polynomial and invent penetrations.
+
+        A point that had taken another facet at the last evaluation is first projected onto that
+        facet again (from its foot there): a foot strictly inside it is the closest point of the
+        surface near the point, which is the facet the search over all candidates would pick; the
+        search runs for the others.
         """
         fm = seg.master_facet
         zeta, _ = _closest_master_points(ref_m, xm, fm, x, seg.foot_guess)
         seg.foot_guess = zeta
-        tol = self.options.projection_tolerance
         valid = ref_m.inside(zeta)  # on its segmented facet; the others get a facet below
         if valid.all():
+            seg.moved_facet = None
             return fm, zeta, valid
         bad = np.nonzero(~valid)[0]
-        rows, mcand = seg.candidates.of(seg.slave_facet[bad])
-        rows = bad[rows]
-        keep = mcand != fm[rows]
-        rows, mcand = rows[keep], mcand[keep]
-        z, _ = _closest_master_points(ref_m, xm, mcand, x[rows]) if len(rows) else (None, None)
-        # every candidate foot within the tolerance, the segmented facet's among them
-        rows = np.concatenate([bad, rows])
-        mcand = np.concatenate([fm[bad], mcand])
-        z = zeta[bad] if z is None else np.concatenate([zeta[bad], z])
-        ok = ref_m.inside(z, tol=tol)
-        rows, mcand, z = rows[ok], mcand[ok], z[ok]
         fm, zeta = fm.copy(), zeta.copy()
-        if len(rows):
-            xc, _, _, _ = evaluate(ref_m, xm[mcand], ref_m.clamp(z))
-            dist = np.linalg.norm(x[rows] - xc, axis=1)
-            order = np.lexsort((dist, rows))
-            pick = order[np.unique(rows[order], return_index=True)[1]]
-            fm[rows[pick]] = mcand[pick]
-            zeta[rows[pick]] = z[pick]
-            valid[rows[pick]] = True
+        if seg.moved_facet is not None:
+            again = bad[seg.moved_facet[bad] >= 0]
+            z, _ = _closest_master_points(
+                ref_m, xm, seg.moved_facet[again], x[again], seg.moved_foot[again]
+            )
+            on = ref_m.inside(z)
+            back = again[on]
+            fm[back], zeta[back], valid[back] = seg.moved_facet[back], z[on], True
+            bad = np.nonzero(~valid)[0]
+        _nearest_candidates(
+            ref_m, xm, x, seg, bad, fm, zeta, valid, self.options.projection_tolerance
+        )
+        moved = valid & (fm != seg.master_facet)
+        seg.moved_facet = np.where(moved, fm, -1)
+        seg.moved_foot = zeta
         return fm, zeta, valid
 
     def _pressure(self, trial: np.ndarray, valid: np.ndarray):
