@@ -20,6 +20,8 @@ Usage:
     python benchmarks/gear_cycle.py --compare DIR_FULL DIR_CONDENSED [--write-docs]
                                                              # agreement of two stored cycles
     python benchmarks/gear_cycle.py --refinement             # pitch-point pressure vs mesh size
+    mpirun -n 2 python benchmarks/gear_cycle.py --refinement --factors 1.5 1 0.7 0.5 --write-docs
+                                                             # ... and its table in docs/cycle.md
 
 Columns: ranks; solver; torque; P2 DOFs; condensed DOFs (both gears); positions solved; Newton
 iterations; wall time (max over ranks) of the mesh (cache load and DOLFINx import), of the model
@@ -100,7 +102,9 @@ def parse_args(argv=None) -> argparse.Namespace:
         help="compare two stored cycles (e.g. full and condensed) instead of solving",
     )
     p.add_argument(
-        "--write-docs", action="store_true", help="write the table into docs/cycle.md (rank 0)"
+        "--write-docs",
+        action="store_true",
+        help="write the table into docs/cycle.md (rank 0; with --refinement its own block)",
     )
     p.add_argument(
         "--refinement", action="store_true", help="pitch-point pressure vs mesh size instead"
@@ -377,6 +381,8 @@ def refinement(args) -> None:
                 "wall_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
             }
         )
+    if comm.rank == 0 and args.write_docs:
+        replace_block(DOCS, "cycle_refinement", refinement_markdown(args, base, rows, comm.size))
     if comm.rank == 0:
         print(
             f"pitch-point position, {base.operating.torque_Nm:g} N m, mu = "
@@ -397,6 +403,50 @@ def refinement(args) -> None:
                 f"{r['wall_s']:7.1f}"
             )
         print("change: relative to the next finer mesh")
+
+
+def refinement_markdown(args, base, rows: list[dict], ranks: int) -> str:
+    """The --refinement rows as the docs/cycle.md table (block ``cycle_refinement``)."""
+    table = []
+    for i, r in enumerate(rows):
+        nxt = rows[i + 1] if i + 1 < len(rows) else None
+        change = f"{(r['p_mid_MPa'] / nxt['p_mid_MPa'] - 1) * 100:+.2f} %" if nxt else "–"
+        label = f"{r['factor']:g}" + (" (the case)" if r["factor"] == 1.0 else "")
+        table.append(
+            (
+                label,
+                f"{r['flank_mm']:.3g} mm",
+                r["layers"],
+                f"{r['dofs']:,}",
+                f"{r['p_mid_MPa']:.2f} MPa",
+                change,
+                f"{r['p_max_MPa']:.1f} MPa",
+                f"{r['te_um']:.2f} µm",
+                f"{r['wall_s']:.0f} s",
+            )
+        )
+    head = (
+        "mesh factor",
+        "flank element",
+        "layers",
+        "P2 DOFs",
+        "pitch-point pressure (mid face)",
+        "change to next finer",
+        "largest pressure",
+        "TE",
+        "wall",
+    )
+    cmd = (
+        "mpirun -n 2 python benchmarks/gear_cycle.py --refinement --write-docs --factors "
+        + " ".join(f"{f:g}" for f in args.factors)
+    )
+    return (
+        f"Pitch-point position of case '{base.name}', {base.operating.torque_Nm:g} N m, μ = "
+        f"{base.contact.friction_coefficient:g}, {base.cycle.solver} solver; the case mesh's "
+        "flank, tip, root and tooth element sizes scaled by the factor.\n\n"
+        + markdown_table(head, table)
+        + f"\n\n`{cmd}`: {ranks} ranks, 1-minute load average {os.getloadavg()[0]:.1f} at the end."
+    )
 
 
 def _relaunch(args) -> list[dict]:
