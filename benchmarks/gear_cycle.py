@@ -395,8 +395,8 @@ def refinement(args) -> None:
         )
         for i, r in enumerate(rows):
             nxt = rows[i + 1] if i + 1 < len(rows) else None
-            c1 = f"{(r['p_mid_MPa'] / nxt['p_mid_MPa'] - 1) * 100:+6.2f}%" if nxt else "      -"
-            c2 = f"{(r['p_max_MPa'] / nxt['p_max_MPa'] - 1) * 100:+6.2f}%" if nxt else "      -"
+            c1 = f"{_change(r, nxt, 'p_mid_MPa'):+6.2f}%" if nxt else "      -"
+            c2 = f"{_change(r, nxt, 'p_max_MPa'):+6.2f}%" if nxt else "      -"
             print(
                 f"{r['factor']:6.2f} {r['flank_mm']:8.3f} {r['layers']:6d} {r['dofs']:8d} "
                 f"{r['p_mid_MPa']:9.2f} {c1:>7} {r['p_max_MPa']:9.2f} {c2:>7} {r['te_um']:6.1f} "
@@ -405,12 +405,17 @@ def refinement(args) -> None:
         print("change: relative to the next finer mesh")
 
 
+def _change(row: dict, finer: dict, key: str) -> float:
+    """Relative change (%) of ``row[key]`` to the next finer mesh's."""
+    return (row[key] / finer[key] - 1.0) * 100.0
+
+
 def refinement_markdown(args, base, rows: list[dict], ranks: int) -> str:
     """The --refinement rows as the docs/cycle.md table (block ``cycle_refinement``)."""
     table = []
     for i, r in enumerate(rows):
         nxt = rows[i + 1] if i + 1 < len(rows) else None
-        change = f"{(r['p_mid_MPa'] / nxt['p_mid_MPa'] - 1) * 100:+.2f} %" if nxt else "–"
+        change = f"{_change(r, nxt, 'p_mid_MPa'):+.2f} %" if nxt else "–"
         label = f"{r['factor']:g}" + (" (the case)" if r["factor"] == 1.0 else "")
         table.append(
             (

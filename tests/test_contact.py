@@ -514,8 +514,9 @@ def test_slip_directions_settle_with_the_multipliers_held_after_max_uzawa_passes
     surfaces by a fraction of the tolerance, which near the pitch point turns the directions by a
     few 1e-2: the gear cycle at 0.14 mm / 18 positions cycled so at 4.000 deg) and the directions
     iterate alone. Here the first passes' slip change is reported as unsettled (1.0); the solve
-    continues past max_uzawa, holds λ from then on, ends within both tolerances; without friction
-    there is nothing to hold for and the same report raises at max_uzawa."""
+    continues past max_uzawa, holds λ from then on, ends within both tolerances; with the
+    penetration out of tolerance at max_uzawa there is nothing to hold the multipliers for and the
+    solve raises there."""
     opts = ContactOptions(
         method="augmented_lagrangian", penalty_Pa_m=100.0, friction_coefficient=0.3, max_uzawa=3
     )
