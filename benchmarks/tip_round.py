@@ -5,9 +5,12 @@ The thesis gears have a tip round of radius rho_a = 0.1 m (0.2 mm at m = 2) betw
 and the tip circle. When the next pair enters mesh, the wheel's (and, at the end of contact, the
 pinion's) tip round touches the mate's flank below its start of active profile: a contact of a
 small convex radius with a corner-like transition, where the peak pressure need not converge as
-the tip elements shrink. This script solves the cycle with ``[mesh] size_tip_mm`` divided by 1,
-1.5, 2.25 (the refinement levels of ``gearfem converge --kind tip``, cycles cached) and reports
-per level, from the contact history (:mod:`gearfem.cycle.history`):
+the tip elements shrink. This script
+solves the cycle at the three refinement levels (factors 1, 1.5, 2.25, cycles cached) of two
+directions: the tip elements alone (``[mesh] size_tip_mm``, as ``gearfem converge --kind tip``) and
+the whole contact zone with them (flank, tip, root and tooth sizes, as ``--kind structural_mesh``:
+the mate's flank, which the round presses on, refined too). Per level it reports, from the contact
+history (:mod:`gearfem.cycle.history`):
 
 * the largest contact pressure anywhere and on the tip rounds (points at radius >= r_Fa, the tip
   form radius where the round meets the involute, of the slave gear that owns the round);
@@ -15,9 +18,10 @@ per level, from the contact history (:mod:`gearfem.cycle.history`):
   the mean normal load;
 * the friction heat generated at tip-round contacts (μ p ŝ·v_T) and its share of the friction
   power;
-* at the case's level, how much of the maximum surface temperature and of the camera reading comes
-  from it: the thermal runs of both gears again with the friction flux recomputed from the contact
-  history without the tip-round contacts (first order: the other contacts' pressures unchanged).
+* how much of the maximum surface temperature and of the camera reading comes from it: the
+  thermal runs of both gears again with the friction flux recomputed from the contact history
+  without the tip-round contacts (first order: the other contacts' pressures unchanged), so that
+  the reading's change under refinement splits into the tip rounds' part and the rest.
 
 With ``--docs`` it writes the table into docs/refinement.md (block ``tip_round``).
 
@@ -50,6 +54,8 @@ from gearfem.refinement import level_case
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "refinement.md"
 FACTORS = (1.0, 1.5, 2.25)
+# refinement kind -> what its levels refine
+DIRECTIONS = {"tip": "tip elements", "structural_mesh": "contact zone"}
 
 
 def on_tip_round(case, cyc) -> np.ndarray:
@@ -116,76 +122,103 @@ def tip_round_measures(case, cyc) -> dict[str, float]:
     }
 
 
+@dataclasses.dataclass(frozen=True)
+class Level:
+    """The tip-round measures of one refinement level and its temperatures at the end of the run
+    with and without the tip-round contacts' friction heat (C)."""
+
+    size_tip_mm: float
+    size_flank_mm: float
+    measures: dict[str, float]
+    max_surface_C: float
+    camera_C: float
+    max_surface_without_C: float
+    camera_without_C: float
+
+
+def solve_level(case, out: Path, comm) -> Level:
+    cyc, _, _ = pipeline.cycle(case, comm)
+    with_ = temperatures(case, cyc, out / "with", comm)
+    without = temperatures(case, without_tip_rounds(case, cyc), out / "without", comm)
+    return Level(
+        case.mesh.size_tip_mm,
+        case.mesh.size_flank_mm,
+        tip_round_measures(case, cyc),
+        *with_,
+        *without,
+    )
+
+
+HEADER = (
+    "refined",
+    "tip / flank size (mm)",
+    "p_max on tip rounds (MPa)",
+    "p_max elsewhere (MPa)",
+    "tip-round force, mean / max (N)",
+    "share of the normal load",
+    "tip-round friction heat (W)",
+    "friction power (W)",
+    "share of the friction heat",
+    "camera_max (C)",
+    "camera_max without tip-round heat (C)",
+    "tip rounds' part of camera_max (K)",
+    "max surface (C)",
+    "tip rounds' part of max surface (K)",
+)
+
+
+def _row(direction: str, factor: float, lv: Level) -> list[str]:
+    m = lv.measures
+    return [
+        "(the case)" if factor == 1.0 else f"{direction} x{factor:g}",
+        f"{lv.size_tip_mm:.3f} / {lv.size_flank_mm:.3f}",
+        f"{m['p_max_tip_MPa']:.0f}",
+        f"{m['p_max_off_tip_MPa']:.0f}",
+        f"{m['tip_force_mean_N']:.1f} / {m['tip_force_max_N']:.1f}",
+        f"{100 * m['tip_force_share']:.2f} %",
+        f"{m['tip_heat_W']:.2f}",
+        f"{m['friction_power_W']:.2f}",
+        f"{100 * m['tip_heat_share']:.2f} %",
+        f"{lv.camera_C:.2f}",
+        f"{lv.camera_without_C:.2f}",
+        f"{lv.camera_C - lv.camera_without_C:+.2f}",
+        f"{lv.max_surface_C:.1f}",
+        f"{lv.max_surface_C - lv.max_surface_without_C:+.2f}",
+    ]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--docs", action="store_true", help="write the table into docs/refinement.md")
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
     case = load_case(None)
-    rows = []
-    t0 = time.perf_counter()
-    for f in FACTORS:
-        c = level_case(case, "tip", f)
-        cyc, _, _ = pipeline.cycle(c, comm)
-        m = tip_round_measures(c, cyc)
-        rows.append(
-            [
-                f"{c.mesh.size_tip_mm:.3f}",
-                f"{m['p_max_MPa']:.0f}",
-                f"{m['p_max_tip_MPa']:.0f}",
-                f"{m['p_max_off_tip_MPa']:.0f}",
-                f"{m['tip_force_mean_N']:.1f}",
-                f"{m['tip_force_max_N']:.1f}",
-                f"{100 * m['tip_force_share']:.2f} %",
-                f"{m['tip_heat_W']:.3f}",
-                f"{m['friction_power_W']:.3f}",
-                f"{100 * m['tip_heat_share']:.2f} %",
-            ]
-        )
-        if comm.rank == 0:
-            print(c.mesh.size_tip_mm, m, flush=True)
-    # the case's level: the temperatures with and without the tip-round contacts' heat
-    cyc, _, _ = pipeline.cycle(case, comm)
     out = Path("results/tip_round")
-    t_with = temperatures(case, cyc, out / "with", comm)
-    t_without = temperatures(case, without_tip_rounds(case, cyc), out / "without", comm)
+    levels: dict[tuple[str, float], Level] = {}
+    t0 = time.perf_counter()
+    for kind in DIRECTIONS:
+        for f in FACTORS:
+            # factor 1 is the case itself in both directions: solved once
+            key = (kind, f) if f != 1.0 else ("case", 1.0)
+            if key not in levels:
+                levels[key] = solve_level(level_case(case, kind, f), out / f"{key[0]}_{f:g}", comm)
+                if comm.rank == 0:
+                    print(kind, f, levels[key], flush=True)
     wall = time.perf_counter() - t0
     if comm.rank == 0:
-        thermal = markdown_table(
-            ("friction heat", "max surface (C)", "camera_max (C)"),
-            [
-                ["all contacts (the case)", f"{t_with[0]:.2f}", f"{t_with[1]:.2f}"],
-                ["without the tip-round contacts", f"{t_without[0]:.2f}", f"{t_without[1]:.2f}"],
-                [
-                    "difference",
-                    f"{t_with[0] - t_without[0]:+.2f}",
-                    f"{t_with[1] - t_without[1]:+.2f}",
-                ],
-            ],
-        )
-        print(thermal)
-        table = markdown_table(
-            (
-                "tip size (mm)",
-                "p_max (MPa)",
-                "p_max on tip rounds (MPa)",
-                "p_max elsewhere (MPa)",
-                "tip-round force, mean (N)",
-                "tip-round force, max (N)",
-                "share of the normal load",
-                "tip-round friction heat (W)",
-                "friction power (W)",
-                "share of the friction heat",
-            ),
-            rows,
-        )
+        rows = [
+            _row(DIRECTIONS[kind], f, levels[(kind, f) if f != 1.0 else ("case", 1.0)])
+            for kind in DIRECTIONS
+            for f in FACTORS
+        ]
+        table = markdown_table(HEADER, rows)
         print(table)
         if args.docs:
             caption = (
                 f"\n\n`mpirun -n {comm.size} python benchmarks/tip_round.py --docs`: {wall:.0f} s "
                 f"(cycles cached or solved), load average {os.getloadavg()[0]:.1f}."
             )
-            replace_block(DOC, "tip_round", table + "\n\n" + thermal + caption)
+            replace_block(DOC, "tip_round", table + caption)
 
 
 if __name__ == "__main__":
