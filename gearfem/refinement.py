@@ -150,8 +150,9 @@ def _layers(layers: int, factor: float) -> int:
 
 
 def refined_contact_zone(options: MeshOptions, factor: float) -> MeshOptions:
-    """The contact zone of ``options`` refined: flank, tip, root and tooth element sizes divided
-    by ``factor`` (body size, size gradient and layers kept). A factor below 1 coarsens."""
+    """The contact zone of ``options`` refined: flank, tip, root, tooth and (when set) entry
+    element sizes divided by ``factor`` (body size, size gradient and layers kept). A factor
+    below 1 coarsens."""
     if not factor > 0.0:
         raise ParameterError("refinement factor", factor, "> 0")
     return dataclasses.replace(
@@ -160,6 +161,9 @@ def refined_contact_zone(options: MeshOptions, factor: float) -> MeshOptions:
         size_tip_mm=_divided(options.size_tip_mm, factor),
         size_root_mm=_divided(options.size_root_mm, factor),
         size_tooth_mm=_divided(options.size_tooth_mm, factor),
+        size_entry_mm=None
+        if options.size_entry_mm is None
+        else _divided(options.size_entry_mm, factor),
     )
 
 

@@ -16,11 +16,18 @@ from mpi4py import MPI
 
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
+from gearfem.core.params import to_dict
 from gearfem.geometry.extrude import GMSH_REF
 from gearfem.geometry.gmsh_pair import gmsh_session
 from gearfem.geometry.involute import GearPair, GearPairGeometry
-from gearfem.geometry.mesh import analytic_areas_mm2, body_volumes_m3, build_gear_mesh, mesh_report
-from gearfem.geometry.options import TOOTH_KINDS, MeshOptions
+from gearfem.geometry.mesh import (
+    analytic_areas_mm2,
+    body_volumes_m3,
+    build_gear_mesh,
+    cache_key,
+    mesh_report,
+)
+from gearfem.geometry.options import ENTRY_MARGIN_MODULES, TOOTH_KINDS, MeshOptions
 
 THESIS = GearPairGeometry()
 COARSE = MeshOptions(
@@ -471,8 +478,6 @@ def test_first_order_meshes(element, cache):
 
 
 def test_cache_key_depends_on_the_tip_rounds():
-    from gearfem.geometry.mesh import cache_key
-
     sharp = dataclasses.replace(THESIS, tip_round_coefficient=0.0)
     small = dataclasses.replace(THESIS, tip_round_coefficient=0.05)
     keys = {cache_key(g, MeshOptions()) for g in (THESIS, sharp, small)}
@@ -510,6 +515,8 @@ def test_cache_hit_and_interrupted_build(tmp_path, monkeypatch):
         (dict(layers=0), "mesh.layers"),
         (dict(element="prism"), "mesh.element"),
         (dict(order=3), "mesh.order"),
+        (dict(size_entry_mm=0.0), "mesh.size_entry_mm"),
+        (dict(size_entry_mm=0.2), "mesh.size_entry_mm"),  # > size_flank_mm = 0.12
     ],
 )
 def test_bad_mesh_options_raise_parameter_error(changes, name, tmp_path):
@@ -560,3 +567,46 @@ def test_cli_mesh_writes_mesh_json_and_picture(tmp_path, capsys):
     case.write_text("[mesh]\nsize_flnk_mm = 0.2\n")
     assert main(["mesh", str(case), "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 2
     assert "mesh.size_flnk_mm" in capsys.readouterr().err
+
+
+def _section_edges(gm, body: str, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Midpoints (tooth frame, m) and lengths (m) of the z = 0 edges of tooth ``k``'s drive flank
+    facets, gathered on every rank."""
+    f = gm.facets(f"{body}_tooth{k}_drive_flank")
+    g = (
+        dolfinx.mesh.entities_to_geometry(gm.mesh, 2, f, False)[:, :3]
+        if len(f)
+        else np.empty((0, 3), dtype=np.int32)
+    )
+    x = gm.mesh.geometry.x
+    mids, lengths = [], []
+    for a, b in ((0, 1), (1, 2), (0, 2)):
+        on = (np.abs(x[g[:, a], 2]) < 1e-12) & (np.abs(x[g[:, b], 2]) < 1e-12)
+        mids.append(0.5 * (x[g[on, a]] + x[g[on, b]]))
+        lengths.append(np.linalg.norm(x[g[on, a]] - x[g[on, b]], axis=1))
+    mid = np.vstack(gm.mesh.comm.allgather(np.vstack(mids)))
+    length = np.concatenate(gm.mesh.comm.allgather(np.concatenate(lengths)))
+    return _to_tooth_frame(gm, body, k, mid), length
+
+
+def test_entry_refinement_refines_the_flank_foot_only(cache):
+    """``size_entry_mm``: the drive flank's edges from its foot up to 0.15 m above the start of
+    active profile take that size, the rest of the flank keeps ``size_flank_mm`` (edges 0.29 /
+    0.30 mm measured); off (None) is the same cache key as before the option existed."""
+    base = dataclasses.replace(COARSE, teeth_in_model=3, refined_teeth=1)
+    fine = dataclasses.replace(base, size_entry_mm=0.1)
+    assert "size_entry_mm" not in to_dict(base)  # off: the keys of meshes, cycles, studies kept
+    assert cache_key(THESIS, fine) != cache_key(THESIS, base)
+    pair = GearPair(THESIS)
+    top = pair.start_of_active_profile_m("pinion") + ENTRY_MARGIN_MODULES * THESIS.module_mm * 1e-3
+    pinion = ("pinion",)
+    sizes = {}
+    for name, opts in (("base", base), ("fine", fine)):
+        gm = build_gear_mesh(THESIS, opts, MPI.COMM_WORLD, cache_dir=cache, bodies=pinion)
+        mid, length = _section_edges(gm, "pinion", 1)
+        r = np.linalg.norm(mid, axis=1)
+        sizes[name] = (length[r < top - 0.05e-3], length[r > top + 0.5e-3])
+    foot, rest = sizes["fine"]
+    assert len(foot) >= 6 and np.max(foot) < 1.15 * 0.1e-3  # measured 0.1015 mm
+    assert np.max(sizes["base"][0]) > 1.5 * np.max(foot)
+    assert np.max(rest) == pytest.approx(np.max(sizes["base"][1]), rel=0.1)

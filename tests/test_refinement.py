@@ -49,6 +49,9 @@ def test_refined_mesh_scales_sizes_and_layers():
     assert refined_mesh(refined_mesh(m, 1.0 / 1.5), 1.5) == m
     with pytest.raises(ParameterError, match="refinement factor"):
         refined_mesh(MeshOptions(), 0.0)
+    # the entry size refines with the contact zone when set, and stays off when not
+    assert refined_mesh(MeshOptions(size_entry_mm=0.06), 1.5).size_entry_mm == pytest.approx(0.04)
+    assert refined_mesh(MeshOptions(), 1.5).size_entry_mm is None
 
 
 def test_levels_that_round_to_the_same_discretisation_are_refused(tmp_path, comm):

@@ -45,6 +45,7 @@ from gearfem.geometry.involute import GearPair, GearPairGeometry, ToothProfile
 from gearfem.geometry.options import (
     BODIES,
     BODY_KINDS,
+    ENTRY_MARGIN_MODULES,
     TOOTH_KINDS,
     MeshOptions,
     check_bodies,
@@ -104,6 +105,13 @@ class _BodyCurves:
         default_factory=set
     )  # the tip-round curves (part of "tip")
     round_radius_mm: float = 0.0
+    # the entry refinement (MeshOptions.size_entry_mm): per tooth the drive-side tip round and
+    # the drive flank's outline points (mm, tip to foot); the body centre (mm) and the radius up
+    # to which the flank is refined (mm)
+    drive_round: dict[int, int] = dataclasses.field(default_factory=dict)
+    drive_flank_mm: dict[int, np.ndarray] = dataclasses.field(default_factory=dict)
+    center_mm: tuple[float, float] = (0.0, 0.0)
+    entry_top_radius_mm: float = 0.0
     bore: list[int] = dataclasses.field(default_factory=list)
     cut_start: list[int] = dataclasses.field(default_factory=list)
     cut_end: list[int] = dataclasses.field(default_factory=list)
@@ -171,9 +179,11 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
                 geo.addCircleArc(land_end, rc["drive"], tip_end),
             ]
             out.rounds |= {tip[0], tip[2]}
+            out.drive_round[k] = tip[2]
             out.round_radius_mm = prof.tip_round_radius_m * mm
         else:
             tip = [geo.addCircleArc(p_cf[-1], center_pt, tip_end)]
+        out.drive_flank_mm[k] = pieces["drive_flank"]
         p_df = pts_of(pieces["drive_flank"], tip_end, None)
         drive = geo.addSpline(p_df)
         p_rd = pts_of(pieces["root_drive"], p_df[-1], first_pt if last_tooth_full else None)
@@ -185,6 +195,7 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
         out.tooth[("drive_flank", k)] = [drive]
         loop += [root_c, coast, *tip, drive, root_d]
 
+    out.center_mm = (cx, cy)
     rb = prof.bore_radius_m * mm
 
     def bore_point(theta: float) -> int:
@@ -258,9 +269,65 @@ def _size_field(
         f.setNumber(t, "DistMin", 0.0)
         f.setNumber(t, "DistMax", max(scale * (o.size_body_mm - size) / o.size_growth, 1e-6))
         fields.append(t)
+    if o.size_entry_mm is not None:
+        fields += _entry_fields(gmsh, sections, o, refined, scale)
     mn = f.add("Min")
     f.setNumbers(mn, "FieldsList", fields)
     f.setAsBackgroundMesh(mn)
+
+
+def _entry_fields(
+    gmsh, sections: dict[str, _BodyCurves], o: MeshOptions, refined: list[int], scale: float
+) -> list[int]:
+    """Size fields of the entry refinement (``size_entry_mm``) of the refined teeth: the
+    drive-side tip round, and the drive flank from its foot up to the section's
+    ``entry_top_radius_mm`` (a distance threshold around the flank, cut to that stretch by a disk
+    around it: the larger of the two sizes, which is ``size_flank_mm`` outside the disk), graded
+    at ``size_growth``."""
+    f = gmsh.model.mesh.field
+    size = scale * o.size_entry_mm
+
+    def threshold(distance: int, outer: float) -> int:
+        t = f.add("Threshold")
+        f.setNumber(t, "InField", distance)
+        f.setNumber(t, "SizeMin", size)
+        f.setNumber(t, "SizeMax", outer)
+        f.setNumber(t, "DistMin", 0.0)
+        f.setNumber(t, "DistMax", max((outer - size) / o.size_growth, 1e-6))
+        return t
+
+    out = []
+    for sec in sections.values():
+        cx, cy = sec.center_mm
+        for k in refined:
+            if k in sec.drive_round:
+                d = f.add("Distance")
+                f.setNumbers(d, "CurvesList", [sec.drive_round[k]])
+                f.setNumber(d, "Sampling", 50)
+                out.append(threshold(d, scale * o.size_body_mm))
+            xy = sec.drive_flank_mm[k]
+            band = xy[np.hypot(xy[:, 0] - cx, xy[:, 1] - cy) <= sec.entry_top_radius_mm]
+            if len(band) < 2:
+                continue
+            ends = band[[0, -1]]
+            mid = ends.mean(axis=0)
+            d = f.add("Distance")
+            f.setNumbers(d, "CurvesList", sec.tooth[("drive_flank", k)])
+            f.setNumber(d, "Sampling", 400)
+            near = threshold(d, scale * o.size_body_mm)
+            disk = f.add("Ball")  # size_entry within the stretch, size_flank beyond it
+            f.setNumber(disk, "XCenter", float(mid[0]))
+            f.setNumber(disk, "YCenter", float(mid[1]))
+            f.setNumber(disk, "ZCenter", 0.0)
+            f.setNumber(disk, "Radius", 0.5 * float(np.linalg.norm(ends[1] - ends[0])))
+            grading = scale * (o.size_flank_mm - o.size_entry_mm) / o.size_growth
+            f.setNumber(disk, "Thickness", grading)
+            f.setNumber(disk, "VIn", size)
+            f.setNumber(disk, "VOut", scale * o.size_flank_mm)
+            cut = f.add("Max")
+            f.setNumbers(cut, "FieldsList", [near, disk])
+            out.append(cut)
+    return out
 
 
 # ------------------------------------------------------------------------------------------------
@@ -294,6 +361,9 @@ def mesh_sections(
     for body in bodies:
         places[body] = placement(pair, options, body)
         sections[body] = _add_section(gmsh, pair.profile(body), places[body])
+        sections[body].entry_top_radius_mm = 1e3 * (
+            pair.start_of_active_profile_m(body) + ENTRY_MARGIN_MODULES * geometry.module_mm * 1e-3
+        )
     geo.synchronize()
     hex_ = options.element == "hex"
     opt = gmsh.option.setNumber
