@@ -590,7 +590,7 @@ def _section_edges(gm, body: str, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_entry_refinement_refines_the_flank_foot_only(cache):
-    """``size_entry_mm``: the drive flank's edges from its foot up to 0.15 m above the start of
+    """``size_entry_mm``: the drive flank's edges from its foot up to 0.15 modules above the start of
     active profile take that size, the rest of the flank keeps ``size_flank_mm`` (edges 0.29 /
     0.30 mm measured); off (None) is the same cache key as before the option existed."""
     base = dataclasses.replace(COARSE, teeth_in_model=3, refined_teeth=1)
