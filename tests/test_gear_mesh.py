@@ -590,9 +590,9 @@ def _section_edges(gm, body: str, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_entry_refinement_refines_the_flank_foot_only(cache):
-    """``size_entry_mm``: the drive flank's edges from its foot up to 0.15 modules above the start of
-    active profile take that size, the rest of the flank keeps ``size_flank_mm`` (edges 0.29 /
-    0.30 mm measured); off (None) is the same cache key as before the option existed."""
+    """``size_entry_mm``: the drive flank's edges from its foot up to 0.15 modules above the
+    start of active profile take that size, the rest of the flank keeps ``size_flank_mm`` (edges
+    0.29 / 0.30 mm measured); off (None), the option is no part of the keys."""
     base = dataclasses.replace(COARSE, teeth_in_model=3, refined_teeth=1)
     fine = dataclasses.replace(base, size_entry_mm=0.1)
     assert "size_entry_mm" not in to_dict(base)  # off: the keys of meshes, cycles, studies kept
