@@ -23,9 +23,12 @@ history (:mod:`gearfem.cycle.history`):
   without the tip-round contacts (first order: the other contacts' pressures unchanged), so that
   the reading's change under refinement splits into the tip rounds' part and the rest.
 
-With ``--docs`` it writes the table into docs/refinement.md (block ``tip_round``).
+With ``--entry`` it runs instead the case with the entry refinement (``[mesh] size_entry_mm``:
+the drive-side tip rounds and the mate's flank foot, where the round bears) at ``ENTRY_SIZES_MM``.
+With ``--docs`` it writes the table into docs/refinement.md (block ``tip_round``, or
+``tip_round_entry``).
 
-Usage: ``mpirun -n 2 python benchmarks/tip_round.py [--docs]``
+Usage: ``mpirun -n 2 python benchmarks/tip_round.py [--entry] [--docs]``
 """
 
 from __future__ import annotations
@@ -56,6 +59,8 @@ DOC = ROOT / "docs" / "refinement.md"
 FACTORS = (1.0, 1.5, 2.25)
 # refinement kind -> what its levels refine
 DIRECTIONS = {"tip": "tip elements", "structural_mesh": "contact zone"}
+# sizes of the entry refinement, mm (--entry): 0.07 divided by 1.5, 1.5^2, 1.5^3
+ENTRY_SIZES_MM = (0.07, 0.0467, 0.0311, 0.0207)
 
 
 def on_tip_round(case, cyc) -> np.ndarray:
@@ -167,10 +172,10 @@ HEADER = (
 )
 
 
-def _row(direction: str, factor: float, lv: Level) -> list[str]:
+def _row(label: str, lv: Level) -> list[str]:
     m = lv.measures
     return [
-        "(the case)" if factor == 1.0 else f"{direction} x{factor:g}",
+        label,
         f"{lv.size_tip_mm:.3f} / {lv.size_flank_mm:.3f}",
         f"{m['p_max_tip_MPa']:.0f}",
         f"{m['p_max_off_tip_MPa']:.0f}",
@@ -187,13 +192,47 @@ def _row(direction: str, factor: float, lv: Level) -> list[str]:
     ]
 
 
+def entry_levels(case, comm, out: Path) -> list[list[str]]:
+    """The case with the entry refinement (``[mesh] size_entry_mm``) at ``ENTRY_SIZES_MM``, the
+    rest of its resolution unchanged: rows of the table, the case first."""
+    pinned = dataclasses.replace(case, thermal_mesh=case.thermal_mesh_options)
+    rows = []
+    for size in (None, *ENTRY_SIZES_MM):
+        c = dataclasses.replace(pinned, mesh=dataclasses.replace(case.mesh, size_entry_mm=size))
+        lv = solve_level(c, out / f"entry_{size}", comm)
+        if comm.rank == 0:
+            print("entry", size, lv, flush=True)
+            rows.append(_row("(the case)" if size is None else f"entry {size:.4f} mm", lv))
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--docs", action="store_true", help="write the table into docs/refinement.md")
+    ap.add_argument(
+        "--entry",
+        action="store_true",
+        help="the entry refinement's levels instead (block tip_round_entry)",
+    )
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
     case = load_case(None)
     out = Path("results/tip_round")
+    if args.entry:
+        t0 = time.perf_counter()
+        rows = entry_levels(case, comm, out)
+        wall = time.perf_counter() - t0
+        if comm.rank == 0:
+            table = markdown_table(HEADER, rows)
+            print(table)
+            if args.docs:
+                caption = (
+                    f"\n\n`mpirun -n {comm.size} python benchmarks/tip_round.py --entry --docs`: "
+                    f"{wall:.0f} s (cycles cached or solved), load average "
+                    f"{os.getloadavg()[0]:.1f}."
+                )
+                replace_block(DOC, "tip_round_entry", table + caption)
+        return
     levels: dict[tuple[str, float], Level] = {}
     t0 = time.perf_counter()
     for kind in DIRECTIONS:
@@ -207,7 +246,10 @@ def main() -> None:
     wall = time.perf_counter() - t0
     if comm.rank == 0:
         rows = [
-            _row(DIRECTIONS[kind], f, levels[(kind, f) if f != 1.0 else ("case", 1.0)])
+            _row(
+                "(the case)" if f == 1.0 else f"{DIRECTIONS[kind]} x{f:g}",
+                levels[(kind, f) if f != 1.0 else ("case", 1.0)],
+            )
             for kind in DIRECTIONS
             for f in FACTORS
         ]
