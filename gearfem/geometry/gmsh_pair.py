@@ -125,8 +125,11 @@ def _to_global(xy: np.ndarray, angle: float, center: np.ndarray) -> np.ndarray:
     )
 
 
-def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
-    """Add the z = 0 section of one body (built-in kernel, millimetres)."""
+def _add_section(
+    gmsh, prof: ToothProfile, place: BodyPlacement, entry_top_radius_mm: float
+) -> _BodyCurves:
+    """Add the z = 0 section of one body (built-in kernel, millimetres); the drive flank up to
+    ``entry_top_radius_mm`` is where ``size_entry_mm`` applies."""
     geo = gmsh.model.geo
     mm = 1e3
     cx, cy = place.center_m[0] * mm, place.center_m[1] * mm
@@ -196,6 +199,7 @@ def _add_section(gmsh, prof: ToothProfile, place: BodyPlacement) -> _BodyCurves:
         loop += [root_c, coast, *tip, drive, root_d]
 
     out.center_mm = (cx, cy)
+    out.entry_top_radius_mm = entry_top_radius_mm
     rb = prof.bore_radius_m * mm
 
     def bore_point(theta: float) -> int:
@@ -262,18 +266,24 @@ def _size_field(
         d = f.add("Distance")
         f.setNumbers(d, "CurvesList", curves)
         f.setNumber(d, "Sampling", 200)
-        t = f.add("Threshold")
-        f.setNumber(t, "InField", d)
-        f.setNumber(t, "SizeMin", scale * size)
-        f.setNumber(t, "SizeMax", scale * o.size_body_mm)
-        f.setNumber(t, "DistMin", 0.0)
-        f.setNumber(t, "DistMax", max(scale * (o.size_body_mm - size) / o.size_growth, 1e-6))
-        fields.append(t)
+        fields.append(_threshold(f, d, scale * size, scale * o.size_body_mm, o.size_growth))
     if o.size_entry_mm is not None:
         fields += _entry_fields(gmsh, sections, o, refined, scale)
     mn = f.add("Min")
     f.setNumbers(mn, "FieldsList", fields)
     f.setAsBackgroundMesh(mn)
+
+
+def _threshold(f, distance: int, size_min: float, size_max: float, growth: float) -> int:
+    """A gmsh Threshold field on the Distance field ``distance``: ``size_min`` at distance 0,
+    growing by ``growth`` per unit distance up to ``size_max``."""
+    t = f.add("Threshold")
+    f.setNumber(t, "InField", distance)
+    f.setNumber(t, "SizeMin", size_min)
+    f.setNumber(t, "SizeMax", size_max)
+    f.setNumber(t, "DistMin", 0.0)
+    f.setNumber(t, "DistMax", max((size_max - size_min) / growth, 1e-6))
+    return t
 
 
 def _entry_fields(
@@ -285,17 +295,7 @@ def _entry_fields(
     around it: the larger of the two sizes, which is ``size_flank_mm`` outside the disk), graded
     at ``size_growth``."""
     f = gmsh.model.mesh.field
-    size = scale * o.size_entry_mm
-
-    def threshold(distance: int, outer: float) -> int:
-        t = f.add("Threshold")
-        f.setNumber(t, "InField", distance)
-        f.setNumber(t, "SizeMin", size)
-        f.setNumber(t, "SizeMax", outer)
-        f.setNumber(t, "DistMin", 0.0)
-        f.setNumber(t, "DistMax", max((outer - size) / o.size_growth, 1e-6))
-        return t
-
+    size, body = scale * o.size_entry_mm, scale * o.size_body_mm
     out = []
     for sec in sections.values():
         cx, cy = sec.center_mm
@@ -304,7 +304,7 @@ def _entry_fields(
                 d = f.add("Distance")
                 f.setNumbers(d, "CurvesList", [sec.drive_round[k]])
                 f.setNumber(d, "Sampling", 50)
-                out.append(threshold(d, scale * o.size_body_mm))
+                out.append(_threshold(f, d, size, body, o.size_growth))
             xy = sec.drive_flank_mm[k]
             band = xy[np.hypot(xy[:, 0] - cx, xy[:, 1] - cy) <= sec.entry_top_radius_mm]
             if len(band) < 2:
@@ -314,7 +314,7 @@ def _entry_fields(
             d = f.add("Distance")
             f.setNumbers(d, "CurvesList", sec.tooth[("drive_flank", k)])
             f.setNumber(d, "Sampling", 400)
-            near = threshold(d, scale * o.size_body_mm)
+            near = _threshold(f, d, size, body, o.size_growth)
             disk = f.add("Ball")  # size_entry within the stretch, size_flank beyond it
             f.setNumber(disk, "XCenter", float(mid[0]))
             f.setNumber(disk, "YCenter", float(mid[1]))
@@ -360,10 +360,10 @@ def mesh_sections(
     places: dict[str, BodyPlacement] = {}
     for body in bodies:
         places[body] = placement(pair, options, body)
-        sections[body] = _add_section(gmsh, pair.profile(body), places[body])
-        sections[body].entry_top_radius_mm = 1e3 * (
+        entry_top_mm = 1e3 * (
             pair.start_of_active_profile_m(body) + ENTRY_MARGIN_MODULES * geometry.module_mm * 1e-3
         )
+        sections[body] = _add_section(gmsh, pair.profile(body), places[body], entry_top_mm)
     geo.synchronize()
     hex_ = options.element == "hex"
     opt = gmsh.option.setNumber
