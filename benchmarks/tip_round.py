@@ -206,6 +206,29 @@ def entry_levels(case, comm, out: Path) -> list[list[str]]:
     return rows
 
 
+def direction_levels(case, comm, out: Path) -> list[list[str]]:
+    """The case at ``FACTORS`` in each of ``DIRECTIONS``: rows of the table (on rank 0)."""
+    levels: dict[tuple[str, float], Level] = {}
+    for kind in DIRECTIONS:
+        for f in FACTORS:
+            # factor 1 is the case itself in both directions: solved once
+            key = (kind, f) if f != 1.0 else ("case", 1.0)
+            if key not in levels:
+                levels[key] = solve_level(level_case(case, kind, f), out / f"{key[0]}_{f:g}", comm)
+                if comm.rank == 0:
+                    print(kind, f, levels[key], flush=True)
+    if comm.rank != 0:
+        return []
+    return [
+        _row(
+            "(the case)" if f == 1.0 else f"{DIRECTIONS[kind]} x{f:g}",
+            levels[(kind, f) if f != 1.0 else ("case", 1.0)],
+        )
+        for kind in DIRECTIONS
+        for f in FACTORS
+    ]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--docs", action="store_true", help="write the table into docs/refinement.md")
@@ -218,49 +241,20 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     case = load_case(None)
     out = Path("results/tip_round")
-    if args.entry:
-        t0 = time.perf_counter()
-        rows = entry_levels(case, comm, out)
-        wall = time.perf_counter() - t0
-        if comm.rank == 0:
-            table = markdown_table(HEADER, rows)
-            print(table)
-            if args.docs:
-                caption = (
-                    f"\n\n`mpirun -n {comm.size} python benchmarks/tip_round.py --entry --docs`: "
-                    f"{wall:.0f} s (cycles cached or solved), load average "
-                    f"{os.getloadavg()[0]:.1f}."
-                )
-                replace_block(DOC, "tip_round_entry", table + caption)
-        return
-    levels: dict[tuple[str, float], Level] = {}
     t0 = time.perf_counter()
-    for kind in DIRECTIONS:
-        for f in FACTORS:
-            # factor 1 is the case itself in both directions: solved once
-            key = (kind, f) if f != 1.0 else ("case", 1.0)
-            if key not in levels:
-                levels[key] = solve_level(level_case(case, kind, f), out / f"{key[0]}_{f:g}", comm)
-                if comm.rank == 0:
-                    print(kind, f, levels[key], flush=True)
+    rows = (entry_levels if args.entry else direction_levels)(case, comm, out)
     wall = time.perf_counter() - t0
     if comm.rank == 0:
-        rows = [
-            _row(
-                "(the case)" if f == 1.0 else f"{DIRECTIONS[kind]} x{f:g}",
-                levels[(kind, f) if f != 1.0 else ("case", 1.0)],
-            )
-            for kind in DIRECTIONS
-            for f in FACTORS
-        ]
         table = markdown_table(HEADER, rows)
         print(table)
         if args.docs:
+            flags = " --entry" if args.entry else ""
             caption = (
-                f"\n\n`mpirun -n {comm.size} python benchmarks/tip_round.py --docs`: {wall:.0f} s "
-                f"(cycles cached or solved), load average {os.getloadavg()[0]:.1f}."
+                f"\n\n`mpirun -n {comm.size} python benchmarks/tip_round.py{flags} --docs`: "
+                f"{wall:.0f} s (cycles cached or solved), load average "
+                f"{os.getloadavg()[0]:.1f}."
             )
-            replace_block(DOC, "tip_round", table + caption)
+            replace_block(DOC, "tip_round_entry" if args.entry else "tip_round", table + caption)
 
 
 if __name__ == "__main__":
