@@ -3,7 +3,8 @@
 #
 #   ./dev.sh run [CASE.toml] [gearfem run options]   set up .venv, run the main job (default: thesis case,
 #                                                    results/thesis, on GEARFEM_NP ranks, default 2)
-#   ./dev.sh test [pytest options]                   set up .venv, run the tests serially, then under mpirun -n 2
+#   ./dev.sh test [pytest options]                   set up .venv, run the tests on 1 rank (2 pytest-xdist
+#                                                    workers), then the mpi-marked ones under mpirun -n 2
 #   ./dev.sh test --quick [pytest options]           the quick tier (tests not marked slow; a few minutes)
 #   ./dev.sh setup                                   only set up .venv
 #   ./dev.sh gearfem ARGS...                         any gearfem command inside the environment
@@ -105,9 +106,15 @@ case "$cmd" in
     if [[ "${1:-}" == "--quick" ]]; then
       shift; serial_mark=(-m "not slow"); mpi_mark=(-m "mpi and not slow"); tier="quick"
     fi
+    # Single-rank tests on GEARFEM_TEST_WORKERS pytest-xdist workers (default: the cores, at most
+    # 2, the CI machine's), one BLAS thread each; tests that share an expensive fixture carry an
+    # xdist_group mark and stay on one worker (--dist loadgroup). GEARFEM_TEST_WORKERS=0: in-process.
+    workers="${GEARFEM_TEST_WORKERS:-$(( $(nproc 2>/dev/null || echo 1) >= 2 ? 2 : 1 ))}"
+    [[ "$workers" =~ ^[0-9]+$ ]] || die "GEARFEM_TEST_WORKERS=$workers is not a whole number >= 0"
     t0=$SECONDS
-    say "serial ($tier tier): pytest ${serial_mark[*]} $*"
-    run_pytest "$VENV/bin/python" -m pytest "${serial_mark[@]}" "$@"
+    say "serial ($tier tier, $workers pytest-xdist workers): pytest ${serial_mark[*]} $*"
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 run_pytest "$VENV/bin/python" -m pytest \
+      -n "$workers" --dist loadgroup "${serial_mark[@]}" "$@"
     say "serial tests passed in $((SECONDS - t0)) s; now the mpi-marked tests under mpirun -n $MPI_NP"
     t1=$SECONDS
     run_pytest timeout "${GEARFEM_MPI_TEST_TIMEOUT:-2400}" "$(mpirun_cmd)" -n "$MPI_NP" \

@@ -29,6 +29,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 import diagnose_generator as G
 
 ROOT = Path(__file__).resolve().parent.parent
+#: Tests sharing a session fixture (a surrogate built from the full model) run on one pytest-xdist
+#: worker (``--dist loadgroup``, dev.sh), which builds it once.
+CLASSIC_GROUP = pytest.mark.xdist_group("diagnose_classic_surrogate")
+FRICTION_GROUP = pytest.mark.xdist_group("diagnose_friction_surrogate")
 
 
 # ---------------------------------------------------------------- data format and V&V 20 (fast)
@@ -182,6 +186,7 @@ def _diagnose(sur, data, full=None, final_check=False):
     return r
 
 
+@CLASSIC_GROUP
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [c.name for c in CLASSIC_LIBRARY])
 def test_hidden_effect_found(models, name):
@@ -198,6 +203,7 @@ def test_hidden_effect_found(models, name):
     assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
 
 
+@CLASSIC_GROUP
 @pytest.mark.slow
 def test_null_case_baseline_adequate(models):
     full, sur = models
@@ -206,6 +212,7 @@ def test_null_case_baseline_adequate(models):
     assert r.verdict.kind == "baseline adequate", r.verdict.text
 
 
+@CLASSIC_GROUP
 @pytest.mark.slow
 def test_confuser_not_identifiable(models):
     """Friction heat x m against convection x k: with end values of the camera maximum only, both
@@ -222,6 +229,7 @@ def test_confuser_not_identifiable(models):
     assert {"friction_scale", "convection_scale"} <= named
 
 
+@CLASSIC_GROUP
 @pytest.mark.slow
 def test_pair_found_and_confirmed_on_full_model(models):
     full, sur = models
@@ -262,6 +270,7 @@ def friction_models():
     return full, sur
 
 
+@FRICTION_GROUP
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [c.name for c in FRICTION_LAWS])
 def test_friction_law_hidden_effect_found(friction_models, name):
@@ -278,6 +287,7 @@ def test_friction_law_hidden_effect_found(friction_models, name):
     assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
 
 
+@FRICTION_GROUP
 @pytest.mark.slow
 def test_forward_state_returns_friction_heat_and_branch(friction_models):
     """The forward model returns the friction heat and, for a law whose heat may rise with T, the
@@ -339,6 +349,7 @@ def test_end_values_of_a_rising_friction_law_come_from_the_transient(tmp_path):
             assert th.initial_C is None  # from ambient
 
 
+@CLASSIC_GROUP
 @pytest.mark.slow
 def test_friction_temperature_reduces_friction_heat_within_bounds(models, tmp_path):
     """mu(T) = mu_ref exp(-beta (T - T_ref)) on the flux: the friction heat F must lie between
