@@ -232,6 +232,17 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     assert back.history.z_bin_m == loaded.history.z_bin_m
     assert back.tooth_load_N.keys() == loaded.tooth_load_N.keys()
     assert back.effective_contact_ratio() == loaded.effective_contact_ratio()
+    # a second writer of a complete entry (another test worker, a concurrent study) keeps the
+    # first one in place unless asked to replace it; no temporary directory is left behind
+    if comm.rank == 0:
+        marker = tmp_out / "cyc" / "first-writer"
+        marker.touch()
+        save(loaded, tmp_out / "cyc", replace=False)
+        assert marker.is_file()
+        save(loaded, tmp_out / "cyc")
+        assert not marker.exists()
+        assert [p.name for p in tmp_out.iterdir() if p.name.startswith(".tmp")] == []
+    comm.barrier()
     # the flank heat on the thermal mesh of one gear: (teeth modelled) × (heat per tooth) × ω
     case = _case(8.0, 0.5)
     gm = build_gear_mesh(case.geometry, TINY, comm, bodies=("pinion",))

@@ -114,8 +114,13 @@ def compliance_store(
     )
 
 
-def save(result: CycleResult, directory: str | Path) -> Path:
-    """Write ``cycle.npz`` and ``cycle.json`` into ``directory`` atomically (call on one rank)."""
+def save(result: CycleResult, directory: str | Path, replace: bool = True) -> Path:
+    """Write ``cycle.npz`` and ``cycle.json`` into ``directory`` atomically (call on one rank).
+
+    An existing entry is replaced, unless ``replace`` is false and it is complete: then it is kept
+    and this result discarded (a cache entry that another process, e.g. a second test worker or a
+    concurrent study, stored under the same key meanwhile holds the same result, and a reader of
+    it never sees it removed)."""
     directory = Path(directory)
     directory.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=".tmp-cycle-", dir=directory.parent))
@@ -146,10 +151,22 @@ def save(result: CycleResult, directory: str | Path) -> Path:
         },
     )
     (tmp / "cycle.json").write_text(json.dumps(meta, indent=2, default=jsonable))
+    if not replace and _complete(directory):
+        shutil.rmtree(tmp, ignore_errors=True)
+        return directory
     if directory.exists():
         shutil.rmtree(directory)
-    os.replace(tmp, directory)
+    try:
+        os.replace(tmp, directory)  # atomic: the entry appears complete or not at all
+    except OSError:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if replace or not _complete(directory):
+            raise
     return directory
+
+
+def _complete(directory: Path) -> bool:
+    return (directory / "cycle.json").is_file() and (directory / "cycle.npz").is_file()
 
 
 def load(directory: str | Path) -> CycleResult:
@@ -198,13 +215,12 @@ def cached_cycle(
     from_cache)."""
 
     directory = (cache_dir or cache_root()) / "cycles" / key
-    done = (directory / "cycle.json").exists() and (directory / "cycle.npz").exists()
-    done = comm.bcast(done, root=0)
+    done = comm.bcast(_complete(directory), root=0)
     if done and not rebuild:
         log.info("cycle %s from the cache (%s)", key, directory)
         return load(directory), directory, True
     result = solve_cycle(model_factory(), **run_kwargs)
     if comm.rank == 0:
-        save(result, directory)
+        save(result, directory, replace=rebuild)
     comm.barrier()
     return result, directory, False
