@@ -107,14 +107,15 @@ case "$cmd" in
       shift; serial_mark=(-m "not slow"); mpi_mark=(-m "mpi and not slow"); tier="quick"
     fi
     # Single-rank tests on GEARFEM_TEST_WORKERS pytest-xdist workers (default: the cores, at most
-    # 2, the CI machine's), one BLAS thread each; tests that share an expensive fixture carry an
-    # xdist_group mark and stay on one worker (--dist loadgroup). GEARFEM_TEST_WORKERS=0: in-process.
+    # 2, the CI machine's), one BLAS thread each, distributed by file (--dist loadfile: a module's
+    # fixtures are built once; loadgroup silently stopped grouping with pytest 9.2,
+    # pytest-dev/pytest-xdist#1386). GEARFEM_TEST_WORKERS=0: in-process.
     workers="${GEARFEM_TEST_WORKERS:-$(( $(nproc 2>/dev/null || echo 1) >= 2 ? 2 : 1 ))}"
     [[ "$workers" =~ ^[0-9]+$ ]] || die "GEARFEM_TEST_WORKERS=$workers is not a whole number >= 0"
     t0=$SECONDS
     say "serial ($tier tier, $workers pytest-xdist workers): pytest ${serial_mark[*]} $*"
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 run_pytest "$VENV/bin/python" -m pytest \
-      -n "$workers" --dist loadgroup "${serial_mark[@]}" "$@"
+      -n "$workers" --dist loadfile "${serial_mark[@]}" "$@"
     say "serial tests passed in $((SECONDS - t0)) s; now the mpi-marked tests under mpirun -n $MPI_NP"
     t1=$SECONDS
     run_pytest timeout "${GEARFEM_MPI_TEST_TIMEOUT:-2400}" "$(mpirun_cmd)" -n "$MPI_NP" \

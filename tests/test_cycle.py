@@ -49,9 +49,6 @@ TINY = MeshOptions(
     size_body_mm=5.0,
 )
 POSITIONS = 12
-#: Tests sharing the module's cycles (``low_torque``, ``loaded``) run on one pytest-xdist worker
-#: (``--dist loadgroup``, dev.sh), which solves them once.
-TINY_CYCLES = pytest.mark.xdist_group("test_cycle_tiny_cycles")
 
 
 def _case(
@@ -136,7 +133,6 @@ def _check_periodic(r):
         assert per["tooth_load_shifted_N"][k - 1] == pytest.approx(v, abs=2.5e-2 * total)
 
 
-@TINY_CYCLES
 @pytest.mark.slow
 def test_frictionless_torque_balance_contact_ratio_and_periodicity(low_torque):
     r = low_torque
@@ -160,7 +156,6 @@ def test_frictionless_torque_balance_contact_ratio_and_periodicity(low_torque):
     _check_periodic(r)
 
 
-@TINY_CYCLES
 @pytest.mark.slow
 def test_friction_energy_balance_load_sharing_and_root_stress(loaded, low_torque):
     r = loaded
@@ -215,7 +210,6 @@ def test_pitch_point_pressure_matches_thesis_hertz():
     assert p_max == pytest.approx(p0, rel=0.10)
 
 
-@TINY_CYCLES
 @pytest.mark.slow
 def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp_out):
     comm = MPI.COMM_WORLD
@@ -308,7 +302,6 @@ def _assert_same_cycle(a, b, rtol: float) -> None:
         assert np.abs(ub - ua).max() <= 10 * rtol * np.abs(ua).max()
 
 
-@TINY_CYCLES
 @pytest.mark.slow
 def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
     """The contact history gives the cycle's friction power per position and, for the cycle's own
@@ -372,7 +365,6 @@ def _thermal_tiny(cycle, friction: FrictionOptions, comm=MPI.COMM_WORLD, prefix=
     return ThermalProblem(dom, case.material, src, bnd, opts, petsc_options_prefix=prefix)
 
 
-@TINY_CYCLES
 @pytest.mark.slow
 def test_temperature_dependent_law_on_the_gear(loaded):
     """Through the temperature-dependent path (a surface flux model updated at every residual):

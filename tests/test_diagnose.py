@@ -23,16 +23,12 @@ from gearfem.config import Case
 from gearfem.core.errors import ParameterError
 from gearfem.diagnose import data as ddata
 from gearfem.diagnose import vv20
-from gearfem.diagnose.candidates import CLASSIC_LIBRARY, FRICTION_LAWS, LIBRARY, by_name
+from gearfem.diagnose.candidates import CLASSIC_LIBRARY, LIBRARY, by_name
 
 sys.path.insert(0, str(Path(__file__).parent))
 import diagnose_generator as G
 
 ROOT = Path(__file__).resolve().parent.parent
-#: Tests sharing a session fixture (a surrogate built from the full model) run on one pytest-xdist
-#: worker (``--dist loadgroup``, dev.sh), which builds it once.
-CLASSIC_GROUP = pytest.mark.xdist_group("diagnose_classic_surrogate")
-FRICTION_GROUP = pytest.mark.xdist_group("diagnose_friction_surrogate")
 
 
 # ---------------------------------------------------------------- data format and V&V 20 (fast)
@@ -167,7 +163,7 @@ def models():
     return full, sur
 
 
-def _diagnose(sur, data, full=None, final_check=False):
+def diagnose_with(sur, data, full=None, final_check=False):
     """Surrogate diagnosis; with ``full``, the chosen model is refined on the full model."""
     from gearfem.diagnose.select import diagnose, refine
 
@@ -186,7 +182,6 @@ def _diagnose(sur, data, full=None, final_check=False):
     return r
 
 
-@CLASSIC_GROUP
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [c.name for c in CLASSIC_LIBRARY])
 def test_hidden_effect_found(models, name):
@@ -195,7 +190,7 @@ def test_hidden_effect_found(models, name):
     rng = np.random.default_rng(seed)
     truth = G.draw(name, rng)
     data = G.synthetic(full, {name: truth}, rng)
-    r = _diagnose(sur, data, full)
+    r = diagnose_with(sur, data, full)
     assert r.verdict.kind == "identified", r.verdict.text
     assert r.chosen == (name,)
     lo, hi = r.refined.intervals[name]
@@ -203,16 +198,14 @@ def test_hidden_effect_found(models, name):
     assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
 
 
-@CLASSIC_GROUP
 @pytest.mark.slow
 def test_null_case_baseline_adequate(models):
     full, sur = models
     rng = np.random.default_rng(7)
-    r = _diagnose(sur, G.synthetic(full, {}, rng))
+    r = diagnose_with(sur, G.synthetic(full, {}, rng))
     assert r.verdict.kind == "baseline adequate", r.verdict.text
 
 
-@CLASSIC_GROUP
 @pytest.mark.slow
 def test_confuser_not_identifiable(models):
     """Friction heat x m against convection x k: with end values of the camera maximum only, both
@@ -223,20 +216,19 @@ def test_confuser_not_identifiable(models):
     data = G.synthetic(
         full, {"friction_scale": 0.6}, rng, quantities=("max_surface",), end_only=True, noise_K=2.0
     )
-    r = _diagnose(sur, data)
+    r = diagnose_with(sur, data)
     assert r.verdict.kind == "not identifiable", r.verdict.text
     named = {n for c in [r.chosen, *r.verdict.competitors] for n in c}
     assert {"friction_scale", "convection_scale"} <= named
 
 
-@CLASSIC_GROUP
 @pytest.mark.slow
 def test_pair_found_and_confirmed_on_full_model(models):
     full, sur = models
     rng = np.random.default_rng(5)
     truth = {"convection_speed_exponent": -0.5, "hysteresis_scale": 40.0}
     data = G.synthetic(full, truth, rng)
-    r = _diagnose(sur, data, full, final_check=True)
+    r = diagnose_with(sur, data, full, final_check=True)
     assert sorted(r.chosen) == sorted(truth), r.verdict.text
     for name, value in truth.items():
         lo, hi = r.refined.intervals[name]
@@ -246,68 +238,6 @@ def test_pair_found_and_confirmed_on_full_model(models):
     # noise over n samples lies below 1 + 3/sqrt(2n) K with probability > 99.8 %
     n = len(data)
     assert r.refined.full_rmse_K < 1.0 + 3.0 / math.sqrt(2 * n)
-
-
-# ---------------------------------------------------------------- friction laws (issue 15)
-
-#: Two torques (the pressure law is told from a friction scale only across loads) and two speeds
-#: at the lower one (the sliding-speed law from convection), the bench points among them.
-FRICTION_POINTS = ((600.0, 8.0), (1000.0, 8.0), (1000.0, 4.0), (2000.0, 4.0))
-FRICTION_RIVALS = ("friction_scale", "friction_temperature", "convection_scale", "ambient_offset")
-
-
-@pytest.fixture(scope="session")
-def friction_models():
-    from gearfem.config import load_case
-    from gearfem.cycle.cache import cache_root
-    from gearfem.diagnose.forward import FullModel, Surrogate
-
-    lib = FRICTION_LAWS + tuple(by_name(n) for n in FRICTION_RIVALS)
-    case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
-    case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, time_error_K=0.25))
-    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S, library=lib)
-    sur = Surrogate(full, FRICTION_POINTS, candidates=lib, cache_dir=cache_root())
-    return full, sur
-
-
-@FRICTION_GROUP
-@pytest.mark.slow
-@pytest.mark.parametrize("name", [c.name for c in FRICTION_LAWS])
-def test_friction_law_hidden_effect_found(friction_models, name):
-    full, sur = friction_models
-    seed = 1000 + [c.name for c in LIBRARY].index(name)
-    rng = np.random.default_rng(seed)
-    truth = G.draw(name, rng)
-    data = G.synthetic(full, {name: truth}, rng, points=FRICTION_POINTS)
-    r = _diagnose(sur, data, full)
-    assert r.verdict.kind == "identified", (truth, r.verdict.text)
-    assert r.chosen == (name,)
-    lo, hi = r.refined.intervals[name]
-    assert lo <= truth <= hi, (truth, lo, hi)
-    assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
-
-
-@FRICTION_GROUP
-@pytest.mark.slow
-def test_forward_state_returns_friction_heat_and_branch(friction_models):
-    """The forward model returns the friction heat and, for a law whose heat may rise with T, the
-    steady states and the branch the transient picked; the heat lies between the glassy and the
-    rubbery plateaus' heats."""
-    full, _ = friction_models
-    base = full.evaluate_state(1000.0, 8.0, 23.0)
-    assert base.steady_states is None and base.friction_per_gear_W > 0
-    st = full.evaluate_state(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
-    assert st.steady_states is not None and st.steady_states >= 1
-    assert st.transient_branch is not None
-    assert 0.2 * base.friction_per_gear_W - 1e-9 <= st.friction_per_gear_W
-    assert st.friction_per_gear_W <= base.friction_per_gear_W * (1 + 1e-6)
-    assert {b["start"] for b in st.branches} >= {"cold", "transient", "hot"}
-    # evaluate skips the branch search, which runs after the temperatures are taken: the same
-    # temperatures to round-off (two evaluations of one model differ by up to 2e-12 K run to run)
-    again = full.evaluate(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
-    assert again.keys() == st.temperatures_C.keys()
-    for k, v in again.items():
-        assert v == pytest.approx(st.temperatures_C[k], abs=1e-9), k
 
 
 # ---------------------------------------------------------------- mu(T) on the friction flux
@@ -349,7 +279,6 @@ def test_end_values_of_a_rising_friction_law_come_from_the_transient(tmp_path):
             assert th.initial_C is None  # from ambient
 
 
-@CLASSIC_GROUP
 @pytest.mark.slow
 def test_friction_temperature_reduces_friction_heat_within_bounds(models, tmp_path):
     """mu(T) = mu_ref exp(-beta (T - T_ref)) on the flux: the friction heat F must lie between

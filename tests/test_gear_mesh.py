@@ -29,10 +29,6 @@ from gearfem.geometry.mesh import (
 )
 from gearfem.geometry.options import ENTRY_MARGIN_MODULES, TOOTH_KINDS, MeshOptions
 
-#: The module-scoped meshes are built once: the whole module runs on one pytest-xdist worker
-#: (``--dist loadgroup``, dev.sh).
-pytestmark = pytest.mark.xdist_group("test_gear_mesh")
-
 THESIS = GearPairGeometry()
 COARSE = MeshOptions(
     size_flank_mm=0.3,

@@ -40,10 +40,6 @@ from gearfem.instruments.snapshot import KINDS, CycleTorques, FieldSnapshot
 from gearfem.instruments.torque import read_torque
 from gearfem.thermal.options import ThermalOptions
 
-#: The module-scoped fixtures (snapshots, the ring, the mesh cache) are built once: the whole
-#: module runs on one pytest-xdist worker (``--dist loadgroup``, dev.sh).
-pytestmark = pytest.mark.xdist_group("test_instruments")
-
 H, C, K = 6.62607015e-34, 299792458.0, 1.380649e-23
 SMALL = MeshOptions(
     teeth_in_model=3,

@@ -22,10 +22,6 @@ from gearfem.thermal import (
 from gearfem.thermal.lumped import gear_radii
 from gearfem.thermal.source_terms import prescribed_heat_sources
 
-#: The module-scoped meshes are built once: the whole module runs on one pytest-xdist worker
-#: (``--dist loadgroup``, dev.sh).
-pytestmark = pytest.mark.xdist_group("test_thermal_gear")
-
 COARSE = MeshOptions(
     size_flank_mm=0.3,
     size_tip_mm=0.3,

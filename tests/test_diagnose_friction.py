@@ -1,0 +1,82 @@
+"""Diagnosis of friction laws (issue 15): a hidden friction law in synthetic data from the full
+model must be found among its rivals.
+
+As tests/test_diagnose.py (the coarse case, P1 thermal, the synthetic data from the full forward
+model, the analysis on a surrogate cached under $GEARFEM_CACHE or ./cache), at two torques: the
+pressure law is told from a friction scale only across loads. A module of its own so that its
+surrogate, the most expensive fixture of the suite, is built on another pytest-xdist worker than
+the classic library's (dev.sh distributes the 1-rank tests by file).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import gearfem  # noqa: F401
+from gearfem.config import load_case
+from gearfem.cycle.cache import cache_root
+from gearfem.diagnose.candidates import FRICTION_LAWS, LIBRARY, by_name
+from gearfem.diagnose.forward import FullModel, Surrogate
+
+sys.path.insert(0, str(Path(__file__).parent))
+import diagnose_generator as G
+from test_diagnose import ROOT, diagnose_with
+
+#: Two torques (the pressure law is told from a friction scale only across loads) and two speeds
+#: at the lower one (the sliding-speed law from convection), the bench points among them.
+FRICTION_POINTS = ((600.0, 8.0), (1000.0, 8.0), (1000.0, 4.0), (2000.0, 4.0))
+FRICTION_RIVALS = ("friction_scale", "friction_temperature", "convection_scale", "ambient_offset")
+
+
+@pytest.fixture(scope="session")
+def friction_models():
+    lib = FRICTION_LAWS + tuple(by_name(n) for n in FRICTION_RIVALS)
+    case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
+    case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, time_error_K=0.25))
+    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S, library=lib)
+    sur = Surrogate(full, FRICTION_POINTS, candidates=lib, cache_dir=cache_root())
+    return full, sur
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [c.name for c in FRICTION_LAWS])
+def test_friction_law_hidden_effect_found(friction_models, name):
+    full, sur = friction_models
+    seed = 1000 + [c.name for c in LIBRARY].index(name)
+    rng = np.random.default_rng(seed)
+    truth = G.draw(name, rng)
+    data = G.synthetic(full, {name: truth}, rng, points=FRICTION_POINTS)
+    r = diagnose_with(sur, data, full)
+    assert r.verdict.kind == "identified", (truth, r.verdict.text)
+    assert r.chosen == (name,)
+    lo, hi = r.refined.intervals[name]
+    assert lo <= truth <= hi, (truth, lo, hi)
+    assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
+
+
+@pytest.mark.slow
+def test_forward_state_returns_friction_heat_and_branch(friction_models):
+    """The forward model returns the friction heat and, for a law whose heat may rise with T, the
+    steady states and the branch the transient picked; the heat lies between the glassy and the
+    rubbery plateaus' heats."""
+    full, _ = friction_models
+    base = full.evaluate_state(1000.0, 8.0, 23.0)
+    assert base.steady_states is None and base.friction_per_gear_W > 0
+    st = full.evaluate_state(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
+    assert st.steady_states is not None and st.steady_states >= 1
+    assert st.transient_branch is not None
+    assert 0.2 * base.friction_per_gear_W - 1e-9 <= st.friction_per_gear_W
+    assert st.friction_per_gear_W <= base.friction_per_gear_W * (1 + 1e-6)
+    assert {b["start"] for b in st.branches} >= {"cold", "transient", "hot"}
+    # evaluate skips the branch search, which runs after the temperatures are taken: the same
+    # temperatures to round-off (two evaluations of one model differ by up to 2e-12 K run to run)
+    again = full.evaluate(1000.0, 8.0, 23.0, {"friction_glass_transition": 0.1})
+    assert again.keys() == st.temperatures_C.keys()
+    for k, v in again.items():
+        assert v == pytest.approx(st.temperatures_C[k], abs=1e-9), k
