@@ -118,8 +118,16 @@ case "$cmd" in
       -n "$workers" --dist loadfile "${serial_mark[@]}" "$@"
     say "serial tests passed in $((SECONDS - t0)) s; now the mpi-marked tests under mpirun -n $MPI_NP"
     t1=$SECONDS
-    run_pytest timeout "${GEARFEM_MPI_TEST_TIMEOUT:-2400}" "$(mpirun_cmd)" -n "$MPI_NP" \
-      "$VENV/bin/python" -m pytest "${mpi_mark[@]}" -p no:cacheprovider "$@"
+    # 2.5-4 min here; a rank that failed a test can leave the others waiting in a collective
+    # (its traceback is on stderr as "[rank N] FAILED"): stop after GEARFEM_MPI_TEST_TIMEOUT s.
+    mpi_timeout="${GEARFEM_MPI_TEST_TIMEOUT:-1200}"
+    rc=0
+    run_pytest timeout "$mpi_timeout" "$(mpirun_cmd)" -n "$MPI_NP" \
+      "$VENV/bin/python" -m pytest "${mpi_mark[@]}" -p no:cacheprovider "$@" || rc=$?
+    if [[ $rc -eq 124 ]]; then
+      die "the mpirun -n $MPI_NP tests did not finish in GEARFEM_MPI_TEST_TIMEOUT=$mpi_timeout s (a rank waiting for one that failed? see [rank N] FAILED above)"
+    fi
+    [[ $rc -eq 0 ]] || exit $rc
     say "mpirun -n $MPI_NP tests passed in $((SECONDS - t1)) s; all tests passed in $((SECONDS - t0)) s"
     ;;
   gearfem) setup; exec "$VENV/bin/gearfem" "$@" ;;

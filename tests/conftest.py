@@ -1,7 +1,8 @@
 """Shared test set-up, safe under ``mpirun -n 2``.
 
 * Every rank runs the same tests; only rank 0 reports to the terminal. Other ranks write their
-  report to ``$TMPDIR/gearfem-pytest-rank<r>.log`` (mpirun still fails when any rank fails).
+  report to ``$TMPDIR/gearfem-pytest-rank<r>.log`` (mpirun still fails when any rank fails), and
+  each failure at once to stderr with its traceback (rank 0 may be left waiting for that rank).
 * Tests that compare serial and parallel results compute on ``MPI.COMM_SELF`` and on
   ``MPI.COMM_WORLD`` inside one run (fixture ``comms``), so 1 vs 2 ranks is checked by the single
   ``mpirun -n 2 pytest -m mpi`` invocation.
@@ -36,6 +37,19 @@ def pytest_configure(config: pytest.Config) -> None:
         reporter = config.pluginmanager.get_plugin("terminalreporter")
         if reporter is not None:
             reporter._tw = type(reporter._tw)(stream)  # type: ignore[attr-defined]
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """A failure on a rank > 0 is written to stderr at once, with its traceback: that rank's
+    terminal report goes to its log file and is printed only at the end of its session, which
+    never comes when rank 0 then waits in a collective the failed rank has left (mpirun stops at
+    dev.sh's GEARFEM_MPI_TEST_TIMEOUT, and the failure would be lost)."""
+    rank = MPI.COMM_WORLD.rank
+    if rank > 0 and report.failed:
+        sys.__stderr__.write(
+            f"\n[rank {rank}] FAILED {report.nodeid} ({report.when}):\n{report.longreprtext}\n"
+        )
+        sys.__stderr__.flush()
 
 
 @pytest.fixture
