@@ -10,23 +10,16 @@ the classic library's (dev.sh distributes the 1-rank tests by file).
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
-from mpi4py import MPI
 
 import gearfem  # noqa: F401
-from gearfem.config import load_case
-from gearfem.cycle.cache import cache_root
-from gearfem.diagnose.candidates import FRICTION_LAWS, LIBRARY, by_name
-from gearfem.diagnose.forward import FullModel, Surrogate
+from gearfem.diagnose.candidates import FRICTION_LAWS, by_name
 
 sys.path.insert(0, str(Path(__file__).parent))
-import diagnose_generator as G
-from test_diagnose import ROOT, diagnose_with
+from test_diagnose import assert_hidden_effect_found, forward_models
 
 #: Two torques (the pressure law is told from a friction scale only across loads) and two speeds
 #: at the lower one (the sliding-speed law from convection), the bench points among them.
@@ -36,28 +29,15 @@ FRICTION_RIVALS = ("friction_scale", "friction_temperature", "convection_scale",
 
 @pytest.fixture(scope="session")
 def friction_models():
-    lib = FRICTION_LAWS + tuple(by_name(n) for n in FRICTION_RIVALS)
-    case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
-    case = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, time_error_K=0.25))
-    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S, library=lib)
-    sur = Surrogate(full, FRICTION_POINTS, candidates=lib, cache_dir=cache_root())
-    return full, sur
+    return forward_models(
+        FRICTION_LAWS + tuple(by_name(n) for n in FRICTION_RIVALS), FRICTION_POINTS
+    )
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [c.name for c in FRICTION_LAWS])
 def test_friction_law_hidden_effect_found(friction_models, name):
-    full, sur = friction_models
-    seed = 1000 + [c.name for c in LIBRARY].index(name)
-    rng = np.random.default_rng(seed)
-    truth = G.draw(name, rng)
-    data = G.synthetic(full, {name: truth}, rng, points=FRICTION_POINTS)
-    r = diagnose_with(sur, data, full)
-    assert r.verdict.kind == "identified", (truth, r.verdict.text)
-    assert r.chosen == (name,)
-    lo, hi = r.refined.intervals[name]
-    assert lo <= truth <= hi, (truth, lo, hi)
-    assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
+    assert_hidden_effect_found(*friction_models, name, points=FRICTION_POINTS)
 
 
 @pytest.mark.slow
