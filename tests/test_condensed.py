@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 import pytest
+from dolfinx.mesh import entities_to_geometry
 from mpi4py import MPI
 from test_cycle import _case, _model
 
@@ -203,25 +204,57 @@ def test_cycle_solver_option_is_validated():
     with pytest.raises(ParameterError, match=r"cycle\.solver") as err:
         CycleOptions(solver="condenced")
     assert "condensed" in str(err.value) and "full" in str(err.value)
-    with pytest.raises(ParameterError, match=r"cycle\.condensed_extra_teeth"):
-        CycleOptions(condensed_extra_teeth=-1)
+    with pytest.raises(ParameterError, match=r"cycle\.condensed_margin_pitches"):
+        CycleOptions(condensed_margin_pitches=-0.1)
+
+
+def test_condensed_surfaces_follow_the_roll_of_the_involute():
+    """The roll parameter of a flank point is the contact parameter S of the rigid pair touching
+    there: 0 at the operating pitch radius and g_a at the pinion's tip form radius (−g_f at the
+    wheel's); the condensed surfaces of the first 3° hold, on the pair at the pitch point, the
+    facets around the pitch radius and not those at the tip or the root, and nothing of the
+    teeth out of reach."""
+    case = _tiny_case(solver="condensed", condensed_margin_pitches=0.1, pitches=3 / 12)
+    case = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, check_periodicity=False))
+    m = _model(case)
+    pair = m.pair
+    for b, prof, end in (
+        ("pinion", pair.pinion, pair.recess_length_m),
+        ("wheel", pair.wheel, -pair.approach_length_m),
+    ):
+        pitch = m.roll_parameter(b, np.array([prof.operating_pitch_radius_m]))[0]
+        tip = m.roll_parameter(b, np.array([prof.tip_form_radius_m]))[0]
+        assert abs(pitch) < 1e-15 and abs(tip - end) < 1e-15
+    x = m.gm.mesh.geometry.x
+    center = np.asarray(m.gm.center("pinion"))[:2]
+    held = np.zeros(0)
+    tooth2 = m.gm.facets(*m._contact_names("pinion", [2]))
+    mine = np.intersect1d(m.contact_facets["pinion"], tooth2)
+    if len(mine):
+        mid = x[entities_to_geometry(m.gm.mesh, 2, mine)].mean(axis=1)
+        held = np.hypot(*(mid[:, :2] - center).T)
+    radii = np.concatenate(MPI.COMM_WORLD.allgather(held))
+    r_w = pair.pinion.operating_pitch_radius_m
+    assert radii.min() < r_w < radii.max()
+    assert radii.max() < pair.pinion.tip_form_radius_m and radii.min() > pair.pinion.base_radius_m
+    assert m.contact_teeth == {"pinion": [1, 2], "wheel": [1, 2]}
 
 
 def test_a_contact_outside_the_condensed_surfaces_names_the_tooth():
-    """Without extra teeth, the condensed surfaces of the first 3° of the cycle hold only the pair
-    in rigid contact there (pinion tooth 2, wheel tooth 1). At 2° the loaded soft teeth bring the
-    next pair into contact (the full solver carries 21 N on pinion tooth 1 there): the guard finds
-    the penetration of the teeth left out and names them."""
-    case = _tiny_case(solver="condensed", condensed_extra_teeth=0, pitches=3 / 12)
+    """With a margin of 0.1 base pitch, the condensed surfaces of the first 3° of the cycle hold
+    the pair in rigid contact there near the pitch point (pinion tooth 2, wheel tooth 1) and the
+    ends of the next pairs' flanks. At 2° the loaded soft teeth bring the next pair into contact
+    lower on its flank (the full solver carries 21 N on pinion tooth 1 there): the guard finds
+    the penetration of the facets left out and names their teeth."""
+    case = _tiny_case(solver="condensed", condensed_margin_pitches=0.1, pitches=3 / 12)
     case = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, check_periodicity=False))
     m = _model(case)
-    assert m.contact_teeth == {"pinion": [2], "wheel": [1]}
     m.solve_position(0.0, "pitch point")  # one pair carries the load: nothing missed
     with pytest.raises(UncoveredContactError) as err:
         m.solve_position(math.radians(2.0), "pinion angle 2 deg")
     msg = str(err.value)
     assert "pinion tooth 1" in msg and "wheel tooth 2" in msg and "2 deg" in msg
-    assert "condensed_extra_teeth" in msg
+    assert "condensed_margin_pitches" in msg
     depth = float(msg.split("by ")[1].split(" m")[0])
     assert depth > 1e-6  # a real penetration, not round-off
 

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 from dolfinx import fem
+from dolfinx.mesh import entities_to_geometry
 from mpi4py import MPI
 
 from gearfem.contact import (
@@ -51,9 +52,9 @@ class GearContactModel:
         compliance_store: With ``options.solver = "condensed"``: where the gears' compliances are
             kept between runs (None: computed by this model).
 
-    With the condensed solver, the contact surfaces are those of the teeth that can engage over
-    the angles the cycle solves (:meth:`engaging_teeth`); the other teeth are guards: a contact
-    found on one of them after a position raises an error naming it.
+    With the condensed solver, the contact surfaces are the parts of the teeth that can engage
+    over the angles the cycle solves (:meth:`condensed_facets`); the other contact facets are
+    guards: a contact found on one of them after a position raises an error naming its tooth.
     """
 
     def __init__(
@@ -113,19 +114,27 @@ class GearContactModel:
         mask = fixed_mask(self.V, self.bcs)
         #: every modelled tooth of each gear, and those whose surfaces the contact is solved on
         self.teeth = {b: self._modelled_teeth(b) for b in BODIES}
-        self.contact_teeth = (
-            self.engaging_teeth(options.condensed_extra_teeth)
-            if options.solver == "condensed"
-            else dict(self.teeth)
-        )
+        #: local contact facets of each gear: all of them (full solver), or those the condensed
+        #: surfaces hold (:meth:`condensed_facets`); the teeth they belong to (on any rank)
+        self.contact_facets = {b: gm.facets(*self._contact_names(b, self.teeth[b])) for b in BODIES}
+        if options.solver == "condensed":
+            self.contact_facets = self.condensed_facets(options.condensed_margin_pitches)
+        self.contact_teeth = {b: self._teeth_holding(b, self.contact_facets[b]) for b in BODIES}
         youngs = {b: materials[b].youngs_modulus_Pa for b in BODIES}
         self.surfaces = {
+            b: ContactSurface(self.V, self.contact_facets[b], b, mask, name=f"{b}_teeth")
+            for b in BODIES
+        }
+        #: every contact facet of each gear's reference tooth: where the revolution averages are
+        #: collected from their images on the contact surfaces, whatever part of the tooth those
+        #: hold
+        self.reference_surfaces = {
             b: ContactSurface(
                 self.V,
-                gm.facets(*self._contact_names(b, self.contact_teeth[b])),
+                gm.facets(*self._contact_names(b, [gm.reference_tooth(b)])),
                 b,
                 mask,
-                name=f"{b}_teeth",
+                name=f"{b}_reference_tooth",
             )
             for b in BODIES
         }
@@ -173,9 +182,11 @@ class GearContactModel:
                 store=compliance_store,
                 guards=self._guards(mask, youngs),
                 guard_hint=(
-                    f"the condensed surfaces hold pinion teeth {self.contact_teeth['pinion']} and "
-                    f"wheel teeth {self.contact_teeth['wheel']}: raise "
-                    "cycle.condensed_extra_teeth, or use cycle.solver = 'full'"
+                    "the condensed surfaces hold parts of pinion teeth "
+                    f"{self.contact_teeth['pinion']} and wheel teeth "
+                    f"{self.contact_teeth['wheel']} (cycle.condensed_margin_pitches = "
+                    f"{options.condensed_margin_pitches:g}): raise "
+                    "cycle.condensed_margin_pitches, or use cycle.solver = 'full'"
                 ),
             )
         self.tooth_of_facet = {b: self._facet_teeth(b) for b in BODIES}
@@ -204,48 +215,68 @@ class GearContactModel:
         start = math.radians(o.start_angle_deg)
         return start, start + pitch * max(o.pitches, 1.0 if o.check_periodicity else 0.0)
 
-    def engaging_teeth(self, extra: int) -> dict[str, list[int]]:
-        """Teeth of each gear in rigid involute contact at some pinion angle of
-        :meth:`solved_angles_rad` (pair k_ref + j of the pinion with k_ref − j of the wheel
-        touches while −g_f <= S <= g_a, S = r_b1 φ + j p_b: :meth:`GearPair.contact_parameter`),
-        plus ``extra`` teeth on each side (loaded teeth deflect into contact before and after the
-        rigid path)."""
+    def roll_parameter(self, body: str, radius_m: np.ndarray) -> np.ndarray:
+        """S [m] at which the rigid involute contact of a pair lies at ``radius_m`` on the flank of
+        ``body`` (pinion: S = sqrt(r² − r_b1²) − r_w1 sin α_w; wheel: S = r_w2 sin α_w −
+        sqrt(r² − r_b2²)); below the base circle the value at r_b."""
+        pair = self.pair
+        prof = pair.pinion if body == "pinion" else pair.wheel
+        roll = np.sqrt(np.maximum(np.asarray(radius_m) ** 2 - prof.base_radius_m**2, 0.0))
+        at_pitch = prof.operating_pitch_radius_m * math.sin(pair.operating_pressure_angle_rad)
+        return roll - at_pitch if body == "pinion" else at_pitch - roll
+
+    def condensed_facets(self, margin_pitches: float) -> dict[str, np.ndarray]:
+        """Local contact facets of each gear that the condensed surfaces hold.
+
+        Pair k_ref + j of the pinion with k_ref − j of the wheel has the rigid contact parameter
+        S = r_b1 φ + j p_b (:meth:`GearPair.contact_parameter`), in contact while −g_f <= S <= g_a.
+        Over the solved angles S sweeps [S0 + j p_b, S1 + j p_b]; clipped to [−g_f, g_a] and
+        widened by ``margin_pitches`` p_b at each end, it gives the range of S in which that
+        pair's teeth may touch (the widening covers the contact's width and the loaded teeth's
+        longer path). A facet of either tooth is held when the roll parameter of its nodes
+        (:meth:`roll_parameter`) meets that range; a pair whose widened range is empty holds
+        nothing."""
         pair, gm = self.pair, self.gm
         rot = math.radians(gm.options.pinion_angle_deg)
         phi0, phi1 = self.solved_angles_rad()
         s0 = float(pair.contact_parameter(phi0 + rot))
         s1 = float(pair.contact_parameter(phi1 + rot))
         lo, hi, pb = -pair.approach_length_m, pair.recess_length_m, pair.base_pitch_m
-        n = gm.options.teeth_in_model
-        offsets = [j for j in range(-n, n + 1) if s0 + j * pb <= hi and s1 + j * pb >= lo]
+        margin = margin_pitches * pb
+        x = gm.mesh.geometry.x
         out = {}
-        for b, sign in (("pinion", 1), ("wheel", -1)):
-            ks = {gm.reference_tooth(b) + sign * j for j in offsets}
-            ks = {k + d for k in ks for d in range(-extra, extra + 1)}
-            out[b] = sorted(ks & set(self.teeth[b]))
+        for b in BODIES:
+            center = np.asarray(gm.center(b))[:2]
+            ref = gm.reference_tooth(b)
+            held = []
+            for k in self.teeth[b]:
+                j = k - ref if b == "pinion" else ref - k
+                first, last = max(s0 + j * pb, lo) - margin, min(s1 + j * pb, hi) + margin
+                if first > last:
+                    continue
+                facets = gm.facets(*self._contact_names(b, [k]))
+                nodes = entities_to_geometry(gm.mesh, 2, facets)
+                s = self.roll_parameter(b, np.hypot(*(x[nodes, :2] - center).transpose(2, 0, 1)))
+                held.append(facets[(s.max(axis=1) >= first) & (s.min(axis=1) <= last)])
+            out[b] = np.sort(np.concatenate(held)) if held else np.zeros(0, dtype=np.int32)
         return out
 
+    def _teeth_holding(self, body: str, facets: np.ndarray) -> list[int]:
+        """The teeth (on any rank) with a facet among the local ``facets`` of ``body``."""
+        local = {int(k) for k in self._tooth_labels(body, facets) if k >= 0}
+        return sorted(set().union(*self.comm.allgather(local)))
+
     def _guards(self, mask: np.ndarray, youngs: dict[str, float]) -> list[Guard]:
-        """Contact checks of the teeth left out of the condensed surfaces: per gear, those teeth
-        against every contact surface of the other gear (facets labelled by tooth)."""
+        """Contact checks of the contact facets left out of the condensed surfaces: per gear,
+        those facets against every contact surface of the other gear (labelled by tooth)."""
         gm, guards = self.gm, []
-        whole = {
-            b: ContactSurface(
-                self.V, gm.facets(*self._contact_names(b, self.teeth[b])), b, mask, name=f"{b}"
-            )
-            for b in BODIES
-        }
+        every = {b: gm.facets(*self._contact_names(b, self.teeth[b])) for b in BODIES}
+        whole = {b: ContactSurface(self.V, every[b], b, mask, name=f"{b}") for b in BODIES}
         for b, other in (("pinion", "wheel"), ("wheel", "pinion")):
-            out = sorted(set(self.teeth[b]) - set(self.contact_teeth[b]))
-            if not out:
+            out = np.setdiff1d(every[b], self.contact_facets[b])
+            if self.comm.allreduce(len(out), op=MPI.SUM) == 0:
                 continue
-            left = ContactSurface(
-                self.V,
-                gm.facets(*self._contact_names(b, out)),
-                b,
-                mask,
-                name=f"{b} teeth {out}",
-            )
+            left = ContactSurface(self.V, out, b, mask, name=f"{b} outside the condensed surface")
             tooth = self._teeth_of(b, left)["gathered"]
             guards.append(
                 Guard(
@@ -260,6 +291,12 @@ class GearContactModel:
         return self._teeth_of(body, self.surfaces[body])
 
     def _teeth_of(self, body: str, surf: ContactSurface) -> dict[str, np.ndarray]:
+        local = self._tooth_labels(body, surf.facets)
+        gathered = np.concatenate(self.comm.allgather(local)) if self.comm.size > 1 else local
+        return {"local": local, "gathered": gathered}
+
+    def _tooth_labels(self, body: str, facets: np.ndarray) -> np.ndarray:
+        """Tooth index of each of the local ``facets`` of ``body`` (−1: not on a tooth)."""
         gm = self.gm
         tag_to_tooth = {}
         for name in gm.names(body=body):
@@ -268,12 +305,10 @@ class GearContactModel:
                 tag_to_tooth[gm.tag(name)] = k
         ft = gm.facet_tags
         order = np.argsort(ft.indices)
-        pos = np.searchsorted(ft.indices[order], surf.facets)
-        local = np.array(
+        pos = np.searchsorted(ft.indices[order], facets)
+        return np.array(
             [tag_to_tooth.get(int(v), -1) for v in ft.values[order][pos]], dtype=np.int64
         )
-        gathered = np.concatenate(self.comm.allgather(local)) if self.comm.size > 1 else local
-        return {"local": local, "gathered": gathered}
 
     def _check_torque(self) -> None:
         """Refuse torques whose tooth deflection would close the backlash: the coast flanks are not

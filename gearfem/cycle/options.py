@@ -52,9 +52,14 @@ class CycleOptions:
             every position is solved on those surfaces only (:mod:`gearfem.contact.condensed`; the
             volume field by back-substitution). ``"full"``: the whole 3D system at every Newton
             iteration (the reference). Both solve the same discrete problem.
-        condensed_extra_teeth: With the condensed solver, teeth added on each side of those that
-            engage (rigid geometry) over the solved angles. The teeth left out are checked after
-            every position: a contact there raises an error naming the tooth.
+        condensed_margin_pitches: With the condensed solver, how far beyond the rigid contact the
+            condensed surfaces reach, in base pitches along the line of action: per tooth pair,
+            the range of the contact parameter S that the rigid pair sweeps over the solved
+            angles, clipped to the path of contact, is widened by this margin at each end, and the
+            condensed surfaces hold the contact facets whose involute roll places them in that
+            range (:meth:`gearfem.cycle.model.GearContactModel.condensed_facets`). The margin
+            covers the contact's width and the loaded teeth's longer path. The facets left out
+            are checked after every position: a contact there raises an error naming the tooth.
     """
 
     positions_per_pitch: int = 24
@@ -67,7 +72,7 @@ class CycleOptions:
     creep_ratio: float | None = None
     pressure_smoothing_fraction: float = 0.005
     solver: str = "condensed"
-    condensed_extra_teeth: int = 1
+    condensed_margin_pitches: float = 0.5
 
     def __post_init__(self) -> None:
         require_int("cycle.positions_per_pitch", self.positions_per_pitch, 2, 2000)
@@ -84,4 +89,4 @@ class CycleOptions:
             "cycle.pressure_smoothing_fraction", self.pressure_smoothing_fraction, 0.0, 0.1
         )
         require_choice("cycle.solver", self.solver, SOLVERS)
-        require_int("cycle.condensed_extra_teeth", self.condensed_extra_teeth, 0, 50)
+        require_range("cycle.condensed_margin_pitches", self.condensed_margin_pitches, 0.0, 10.0)

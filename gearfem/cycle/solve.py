@@ -395,29 +395,21 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[s
         hist_phi = np.concatenate(
             [m * pitch + np.arange(W.shape[0]) * pitch / W.shape[0] for m in imap.images]
         )
-        # facets of the contact surface
-        surf = model.surfaces[b]
-        data = surf.gathered()
-        ref = surf.ref
-        nv = ref.num_vertices
-        fx = data.X[:, :nv].mean(axis=1)
-        qp, qw = ref.quadrature(2)
-
-        area = np.zeros(data.num_facets)
-        for p_, w_ in zip(qp, qw):
-            _, a1, a2, _ = evaluate(ref, data.X, np.tile(p_, (data.num_facets, 1)))
-            area += w_ * np.linalg.norm(np.cross(a1, a2), axis=1)
+        # facets: of the contact surface (where the heat is generated) and of the reference tooth
+        # (where its revolution average is collected from the images)
+        ref = model.surfaces[b].ref
+        data = model.surfaces[b].gathered()
+        sec_data = model.reference_surfaces[b].gathered()
+        fx, area = _facet_centres_and_areas(ref, data.X)
+        sx, sec_area = _facet_centres_and_areas(ref, sec_data.X)
         H = np.stack([_gather(h, comm) for h in facet_heat[b]])  # (n_pos, n_facets) W per rad/s
         P = np.stack([_gather(p, comm) for p in facet_press[b]])
-        tooth = model.tooth_of_facet[b]["gathered"]
-        fsec = tooth == gm.reference_tooth(b)
-        ftol = 2.0 * np.sqrt(area[fsec])
-        fmap = image_map(fx[fsec], fx, center, shift, ftol)
+        fmap = image_map(sx, fx, center, shift, 2.0 * np.sqrt(sec_area))
         dphi = pitch / H.shape[0]
         # revolution average: (1 / 2π) Σ_positions Σ_images (heat density at the image) Δφ
         flux = periodic_sum(H / area[None, :], fmap) * dphi / (2.0 * math.pi)
         pmax = periodic_max(P, fmap)
-        kinds = _facet_kinds(model, b)
+        kinds = _facet_kinds(model, b, model.reference_surfaces[b])
         out[b] = BodyFields(
             center,
             tooth_angle,
@@ -425,9 +417,9 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[s
             xc[sec],
             vol[sec],
             u_max,
-            fx[fsec],
-            area[fsec],
-            kinds[fsec],
+            sx,
+            sec_area,
+            kinds,
             flux,
             pmax,
             u_hist,
@@ -438,8 +430,19 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[s
     return out
 
 
-def _facet_kinds(model: GearContactModel, body: str) -> np.ndarray:
-    gm, surf = model.gm, model.surfaces[body]
+def _facet_centres_and_areas(ref, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex centroid and area (degree-2 quadrature) of facets with node coordinates ``X``."""
+    area = np.zeros(len(X))
+    qp, qw = ref.quadrature(2)
+    for p_, w_ in zip(qp, qw):
+        _, a1, a2, _ = evaluate(ref, X, np.tile(p_, (len(X), 1)))
+        area += w_ * np.linalg.norm(np.cross(a1, a2), axis=1)
+    return X[:, : ref.num_vertices].mean(axis=1), area
+
+
+def _facet_kinds(model: GearContactModel, body: str, surf) -> np.ndarray:
+    """Group kind (drive_flank, tip, root) of every facet of ``surf``, gathered order."""
+    gm = model.gm
     tag_kind = {gm.tag(n): parse_group_name(n)[2] for n in gm.names(body=body)}
     ft = gm.facet_tags
     order = np.argsort(ft.indices)
