@@ -22,9 +22,10 @@ from mpi4py import MPI
 
 from gearfem import pipeline
 from gearfem.config import Case, load_case
-from gearfem.contact import ContactOptions
+from gearfem.contact import ContactOptions, ContactSurface
 from gearfem.contact.friction import FrictionOptions
-from gearfem.core.errors import ParameterError
+from gearfem.contact.problem import fixed_mask
+from gearfem.core.errors import GearfemError, ParameterError
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.coupling.friction_heat import reference_flux
 from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE, cycle_heat_sources
@@ -32,7 +33,7 @@ from gearfem.coupling.options import SourceOptions
 from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
 from gearfem.cycle.cache import load, save
 from gearfem.cycle.history import ContactHistory
-from gearfem.geometry.mesh import build_gear_mesh
+from gearfem.geometry.mesh import build_gear_mesh, parse_group_name
 from gearfem.geometry.options import BODIES, MeshOptions
 from gearfem.thermal import ThermalBoundary, ThermalProblem
 from gearfem.thermal.branches import steady_states
@@ -491,6 +492,26 @@ def test_cycle_one_and_two_ranks_agree(comms):
             temps.append((rec.temperatures_K["max_surface"], rec.balance.friction_W))
     assert temps[1][0] == pytest.approx(temps[0][0], abs=1e-6)
     assert temps[1][1] == pytest.approx(temps[0][1], rel=1e-8)
+
+
+def test_a_reference_tooth_missing_the_heated_images_is_refused():
+    """The revolution average collects the heat of every image on the reference tooth; collected
+    on a part of it (here its tip only) the flank heat falls far below the friction power of the
+    mesh, and the cycle stops with an error instead of normalising the loss away."""
+    case = _case(8.0, 0.5, positions=POSITIONS, pitches=2.0 / POSITIONS)
+    case = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, check_periodicity=False))
+    model = _model(case)
+    b = "pinion"
+    tip = [
+        n
+        for n in model.gm.names(body=b, kind="tip")
+        if parse_group_name(n)[1] == model.gm.reference_tooth(b)
+    ]
+    model.reference_surfaces[b] = ContactSurface(
+        model.V, model.gm.facets(*tip), b, fixed_mask(model.V, model.bcs), name="tip only"
+    )
+    with pytest.raises(GearfemError, match="pinion's reference tooth"):
+        solve_cycle(model)
 
 
 @pytest.mark.slow
