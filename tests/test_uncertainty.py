@@ -15,6 +15,7 @@ from gearfem.diagnose.data import Dataset, Measurement
 from gearfem.diagnose.report import studied_u_num
 from gearfem.refinement import KINDS, level_case
 from gearfem.uncertainty import (
+    SAME_VALUE_RTOL,
     StudyUncertainty,
     resolution_key,
     run_uncertainty,
@@ -45,6 +46,14 @@ def _study(case, kind, u_max, u_bulk, max_C=250.0, bulk_C=93.0):
     )
 
 
+def _with_camera(case, **camera):
+    inst = case.instruments
+    return dataclasses.replace(
+        case,
+        instruments=dataclasses.replace(inst, camera=dataclasses.replace(inst.camera, **camera)),
+    )
+
+
 def test_resolution_key_follows_the_discretisation_not_the_physics():
     case = load_case(None)
     key = resolution_key(case)
@@ -55,6 +64,8 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
         ),
         dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, ambient_C=30.0)),
         dataclasses.replace(case, sources=dataclasses.replace(case.sources, flux_scale=0.5)),
+        _with_camera(case, distance_m=0.5, emissivity_setting=0.95),  # the instrument's physics
+        dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, solver="full")),
     ]
     for c in physics:
         assert resolution_key(c) == key
@@ -63,6 +74,10 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
         dataclasses.replace(
             case, sources=dataclasses.replace(case.sources, flux_smoothing_axial_mm=3.0)
         ),
+        # the camera reading's quadratures (a study made at 16 footprint rays holds another
+        # camera reading than one at 8)
+        _with_camera(case, subsamples=16),
+        _with_camera(case, phases=48),
     ]
     keys = {resolution_key(c) for c in resolution}
     assert key not in keys and len(keys) == len(resolution)
@@ -131,6 +146,12 @@ def test_studies_combine_in_quadrature_and_scale_with_the_rise(store):
     q2 = run2.quantities["max_surface"]
     assert q2.scaled and q2.u_num == pytest.approx(2.5)
     assert math.isclose(run2.u_num("max_surface"), 2.5) and run2.u_num("nothing") is None
+    # the study's own value as the solvers reproduce it is not scaled; a change of the heating
+    # beyond their tolerance is
+    near = run_uncertainty(case, {"max_surface": 250.0 * (1.0 + 0.5 * SAME_VALUE_RTOL)})
+    assert not near.quantities["max_surface"].scaled
+    far = run_uncertainty(case, {"max_surface": 250.0 * (1.0 + 2.0 * SAME_VALUE_RTOL)})
+    assert far.quantities["max_surface"].scaled
 
 
 def test_another_resolution_finds_nothing(store):
