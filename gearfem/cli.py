@@ -178,9 +178,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         end = summary.instruments.camera["end"]
         _say(
             f"IR camera ({case.instruments.camera.view} view): camera_max {h.camera_max_C:.1f} C "
-            f"at the end (steady {h.camera_max_steady_C or nan:.1f} C), at pixel {end.pixel} on "
-            f"{end.body} {end.surface}; the hottest model node of the pair is "
-            f"{end.hottest_node_C:.1f} C"
+            f"at the end (steady {h.camera_max_steady_C or nan:.1f} C; the unknown sub-pixel aim "
+            f"{end.aim_std_C:.1f} K), at pixel {end.pixel} on {end.body} {end.surface} at the "
+            f"nominal aim; the hottest model node of the pair is {end.hottest_node_C:.1f} C"
         )
     if h.torque_loss_Nm is not None:
         _say(f"torque meters: torque loss {h.torque_loss_Nm:.4f} N m")
@@ -209,8 +209,10 @@ def _cmd_observe(args: argparse.Namespace) -> int:
         if lab in r.camera:
             c = r.camera[lab]
             _say(
-                f"{when}: camera_max {c.max_C:.1f} C (frames {c.frame_max_range_C[0]:.1f}-"
-                f"{c.frame_max_range_C[1]:.1f} C) at pixel {c.pixel} on {c.body} {c.surface}; "
+                f"{when}: camera_max {c.max_C:.1f} C (sub-pixel aim: standard deviation "
+                f"{c.aim_std_C:.1f} K, {c.aim_range_C[0]:.1f}-{c.aim_range_C[1]:.1f} C over "
+                f"{c.aims} aims; nominal aim: frames {c.frame_max_range_C[0]:.1f}-"
+                f"{c.frame_max_range_C[1]:.1f} C at pixel {c.pixel} on {c.body} {c.surface}); "
                 f"hottest model node {c.hottest_node_C:.1f} C"
             )
         for name, p in r.probes.get(lab, {}).items():

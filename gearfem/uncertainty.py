@@ -7,7 +7,7 @@ standard uncertainty u_num of every reported quantity at that resolution (the gr
 index of :mod:`gearfem.core.gci`, divided by 1.15 as in ASME V&V 20). The studies are filed by
 the case's :func:`resolution_key` — a hash of everything that sets the discretisation (geometry,
 both meshes, positions, thermal degree and time error, contact discretisation, the camera's
-footprint and time quadratures) and nothing that sets only the physics (materials, convection,
+footprint, time and aim quadratures) and nothing that sets only the physics (materials, convection,
 friction, sources, operating point, the instruments' optics):
 
 * ``gearfem/data/uncertainty/<key>/<kind>.json``: shipped studies (the built-in case), and
@@ -91,10 +91,11 @@ def resolution_key(case: Case) -> str:
             case.sources.flux_smoothing_profile_mm,
             case.sources.flux_smoothing_axial_mm,
         ],
-        # the camera reading's quadratures (footprint rays, rotation phases)
+        # the camera reading's quadratures (footprint rays, rotation phases, sub-pixel aims)
         "camera_quadrature": [
             case.instruments.camera.subsamples,
             case.instruments.camera.phases,
+            case.instruments.camera.aim_offsets,
         ],
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]

@@ -279,6 +279,57 @@ def test_hot_band_narrower_than_a_pixel_reads_the_area_weighted_radiance():
     assert tb.image_C[60, 80] < expected - 5.0 and tb.image_C[60, 79] > 40.5
 
 
+def test_the_unknown_sub_pixel_aim_is_averaged_over_a_pixel():
+    """A hot band half a pixel wide, read with the pixel grid at 16 aims k/16 pixel apart: the
+    hottest pixel holds the part of the band that the shifted grid leaves in one pixel, max(x,
+    w − x) when the band straddles an edge and all of it otherwise, so camera_max is the mean of
+    the readings of those area-weighted radiances (1D: the band runs across the image), and the
+    spread over the aims is their standard deviation; the nominal aim alone reads the whole
+    band."""
+    n = 16
+    o = CameraOptions(
+        subsamples=n,
+        aim_offsets=n,
+        blur_fwhm_px=0.0,
+        surroundings_C=21.0,
+        background_C=21.0,
+        reflected_C=21.0,
+    )
+    delta = 2 * math.tan(math.radians(12.5)) / 160  # footprint at 1 m, m
+    band = (5 * delta / n, 13 * delta / n)  # samples 5-12 of pixel column 80
+    plate = {"p": _plate(40.0, 200.0, band, half=0.05)}
+    (th,), _ = Camera(o, plate, 0.0, 30, np.zeros(3), 21.0, 21.0, ("t",)).render()
+    hot, cold = S_gray(200.0, 0.9, 21.0), S_gray(40.0, 0.9, 21.0)
+    held = []  # samples of the band in the fullest pixel, grid shifted by k samples
+    for k in range(n):
+        lo, hi = 5 - k, 13 - k  # the band in the shifted grid's sample coordinates
+        held.append(max(max(0, min(hi, e + n) - max(lo, e)) for e in range(-n, 2 * n, n)))
+    assert sorted(set(held)) == [4, 5, 6, 7, 8]  # straddling for 7 of 16 aims
+    readings = np.array([reading_ref(a / n * hot + (1 - a / n) * cold, 0.9, 21.0) for a in held])
+    r = th.reading
+    assert r.aims == n * n
+    assert r.max_C == pytest.approx(readings.mean(), abs=1e-3)
+    assert r.aim_std_C == pytest.approx(readings.std(), abs=1e-3)
+    assert r.aim_range_C == pytest.approx((readings.min(), readings.max()), abs=1e-3)
+    nominal = reading_ref(0.5 * hot + 0.5 * cold, 0.9, 21.0)
+    assert th.image_C[60, 80] == pytest.approx(nominal, abs=1e-3)  # the nominal aim's image
+    assert r.max_C < nominal - 1.0 and r.aim_std_C > 1.0
+    # one aim: the nominal reading, no spread
+    (one,), _ = Camera(
+        dataclasses.replace(o, aim_offsets=1), plate, 0.0, 30, np.zeros(3), 21.0, 21.0, ("t",)
+    ).render()
+    assert one.reading.max_C == pytest.approx(nominal, abs=1e-3)
+    assert one.reading.aim_std_C == 0.0 and one.reading.aims == 1
+
+
+def test_aim_offsets_must_divide_the_subsamples():
+    with pytest.raises(ParameterError) as err:
+        CameraOptions(subsamples=8, aim_offsets=3)
+    assert err.value.name == "camera.aim_offsets" and "divisor" in err.value.allowed
+    with pytest.raises(ParameterError):
+        CameraOptions(subsamples=8, aim_offsets=16)
+
+
 # ------------------------------------------------------------------ on gear fields (DOLFINx)
 
 

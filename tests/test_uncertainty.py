@@ -78,6 +78,7 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
         # camera reading than one at 8)
         _with_camera(case, subsamples=16),
         _with_camera(case, phases=48),
+        _with_camera(case, aim_offsets=2),
     ]
     keys = {resolution_key(c) for c in resolution}
     assert key not in keys and len(keys) == len(resolution)

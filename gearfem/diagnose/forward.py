@@ -70,6 +70,8 @@ class ForwardState:
     steady_states: int | None = None
     transient_branch: str | None = None
     branches: tuple[dict, ...] = ()
+    # per camera_max request: the standard deviation of the reading over the sub-pixel aims (K)
+    aim_std_K: dict[Request, float] = dataclasses.field(default_factory=dict)
 
 
 #: Length of the transient from ambient (s) before the steady solve of an end value when the
@@ -241,6 +243,7 @@ class FullModel:
             raise ConvergenceError(e.solver, e.reason, where, e.iteration, e.residual) from e
         self.solves += 1
         res: dict[Request, float] = {}
+        aim_std: dict[Request, float] = {}
         end = (
             summ["steady_state_C"]
             if case.thermal.mode == "transient"
@@ -256,7 +259,7 @@ class FullModel:
                 res[(q, t)] = float(rec[q])
         if self.quantities:
 
-            def read() -> dict[Request, float]:
+            def read() -> tuple[dict[Request, float], dict[Request, float]]:
                 times = (None, *self.times_s)
                 fields = [q for q in self.quantities if q not in TORQUE_QUANTITIES]
                 labels = (
@@ -265,13 +268,20 @@ class FullModel:
                     else snapshot.labels
                 )
                 got = evaluate(case.instruments, snapshot, labels=labels)
-                return {
+                values = {
                     (q, t): got.value(q, snapshot.label_of(t) if q in fields else labels[0])
                     for q in self.quantities
                     for t in times
                 }
+                aims = {
+                    ("camera_max", t): got.camera[snapshot.label_of(t)].aim_std_C
+                    for t in times
+                    if "camera_max" in self.quantities
+                }
+                return values, aims
 
-            res.update(pipeline.on_root(self.comm, read))
+            values, aim_std = pipeline.on_root(self.comm, read)
+            res.update(values)
         if self.comm.rank == 0:  # only the numbers are kept
             shutil.rmtree(out, ignore_errors=True)
         self.comm.barrier()
@@ -284,6 +294,7 @@ class FullModel:
             steady_states=fr.get("distinct_steady_states"),
             transient_branch=fr.get("transient_branch"),
             branches=tuple(fr.get("branches", ())),
+            aim_std_K=aim_std,
         )
 
     def _instruments(self, case: Case):
@@ -301,13 +312,23 @@ class FullModel:
         self, data: Dataset, model: dict[str, float] | None = None, transform=None
     ) -> np.ndarray:
         """Predicted value (C) of every measurement of ``data``."""
-        cache: dict[tuple, dict[Request, float]] = {}
-        out = []
+        return self.predict_with_aim(data, model, transform)[0]
+
+    def predict_with_aim(
+        self, data: Dataset, model: dict[str, float] | None = None, transform=None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict`, and the standard deviation (K) of each camera_max prediction over the
+        camera's sub-pixel aims (0 for the other quantities): the input uncertainty the bench
+        camera's unknown aim gives it."""
+        cache: dict[tuple, ForwardState] = {}
+        out, aim = [], []
         for m in data.measurements:
             if m.point not in cache:
-                cache[m.point] = self.evaluate(*m.point, model, transform)
-            out.append(cache[m.point][(m.quantity, m.time_s)])
-        return np.array(out)
+                cache[m.point] = self._evaluate(*m.point, model, transform, branch_search=False)
+            state = cache[m.point]
+            out.append(state.temperatures_C[(m.quantity, m.time_s)])
+            aim.append(state.aim_std_K.get((m.quantity, m.time_s), 0.0))
+        return np.array(out), np.array(aim)
 
 
 #: The error estimate is this times the largest leave-one-out error of an axis. A leave-one-out

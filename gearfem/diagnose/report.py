@@ -96,7 +96,7 @@ def run_diagnosis(
     sur = Surrogate(full, pts, cache_dir=cache_dir if cache_dir is not None else cache_root())
     D = np.array([m.value for m in data.measurements])
     # V&V 20 of the baseline on the full model
-    S = full.predict(data, {})
+    S, u_aim = full.predict_with_aim(data, {})
     u_D = np.array([m.uncertainty for m in data.measurements])
     u_num, num_note = studied_u_num(case, data, S)
     if u_num is None and case.thermal.degree == 1:
@@ -133,6 +133,11 @@ def run_diagnosis(
             1.0 / math.sqrt(3.0),
         )
     u_in, parts = input_uncertainty(lambda tr: full.predict(data, {}, transform=tr), S, pert)
+    if np.any(u_aim > 0.0):
+        # where the bench camera's pixel grid fell on the gears is unknown within a pixel: the
+        # spread of the reading over the sub-pixel aims (CameraOptions.aim_offsets)
+        parts["camera aim (uniform within a pixel)"] = u_aim
+        u_in = np.sqrt(u_in**2 + u_aim**2)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
     probes = _probes(sur, data)
     result = diagnose(

@@ -195,8 +195,15 @@ class CameraReading(JsonRecord):
 
     Attributes:
         label: The snapshot label (``"end"``, ``"steady"``, ``"900"``...).
-        max_C: ``camera_max``: the hottest pixel of a frame, averaged over the frames.
-        frame_max_range_C: Lowest and highest per-frame maximum (the flicker of the maximum).
+        max_C: ``camera_max``: the hottest pixel of a frame, averaged over the frames, and over
+            the sub-pixel aims (``CameraOptions.aim_offsets``): the expected reading of a camera
+            whose pixel grid falls anywhere within a pixel on the gears.
+        frame_max_range_C: Lowest and highest per-frame maximum at the nominal aim (the flicker
+            of the maximum).
+        aim_std_C: Standard deviation of the frame-averaged hottest pixel over the sub-pixel aims:
+            the standard uncertainty the unknown aim gives the reading (0 with one aim).
+        aim_range_C: Its lowest and highest value over the aims.
+        aims: How many aims were read.
         pixel: (row, column) of the pixel whose frame-averaged reading is highest.
         pixel_C: That pixel's frame-averaged reading.
         body, surface: What that pixel sees most of (``"background"`` when nothing).
@@ -224,6 +231,9 @@ class CameraReading(JsonRecord):
     footprint_mm: float
     tooth_pass_period_s: float
     frame_phases: int
+    aim_std_C: float = 0.0
+    aim_range_C: tuple[float, float] = (math.nan, math.nan)
+    aims: int = 1
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -382,8 +392,10 @@ class Camera:
         return np.flatnonzero(keep)
 
     def _pixels(self, S: np.ndarray) -> np.ndarray:
-        """Pixel signals (labels, rows, cols) of the window from the sampled radiance."""
-        n = self.options.subsamples
+        """Pixel signals (aims, labels, rows, cols) of the window from the sampled radiance: the
+        footprint means with the pixel grid shifted by k / aim_offsets pixel in each direction
+        (aim a · aim_offsets + b: a down, b across; aim 0 is the nominal one)."""
+        n, m = self.options.subsamples, self.options.aim_offsets
         if self.sigma_px > 0.0:
             S = np.stack(
                 [
@@ -394,11 +406,19 @@ class Camera:
                 ]
             )
         nl, H, W = S.shape
-        return S.reshape(nl, H // n, n, W // n, n).mean(axis=(2, 4))
+        padded = np.full((nl, H + n, W + n), self.S_background)
+        padded[:, :H, :W] = S
+        step = n // m
+        out = np.empty((m * m, nl, H // n, W // n))
+        for a in range(m):
+            for b in range(m):
+                block = padded[:, a * step : a * step + H, b * step : b * step + W]
+                out[a * m + b] = block.reshape(nl, H // n, n, W // n, n).mean(axis=(2, 4))
+        return out
 
     def render(self) -> tuple[list[Thermogram], np.ndarray]:
-        """Readings at every label: the thermograms and the per-frame readings (labels, phases,
-        rows, cols of the window) in C."""
+        """Readings at every label: the thermograms and the nominal aim's per-frame readings
+        (labels, phases, rows, cols of the window) in C."""
         o = self.options
         r0, r1, c0, c1 = self.window
         signals, ids = [], []
@@ -406,10 +426,10 @@ class Camera:
             S, sid = self._phase(j)
             signals.append(self._pixels(S))
             ids.append(sid)
-        sig = np.stack(signals, axis=1)  # (labels, phases, rows, cols)
+        sig = np.stack(signals, axis=2)  # (aims, labels, phases, rows, cols)
         N = self.phases
         circ = np.array([[self.weights[(i - k) % N] for k in range(N)] for i in range(N)])
-        frames = np.einsum("ik,lkrc->lirc", circ, sig)
+        frames = np.einsum("ik,alkrc->alirc", circ, sig)
         readings = (
             camera_temperature(
                 self.band, frames, o.emissivity_setting, o.reflected_C + ZERO_CELSIUS_K, fast=True
@@ -425,13 +445,15 @@ class Camera:
         outside = (r1 - r0) * (c1 - c0) < o.pixels_h * o.pixels_v
         ids = np.stack(ids)  # (phases, H, W)
         out = []
+        aims = readings.shape[0]
         for li, label in enumerate(self.labels):
-            mean = readings[li].mean(axis=0)
+            mean = readings[0, li].mean(axis=0)  # the nominal aim's thermogram
             image = np.full((o.pixels_v, o.pixels_h), bg)
             image[r0:r1, c0:c1] = mean
-            per_frame = readings[li].reshape(N, -1).max(axis=1)
+            per_frame = readings[:, li].reshape(aims, N, -1).max(axis=2)  # (aims, frames)
             if outside:
                 per_frame = np.maximum(per_frame, bg)
+            per_aim = per_frame.mean(axis=1)
             r, c = np.unravel_index(int(np.argmax(image)), image.shape)
             fr = (
                 self._fractions(ids, int(r) - r0, int(c) - c0)
@@ -443,8 +465,8 @@ class Camera:
             hottest = max(float(s.temperature_K[li].max()) for s in self.surfaces.values())
             reading = CameraReading(
                 label=label,
-                max_C=float(per_frame.mean()),
-                frame_max_range_C=(float(per_frame.min()), float(per_frame.max())),
+                max_C=float(per_aim.mean()),
+                frame_max_range_C=(float(per_frame[0].min()), float(per_frame[0].max())),
                 pixel=(int(r), int(c)),
                 pixel_C=float(image[r, c]),
                 body=body if surface else "",
@@ -455,9 +477,12 @@ class Camera:
                 footprint_mm=o.footprint_mm,
                 tooth_pass_period_s=self.period_s,
                 frame_phases=self.frame_phases(),
+                aim_std_C=float(per_aim.std()),
+                aim_range_C=(float(per_aim.min()), float(per_aim.max())),
+                aims=aims,
             )
             out.append(Thermogram(image, reading, self.window, ""))
-        return out, readings
+        return out, readings[0]
 
     def _fractions(self, ids: np.ndarray, r: int, c: int) -> dict[str, float]:
         n = self.options.subsamples

@@ -97,6 +97,13 @@ class CameraOptions:
         blur_fwhm_px: Full width at half maximum of the optics' Gaussian blur, pixels (0: none).
         subsamples: Sample rays per pixel and direction (the footprint quadrature).
         phases: Rotation phases per tooth-pass period (the time quadrature).
+        aim_offsets: Sub-pixel aims per direction (must divide ``subsamples``): where the pixel
+            grid falls on the gears is not known to a fraction of a pixel (0.1 mrad of aim; the
+            thesis states none), and the hottest pixel's reading depends on it by kelvins in the
+            mesh zone. The camera is read at ``aim_offsets``² aims shifted by k / aim_offsets
+            pixel (k = 0 … aim_offsets − 1) in each direction: ``camera_max`` is their mean (the
+            expected reading of a uniformly unknown aim) and their standard deviation the aim's
+            standard uncertainty. 1: the nominal aim only.
         accuracy_C, accuracy_percent: Stated accuracy, the larger of the two (E40: 2 C, 2 %),
             used as one standard uncertainty of a reading.
     """
@@ -124,6 +131,7 @@ class CameraOptions:
     blur_fwhm_px: float = 1.0
     subsamples: int = 8
     phases: int = 24
+    aim_offsets: int = 4
     accuracy_C: float = 2.0
     accuracy_percent: float = 2.0
 
@@ -193,6 +201,13 @@ class CameraOptions:
         set_("blur_fwhm_px", require_range(p + "blur_fwhm_px", self.blur_fwhm_px, 0.0, 20.0))
         set_("subsamples", require_int(p + "subsamples", self.subsamples, 1, 64))
         set_("phases", require_int(p + "phases", self.phases, 1, 100_000))
+        set_("aim_offsets", require_int(p + "aim_offsets", self.aim_offsets, 1, self.subsamples))
+        if self.subsamples % self.aim_offsets:
+            raise ParameterError(
+                p + "aim_offsets",
+                self.aim_offsets,
+                f"a divisor of camera.subsamples = {self.subsamples}",
+            )
         set_("accuracy_C", require_nonnegative(p + "accuracy_C", self.accuracy_C))
         set_("accuracy_percent", require_nonnegative(p + "accuracy_percent", self.accuracy_percent))
 

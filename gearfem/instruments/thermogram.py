@@ -22,8 +22,9 @@ def write_csv(th: Thermogram, options: CameraOptions, path: Path, note: str = ""
         f"{options.fov_v_deg:g} deg, band {options.band_um[0]:g}-{options.band_um[1]:g} um, "
         f"view {options.view}, distance {options.distance_m:g} m, emissivity setting "
         f"{options.emissivity_setting:g}, reflected {options.reflected_C:g} C",
-        f"camera_max {r.max_C:.2f} C; hottest pixel (row, col) {r.pixel} reads {r.pixel_C:.2f} C "
-        f"({r.body} {r.surface})",
+        f"camera_max {r.max_C:.2f} C (mean over {r.aims} sub-pixel aims, standard deviation "
+        f"{r.aim_std_C:.2f} K); at the nominal aim the hottest pixel (row, col) {r.pixel} reads "
+        f"{r.pixel_C:.2f} C ({r.body} {r.surface})",
     ]
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     np.savetxt(tmp, th.image_C, fmt="%.3f", delimiter=",", header="\n".join(head))
@@ -73,8 +74,8 @@ def write_png(th: Thermogram, options: CameraOptions, path: Path, title: str = "
     fig.suptitle(
         title
         or (
-            f"synthetic thermogram, {r.label}: camera_max {r.max_C:.1f} °C "
-            f"(hottest model node {r.hottest_node_C:.1f} °C)"
+            f"synthetic thermogram, {r.label}: camera_max {r.max_C:.1f} °C ± {r.aim_std_C:.1f} K "
+            f"aim (hottest model node {r.hottest_node_C:.1f} °C)"
         ),
         fontsize=11,
     )
