@@ -8,7 +8,11 @@ import pytest
 
 from gearfem.core.errors import ParameterError
 from gearfem.coupling.options import SourceOptions
-from gearfem.coupling.transfer import SMOOTHING_CUTOFF, smoothing_operator
+from gearfem.coupling.transfer import (
+    SMOOTHING_CUTOFF,
+    smoothing_operator,
+    subdivision_points,
+)
 
 
 def _flank(n_p=60, n_z=12, h_p=0.2e-3, h_z=1.0e-3, seed=0):
@@ -71,3 +75,21 @@ def test_bad_smoothing_options_are_refused_by_name():
         SourceOptions(flux_smoothing_profile_mm=0.0, flux_smoothing_axial_mm=0.0).flux_smoothing_m
         is None
     )
+
+
+@pytest.mark.parametrize("kind", ["triangle", "quadrilateral"])
+@pytest.mark.parametrize("n", [1, 3, 8])
+def test_facet_subdivision_integrates_linear_fields_exactly(kind, n):
+    """The sample points of the transfer's facet mean (TRANSFER_SUBDIVISIONS per side): their
+    weights add up to the reference facet's area and they integrate every linear field exactly
+    (the facet mean of a linear flux is its value at the facet's centroid), and the points are
+    the midpoints of n² equal parts (no two coincide)."""
+    import basix
+
+    facet = getattr(basix.CellType, kind)
+    pts, w = subdivision_points(facet, n)
+    area = 0.5 if kind == "triangle" else 1.0
+    centroid = np.array([1 / 3, 1 / 3]) if kind == "triangle" else np.array([0.5, 0.5])
+    assert len(w) == n * n and np.sum(w) == pytest.approx(area, rel=1e-14)
+    np.testing.assert_allclose(w @ pts / area, centroid, rtol=1e-14)
+    assert len(np.unique(np.round(pts, 12), axis=0)) == n * n
