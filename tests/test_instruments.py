@@ -792,6 +792,7 @@ def test_forward_model_predicts_instrument_readings():
     ambient and the hottest node, the torque meters' loss of the cycle, probes by name; an
     instrument the case does not have is an error naming the quantity."""
     from gearfem.config import load_case
+    from gearfem.diagnose.data import Dataset, Measurement
     from gearfem.diagnose.forward import FullModel
 
     root = Path(__file__).resolve().parent.parent
@@ -815,6 +816,16 @@ def test_forward_model_predicts_instrument_readings():
     assert res[("torque_loss_Nm", None)] == pytest.approx(
         float(np.mean(cyc.pinion_torque_Nm)) - 8.0 * cyc.info["speed_ratio"], rel=1e-12
     )
+    # the camera's prediction with the spread over its sub-pixel aims (the others have none)
+    data = Dataset(
+        tuple(
+            Measurement(1000.0, 8.0, None, quantity, 100.0, 1.0, 21.0)
+            for quantity in ("camera_max", "torque_loss_Nm")
+        )
+    )
+    S, aim = full.predict_with_aim(data)
+    assert S[0] == pytest.approx(res[("camera_max", None)], rel=1e-12)
+    assert aim[0] > 0.0 and aim[1] == 0.0
 
 
 @pytest.mark.mpi
