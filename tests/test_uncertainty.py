@@ -108,14 +108,16 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
     assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
     p = level_case(case, "positions", 1.5)
-    assert p.cycle.positions_per_pitch == 18 and p.thermal_mesh_options == case.thermal_mesh
+    n = case.cycle.positions_per_pitch  # 18 on the built-in case
+    assert p.cycle.positions_per_pitch == round(1.5 * n)
+    assert p.thermal_mesh_options == case.thermal_mesh
     assert p.sources.flux_smoothing_profile_mm == pytest.approx(
-        src.flux_smoothing_profile_mm * 12 / 18
+        src.flux_smoothing_profile_mm * n / round(1.5 * n)
     )
     th = level_case(case, "thermal_mesh", 1.5)
     assert th.mesh == case.mesh and th.thermal_mesh.layers == 6
     # coarser levels (a case in the middle of a study), and back
-    assert level_case(case, "positions", 1 / 1.5).cycle.positions_per_pitch == 8
+    assert level_case(case, "positions", 1 / 1.5).cycle.positions_per_pitch == round(n / 1.5)
     coarse = level_case(case, "structural_mesh", 1 / 1.5)
     assert level_case(coarse, "structural_mesh", 1.5).mesh == case.mesh
 
