@@ -61,7 +61,10 @@ def _run(case, out: Path, comm) -> RunSummary:
     """The run of ``case`` in ``out``: reused when finished with the same case, else computed."""
     done = False
     if comm.rank == 0 and (out / "summary.json").is_file() and (out / "case.toml").is_file():
-        done = case_to_dict(load_case(out / "case.toml")) == case_to_dict(case)
+        try:
+            done = case_to_dict(load_case(out / "case.toml")) == case_to_dict(case)
+        except ParameterError:  # a case file of another gearfem version: run again
+            done = False
     if comm.bcast(done, root=0):
         return RunSummary.read(out / "summary.json")
     return pipeline.run(case, out, comm, progress=False)
