@@ -3,6 +3,7 @@ synthetic flank: a regular grid of facets in the flank's plane (x, y) and along 
 
 from __future__ import annotations
 
+import basix
 import numpy as np
 import pytest
 
@@ -84,8 +85,6 @@ def test_facet_subdivision_integrates_linear_fields_exactly(kind, n):
     weights add up to the reference facet's area and they integrate every linear field exactly
     (the facet mean of a linear flux is its value at the facet's centroid), and the points are
     the midpoints of n² equal parts (no two coincide)."""
-    import basix
-
     facet = getattr(basix.CellType, kind)
     pts, w = subdivision_points(facet, n)
     area = 0.5 if kind == "triangle" else 1.0

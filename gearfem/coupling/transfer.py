@@ -28,6 +28,7 @@ rows S[ref(f), :], shared by the static and the temperature-dependent friction f
 
 from __future__ import annotations
 
+import basix
 import numpy as np
 import scipy.sparse as sps
 from mpi4py import MPI
@@ -87,8 +88,6 @@ def subdivision_points(facet_type, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Midpoints and reference areas of a uniform subdivision of the reference facet into n²
     parts (triangles: n² sub-triangles of the unit triangle; quadrilaterals: n x n squares of the
     unit square); the areas sum to the reference facet's."""
-    import basix
-
     if facet_type == basix.CellType.triangle:
         up = [((i + 1 / 3) / n, (j + 1 / 3) / n) for i in range(n) for j in range(n - i)]
         down = [((i + 2 / 3) / n, (j + 2 / 3) / n) for i in range(n) for j in range(n - 1 - i)]
@@ -145,8 +144,6 @@ class FlankTransfer:
         cf = np.asarray(
             fem.compute_integration_domains(fem.IntegralType.exterior_facet, mesh.topology, facets)
         ).reshape(-1, 2)
-        import basix
-
         cell_type = {
             "tetrahedron": basix.CellType.tetrahedron,
             "hexahedron": basix.CellType.hexahedron,
