@@ -114,11 +114,17 @@ class GearContactModel:
         mask = fixed_mask(self.V, self.bcs)
         #: every modelled tooth of each gear, and those whose surfaces the contact is solved on
         self.teeth = {b: self._modelled_teeth(b) for b in BODIES}
-        #: local contact facets of each gear: all of them (full solver), or those the condensed
-        #: surfaces hold (:meth:`condensed_facets`); the teeth they belong to (on any rank)
-        self.contact_facets = {b: gm.facets(*self._contact_names(b, self.teeth[b])) for b in BODIES}
-        if options.solver == "condensed":
-            self.contact_facets = self.condensed_facets(options.condensed_margin_pitches)
+        #: local contact facets of each gear: every one (``all_contact_facets``), and those the
+        #: contact is solved on: all of them (full solver) or those the condensed surfaces hold
+        #: (:meth:`condensed_facets`); the teeth they belong to (on any rank)
+        self.all_contact_facets = {
+            b: gm.facets(*self._contact_names(b, self.teeth[b])) for b in BODIES
+        }
+        self.contact_facets = (
+            self.condensed_facets(options.condensed_margin_pitches)
+            if options.solver == "condensed"
+            else dict(self.all_contact_facets)
+        )
         self.contact_teeth = {b: self._teeth_holding(b, self.contact_facets[b]) for b in BODIES}
         youngs = {b: materials[b].youngs_modulus_Pa for b in BODIES}
         self.surfaces = {
@@ -269,8 +275,7 @@ class GearContactModel:
     def _guards(self, mask: np.ndarray, youngs: dict[str, float]) -> list[Guard]:
         """Contact checks of the contact facets left out of the condensed surfaces: per gear,
         those facets against every contact surface of the other gear (labelled by tooth)."""
-        gm, guards = self.gm, []
-        every = {b: gm.facets(*self._contact_names(b, self.teeth[b])) for b in BODIES}
+        guards, every = [], self.all_contact_facets
         whole = {b: ContactSurface(self.V, every[b], b, mask, name=f"{b}") for b in BODIES}
         for b, other in (("pinion", "wheel"), ("wheel", "pinion")):
             out = np.setdiff1d(every[b], self.contact_facets[b])
