@@ -255,7 +255,11 @@ def main(argv=None) -> int:
         list(reps.values()),
         lambda c, sub: pipeline.cycle(c, sub),
     )
-    pending = [(lab, c) for lab, c, _ in todo if not is_done(c, out / "cases" / lab)]
+    # finished points are decided on rank 0 and broadcast (every rank must take the same tasks)
+    done = comm.bcast(
+        [is_done(c, out / "cases" / lab) for lab, c, _ in todo] if comm.rank == 0 else None
+    )
+    pending = [(lab, c) for (lab, c, _), d in zip(todo, done) if not d]
     dispatch(
         comm,
         parallel_mode("auto", len(pending), comm.size),

@@ -211,10 +211,17 @@ def run_study(
     timing: dict[str, float] = {}
     ran: list[str] = []
     if not collect_only:
+        # which points are finished is decided on rank 0 from its files and broadcast: ranks
+        # reading the files each on their own could disagree (a file being written) and then
+        # wait in different collectives
+        done = comm.bcast(
+            [is_done(c, out / "cases" / lab) for lab, c in cases] if comm.rank == 0 else None,
+            root=0,
+        )
         todo = [
             (lab, c)
             for i, (lab, c) in enumerate(cases)
-            if (index is None or i == index) and not is_done(c, out / "cases" / lab)
+            if (index is None or i == index) and not done[i]
         ]
         skipped = len([1 for i, _ in enumerate(cases) if index is None or i == index]) - len(todo)
         if comm.rank == 0:
