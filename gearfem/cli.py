@@ -539,8 +539,8 @@ def build_parser() -> argparse.ArgumentParser:
         default="coarsest",
         choices=tuple(REFINEMENT_CASE_LEVELS),
         help="where the case's resolution sits among the three levels: the coarsest (levels 1, "
-        "r, r^2 times finer) or the middle (1/r, 1, r: u_num from one coarser and one finer "
-        "solution)",
+        "r, r^2 times finer), the middle (1/r, 1, r: u_num from one coarser and one finer "
+        "solution) or the finest (1/r^2, 1/r, 1: the fine-grid GCI)",
     )
     s.add_argument("--duration-s", type=float, default=None, help="override [thermal] duration_s")
     s.set_defaults(func=_cmd_converge)

@@ -5,9 +5,10 @@ systematically refined discretisations, one direction (kind) at a time, and esti
 reported quantity the observed order, the extrapolated value and the grid convergence index with
 the numerical standard uncertainty u_num (:mod:`gearfem.core.gci`) — of the solution at the
 case's own resolution, which is one of the three levels: the coarsest (``case_level =
-"coarsest"``, levels 1, r, r² times finer than the case) or the middle one (``"middle"``, levels
+"coarsest"``, levels 1, r, r² times finer than the case), the middle one (``"middle"``, levels
 1/r, 1 and r: the case's u_num then comes from one coarser and one finer solution, the GCI of the
-medium grid of Celik et al.). Per kind:
+medium grid of Celik et al.) or the finest (``"finest"``, levels 1/r², 1/r and 1: the fine-grid
+GCI of Celik et al., what the procedure reports for the solution it is applied to). Per kind:
 
 * ``thermal_mesh``: the thermal model's mesh (``[thermal_mesh]``; every element size and the size
   gradient divided by the factor, the layer count multiplied by it and rounded up); the
@@ -59,7 +60,7 @@ from gearfem.uncertainty import KINDS, StudyUncertainty, resolution_key, store_s
 
 LEVELS = 3
 #: where the case's own resolution sits among the three levels -> index of the case (coarse to fine)
-CASE_LEVELS = {"coarsest": 0, "middle": 1}
+CASE_LEVELS = {"coarsest": 0, "middle": 1, "finest": 2}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,7 +115,7 @@ class RefinementStudy(JsonRecord):
 
     @property
     def case_level_name(self) -> str:
-        """``"coarsest"`` or ``"middle"`` (:data:`CASE_LEVELS`)."""
+        """``"coarsest"``, ``"middle"`` or ``"finest"`` (:data:`CASE_LEVELS`)."""
         return next(k for k, v in CASE_LEVELS.items() if v == self.case_level)
 
     def row(self, quantity: str) -> RefinementRow:
@@ -244,8 +245,8 @@ def refinement_study(
     case_level: str = "coarsest",
 ) -> RefinementStudy:
     """Run the refinement study of ``case`` in direction ``kind`` (collective); see the module
-    docstring. ``case_level``: ``"coarsest"`` or ``"middle"``, where the case's own resolution
-    sits among the three levels."""
+    docstring. ``case_level``: ``"coarsest"``, ``"middle"`` or ``"finest"``, where the case's own
+    resolution sits among the three levels."""
     require_choice("refinement kind", kind, KINDS)
     require_range("refinement factor", factor, 1.2, 3.0)
     require_choice("refinement case_level", case_level, tuple(CASE_LEVELS))

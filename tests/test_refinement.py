@@ -66,14 +66,14 @@ def test_levels_that_round_to_the_same_discretisation_are_refused(tmp_path, comm
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("case_level", ["coarsest", "middle"])
+@pytest.mark.parametrize("case_level", ["coarsest", "middle", "finest"])
 def test_thermal_refinement_study(tmp_out, comm, case_level):
     out = tmp_out / f"converge_{case_level}"
     case = _small_case()
     study = refinement_study(case, out, comm, "thermal_mesh", factor=1.5, case_level=case_level)
     assert study.dofs[0] < study.dofs[1] < study.dofs[2]
     # the case's own resolution is the level named, and its u_num is that level's
-    at = {"coarsest": 0, "middle": 1}[case_level]
+    at = {"coarsest": 0, "middle": 1, "finest": 2}[case_level]
     assert study.case_level == at
     assert study.levels[at].setting == dataclasses.asdict(case.thermal_mesh_options)
     for r in study.rows:
