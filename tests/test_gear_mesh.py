@@ -167,6 +167,17 @@ def test_group_name_api(default_mesh):
     assert np.all(np.diff(f) > 0)
     with pytest.raises(KeyError, match="pinion_tooth9_tip"):
         gm.tag("pinion_tooth9_tip")
+    # the tooth and kind of each facet, read back from its group
+    tip, flank, bore = (
+        gm.facets(n) for n in ("pinion_tooth4_tip", "wheel_tooth2_drive_flank", "pinion_bore")
+    )
+    teeth, kinds = gm.facet_groups("pinion", np.concatenate([tip, bore]))
+    assert list(teeth) == [4] * len(tip) + [-1] * len(bore)
+    assert list(kinds) == ["tip"] * len(tip) + ["bore"] * len(bore)
+    teeth, kinds = gm.facet_groups("pinion", flank)  # a wheel facet is in no pinion group
+    assert np.all(teeth == -1) and np.all(kinds == "")
+    teeth, kinds = gm.facet_groups("wheel", flank)
+    assert np.all(teeth == 2) and np.all(kinds == "drive_flank")
 
 
 # --- geometry ------------------------------------------------------------------------------------

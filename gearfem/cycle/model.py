@@ -302,18 +302,7 @@ class GearContactModel:
 
     def _tooth_labels(self, body: str, facets: np.ndarray) -> np.ndarray:
         """Tooth index of each of the local ``facets`` of ``body`` (−1: not on a tooth)."""
-        gm = self.gm
-        tag_to_tooth = {}
-        for name in gm.names(body=body):
-            _b, k, _kind = parse_group_name(name)
-            if k is not None:
-                tag_to_tooth[gm.tag(name)] = k
-        ft = gm.facet_tags
-        order = np.argsort(ft.indices)
-        pos = np.searchsorted(ft.indices[order], facets)
-        return np.array(
-            [tag_to_tooth.get(int(v), -1) for v in ft.values[order][pos]], dtype=np.int64
-        )
+        return self.gm.facet_groups(body, facets)[0]
 
     def _check_torque(self) -> None:
         """Refuse torques whose tooth deflection would close the backlash: the coast flanks are not

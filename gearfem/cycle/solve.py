@@ -40,7 +40,6 @@ from gearfem.cycle.periodic import (
     periodic_sum,
 )
 from gearfem.cycle.result import BodyFields, CycleResult
-from gearfem.geometry.mesh import parse_group_name
 from gearfem.geometry.options import BODIES
 
 log = logging.getLogger(__name__)
@@ -455,12 +454,7 @@ def _facet_centres_and_areas(ref, X: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 def _facet_kinds(model: GearContactModel, body: str, surf) -> np.ndarray:
     """Group kind (drive_flank, tip, root) of every facet of ``surf``, gathered order."""
-    gm = model.gm
-    tag_kind = {gm.tag(n): parse_group_name(n)[2] for n in gm.names(body=body)}
-    ft = gm.facet_tags
-    order = np.argsort(ft.indices)
-    pos = np.searchsorted(ft.indices[order], surf.facets)
-    local = np.array([tag_kind.get(int(v), "") for v in ft.values[order][pos]], dtype="U16")
+    local = model.gm.facet_groups(body, surf.facets)[1]
     return np.concatenate(model.comm.allgather(local))
 
 

@@ -174,6 +174,21 @@ class GearMesh:
             else np.empty(0, dtype=np.int32)
         )
 
+    def facet_groups(self, body: str, facets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tooth index (-1: not on a tooth) and group kind ("": in no group of ``body``) of each
+        of the process-local tagged ``facets``: the parsed name of its facet group."""
+        parsed = {
+            self.tag(n): parse_group_name(n)
+            for n in self.names(body=body)
+            if parse_group_name(n)[2] != "volume"  # facet groups only (cell tags may coincide)
+        }
+        order = np.argsort(self.facet_tags.indices)
+        pos = np.searchsorted(self.facet_tags.indices[order], facets)
+        groups = [parsed.get(int(v)) for v in self.facet_tags.values[order][pos]]
+        teeth = np.array([-1 if g is None or g[1] is None else g[1] for g in groups], np.int64)
+        kinds = np.array(["" if g is None else g[2] for g in groups], dtype="U16")
+        return teeth, kinds
+
     def cells(self, body: str) -> np.ndarray:
         """Process-local cell indices of a body."""
         return np.sort(self.cell_tags.find(self.tag(body))).astype(np.int32)
