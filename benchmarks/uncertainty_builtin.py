@@ -4,7 +4,8 @@ gearfem and written into docs/refinement.md.
 For each kind (thermal mesh, structural contact zone, structural layers, positions per pitch, tip
 elements) this runs
 :func:`gearfem.refinement.refinement_study` on the built-in thesis case (its resolution the middle
-of three levels for the thermal mesh, the coarsest for the other kinds: :data:`CASE_LEVEL`), then
+of three levels for the thermal mesh and the positions, the coarsest for the other kinds:
+:data:`CASE_LEVEL`), then
 (rank 0):
 
 * files the study as package data, ``gearfem/data/uncertainty/<resolution key>/<kind>.json``:
@@ -19,7 +20,7 @@ of three levels for the thermal mesh, the coarsest for the other kinds: :data:`C
 Usage (2 ranks; the cycles of the refined levels are cached under cache/cycles):
 
     mpirun -n 2 python benchmarks/uncertainty_builtin.py [--kinds thermal_mesh positions ...]
-        [--factor 1.5] [--case-level coarsest|middle] [--out results/uncertainty]
+        [--factor 1.5] [--case-level coarsest|middle|finest] [--out results/uncertainty]
 """
 
 from __future__ import annotations
@@ -55,15 +56,16 @@ BLOCKS = {
     "tip": "refinement_tip",
 }
 #: Where the built-in case sits in each kind's study (the shipped studies): in the middle of the
-#: thermal-mesh study (the coarsest convention's finest level would have about 400k DOFs per
-#: gear), the coarsest of the others (a contact zone 1.5x coarser than the case's is outside the
-#: range where the pitch-point pressure has converged, docs/cycle.md; 2 layers coarsened by 1.5
-#: round back up to 2).
+#: thermal-mesh study (the coarsest convention's finest level would have about 800k DOFs per
+#: gear) and of the positions study (12 / 18 / 27 positions per pitch: the middle-grid GCI, from
+#: one coarser and one finer cycle), the coarsest of the others (a contact zone 1.5x coarser than
+#: the case's is outside the range where the pitch-point pressure has converged, docs/cycle.md;
+#: 2 layers coarsened by 1.5 round back up to 2).
 CASE_LEVEL = {
     "thermal_mesh": "middle",
     "structural_mesh": "coarsest",
     "structural_layers": "coarsest",
-    "positions": "coarsest",
+    "positions": "middle",
     "tip": "coarsest",
 }
 #: The quantities of the summary block (docs/refinement.md, refinement_summary).
