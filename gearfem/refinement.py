@@ -180,8 +180,10 @@ def level_case(case: Case, kind: str, factor: float) -> Case:
     kind but ``thermal_mesh``, so that refining the structural mesh does not refine the thermal
     one with it. The reconstruction of the cycle's facet flux (``[sources]
     flux_smoothing_*_mm``) is part of the structural discretisation: its profile width shrinks
-    with the structural flank size and with the positions' spacing, its axial width with the
-    structural layers (the contact zone's refinement keeps the layers, and the axial width)."""
+    with the positions' spacing (it smooths the comb of the positions' contact bands: shrunk at a
+    fixed spacing, the comb appears and the hottest node climbs, docs/refinement.md), its axial
+    width with the structural layers; the contact zone's refinement keeps both (finer facets
+    represent the same reconstructed flux more finely)."""
     require_choice("refinement kind", kind, KINDS)
     pinned = dataclasses.replace(case, thermal_mesh=case.thermal_mesh_options)
     if kind == "thermal_mesh":
@@ -189,13 +191,8 @@ def level_case(case: Case, kind: str, factor: float) -> Case:
             case, thermal_mesh=refined_mesh(case.thermal_mesh_options, factor)
         )
     src = case.sources
-    if kind == "structural_mesh":  # the flux reconstruction shrinks with the facets it smooths
-        smooth = dataclasses.replace(
-            src, flux_smoothing_profile_mm=_divided(src.flux_smoothing_profile_mm, factor)
-        )
-        return dataclasses.replace(
-            pinned, mesh=refined_contact_zone(case.mesh, factor), sources=smooth
-        )
+    if kind == "structural_mesh":
+        return dataclasses.replace(pinned, mesh=refined_contact_zone(case.mesh, factor))
     if kind == "structural_layers":  # and the axial reconstruction with the layers' thickness
         layers = _layers(case.mesh.layers, factor)
         smooth = dataclasses.replace(

@@ -92,10 +92,10 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     assert s.mesh.size_flank_mm == pytest.approx(case.mesh.size_flank_mm / 2)
     assert s.mesh.layers == case.mesh.layers and s.mesh.size_body_mm == case.mesh.size_body_mm
     assert s.thermal_mesh_options == case.thermal_mesh  # the thermal mesh does not follow
-    # the reconstruction of the facet flux follows the facets and the positions' spacing
+    # the reconstruction of the facet flux follows the positions' spacing and the layers, not
+    # the contact zone's facets
     src = case.sources
-    assert s.sources.flux_smoothing_profile_mm == pytest.approx(src.flux_smoothing_profile_mm / 2)
-    assert s.sources.flux_smoothing_axial_mm == src.flux_smoothing_axial_mm
+    assert s.sources == src
     lay = level_case(case, "structural_layers", 1.5)  # 2 -> 3 layers, nothing else
     assert lay.mesh == dataclasses.replace(case.mesh, layers=3)
     assert lay.thermal_mesh_options == case.thermal_mesh
