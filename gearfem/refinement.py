@@ -15,14 +15,16 @@ GCI of Celik et al., what the procedure reports for the solution it is applied t
   structural cycle is the case's, solved once. h = N^(-1/3) for N temperature DOFs.
 * ``structural_mesh``: the contact zone of the structural mesh (flank, tip, root and tooth element
   sizes divided by the factor; body size, size gradient and layers kept: the contact pressures and
-  the friction flux live there); the thermal mesh stays the case's.
-  h = the flank element size.
+  the friction flux live there); the thermal mesh and the flux reconstruction's widths stay the
+  case's. h = the flank element size.
 * ``structural_layers``: the element layers of the structural mesh across the face width
   (multiplied by the factor and rounded up: 2, 3, 5 from 2 by 1.5), which set the axial
   distribution of the contact pressure and of the friction heat near the side faces, where the
-  camera looks; the thermal mesh stays the case's. h = 1 / layers.
+  camera looks, and the axial width of the flux reconstruction with them; the thermal mesh stays
+  the case's. h = 1 / layers.
 * ``positions``: the pinion positions per pitch of the cycle (multiplied by the factor and
-  rounded); h = 1 / positions per pitch.
+  rounded) and the profile width of the flux reconstruction with their spacing; h = 1 /
+  positions per pitch.
 * ``tip``: the tip element size alone (the tip rounds): the largest contact pressure of the cycle
   sits on the mating gear's tip round (docs/cycle.md).
 
