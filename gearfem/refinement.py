@@ -58,7 +58,13 @@ from gearfem.core.params import require_choice, require_range
 from gearfem.core.results import JsonRecord
 from gearfem.geometry.options import MeshOptions
 from gearfem.instruments.evaluate import evaluate
-from gearfem.uncertainty import KINDS, StudyUncertainty, resolution_key, store_study
+from gearfem.uncertainty import (
+    KINDS,
+    STUDY_DESIGN_VERSION,
+    StudyUncertainty,
+    resolution_key,
+    store_study,
+)
 
 LEVELS = 3
 #: where the case's own resolution sits among the three levels -> index of the case (coarse to fine)
@@ -341,6 +347,7 @@ def study_uncertainty(case: Case, study: RefinementStudy) -> StudyUncertainty:
         units={r.quantity: r.unit for r in study.rows},
         u_num={r.quantity: r.u_num_case for r in study.rows},
         asymptotic={r.quantity: r.asymptotic for r in study.rows},
+        design=STUDY_DESIGN_VERSION,
     )
 
 

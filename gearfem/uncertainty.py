@@ -14,6 +14,11 @@ friction, sources, operating point, the instruments' optics):
 * ``<cache root>/uncertainty/<key>/<kind>.json``: studies written by ``gearfem converge``
   (a study found in both places: the cache's, the newer measurement, is used).
 
+A study also carries the version of what the study of its kind measures
+(:data:`STUDY_DESIGN_VERSION`): a study filed in the cache by an older gearfem whose refinement
+path has since changed is not used (a warning names it), so that a re-designed study is
+measured again instead of read back stale.
+
 A run looks up the studies of its resolution (:func:`run_uncertainty`) and combines the kinds in
 quadrature, u_num = sqrt(Σ_kind u_kind²) (independent error sources). Discretisation errors of
 the (nearly linear) thermal problem scale with the heating: a study made at another operating
@@ -29,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import logging
 import math
 from importlib import resources
 from pathlib import Path
@@ -38,6 +44,13 @@ from gearfem.core.io import read_json, write_json
 from gearfem.core.params import to_dict
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
+
+log = logging.getLogger(__name__)
+
+#: Bump when a change of gearfem.refinement changes what a study measures (the levels it runs);
+#: part of every stored study. 1: until stop 29; 2: the contact-zone study keeps the flux
+#: reconstruction's widths (they shrink with the positions and the layers only).
+STUDY_DESIGN_VERSION = 2
 
 #: Relative difference within which a run's value is the study's own (not scaled by the rise).
 SAME_VALUE_RTOL = 1e-6
@@ -117,6 +130,7 @@ class StudyUncertainty(JsonRecord):
     units: dict[str, str]
     u_num: dict[str, float]
     asymptotic: dict[str, bool]
+    design: int = 1  # STUDY_DESIGN_VERSION of the code that ran it (1: files without the field)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -162,19 +176,33 @@ def store_study(study: StudyUncertainty) -> Path:
 
 
 def stored_studies(key: str) -> dict[str, tuple[StudyUncertainty, str]]:
-    """The stored study of every kind for resolution ``key``: kind -> (study, where)."""
+    """The stored study of every kind for resolution ``key``: kind -> (study, where). Studies of
+    another :data:`STUDY_DESIGN_VERSION` are left out (with a warning)."""
     found: dict[str, tuple[StudyUncertainty, str]] = {}
     shipped = _shipped_dir(key)
     for kind in KINDS:
+        candidates = []
         item = shipped.joinpath(f"{kind}.json")
         if item.is_file():
-            found[kind] = (
-                StudyUncertainty.from_json(json.loads(item.read_text(encoding="utf-8"))),
-                f"gearfem/data/uncertainty/{key}/{kind}.json",
-            )
+            data = json.loads(item.read_text(encoding="utf-8"))
+            candidates.append((data, f"gearfem/data/uncertainty/{key}/{kind}.json"))
         path = store_directory(key) / f"{kind}.json"
-        if path.is_file():
-            found[kind] = (StudyUncertainty.from_json(read_json(path)), str(path))
+        if path.is_file():  # the cache's, the newer measurement, wins
+            candidates.append((read_json(path), str(path)))
+        for data, where in candidates:
+            study = StudyUncertainty.from_json(data)
+            if study.design != STUDY_DESIGN_VERSION:
+                log.warning(
+                    "%s: a %s study of design %d, not the current %d (gearfem converge "
+                    "--kind %s measures it again); not used",
+                    where,
+                    kind,
+                    study.design,
+                    STUDY_DESIGN_VERSION,
+                    kind,
+                )
+                continue
+            found[kind] = (study, where)
     return found
 
 

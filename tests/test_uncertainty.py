@@ -16,6 +16,7 @@ from gearfem.diagnose.report import studied_u_num
 from gearfem.refinement import KINDS, level_case
 from gearfem.uncertainty import (
     SAME_VALUE_RTOL,
+    STUDY_DESIGN_VERSION,
     StudyUncertainty,
     resolution_key,
     run_uncertainty,
@@ -43,6 +44,7 @@ def _study(case, kind, u_max, u_bulk, max_C=250.0, bulk_C=93.0):
         units={"max_surface": "C", "mean_bulk": "C"},
         u_num={"max_surface": u_max, "mean_bulk": u_bulk},
         asymptotic={"max_surface": False, "mean_bulk": True},
+        design=STUDY_DESIGN_VERSION,
     )
 
 
@@ -180,6 +182,29 @@ def test_the_built_in_case_ships_its_studies_at_its_own_resolution():
         s = StudyUncertainty.from_json(json.loads((root / key / f"{kind}.json").read_text()))
         assert s.resolution_key == key and s.kind == kind
         assert s.speed_rpm == case.operating.speed_rpm and s.torque_Nm == case.operating.torque_Nm
+        assert s.design == STUDY_DESIGN_VERSION  # measured by the current refinement paths
+
+
+def test_a_study_of_an_older_design_is_not_used(store, caplog):
+    """A study filed by a gearfem whose refinement path of that kind has changed since (files
+    without the field are design 1) is left out with a warning, not read back stale."""
+    case = _unshipped_case()
+    old = dataclasses.replace(_study(case, "structural_mesh", 30.0, 0.4), design=1)
+    store_study(old)
+    store_study(_study(case, "thermal_mesh", 3.0, 0.4))
+    with caplog.at_level("WARNING", logger="gearfem.uncertainty"):
+        found = stored_studies(resolution_key(case))
+    assert set(found) == {"thermal_mesh"}
+    assert "structural_mesh study of design 1, not the current" in caplog.text
+    run = run_uncertainty(case, {"max_surface": 250.0})
+    assert run.missing == ("structural_mesh", "structural_layers", "positions", "tip")
+    assert run.quantities["max_surface"].u_num == pytest.approx(3.0)
+    # a file written before the field existed reads as design 1
+    data = json.loads(
+        (store / "uncertainty" / resolution_key(case) / "thermal_mesh.json").read_text()
+    )
+    del data["design"]
+    assert StudyUncertainty.from_json(data).design == 1
 
 
 def test_diagnose_takes_u_num_from_the_studies_of_the_case_resolution(store):
