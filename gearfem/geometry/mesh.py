@@ -177,11 +177,9 @@ class GearMesh:
     def facet_groups(self, body: str, facets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tooth index (-1: not on a tooth) and group kind ("": in no group of ``body``) of each
         of the process-local tagged ``facets``: the parsed name of its facet group."""
-        parsed = {
-            self.tag(n): parse_group_name(n)
-            for n in self.names(body=body)
-            if parse_group_name(n)[2] != "volume"  # facet groups only (cell tags may coincide)
-        }
+        named = ((self.tag(n), parse_group_name(n)) for n in self.names(body=body))
+        # facet groups only (a cell tag may coincide with a facet tag)
+        parsed = {tag: g for tag, g in named if g[2] != "volume"}
         order = np.argsort(self.facet_tags.indices)
         pos = np.searchsorted(self.facet_tags.indices[order], facets)
         groups = [parsed.get(int(v)) for v in self.facet_tags.values[order][pos]]
