@@ -20,7 +20,8 @@ of three levels for the thermal mesh and the positions, the coarsest for the oth
 Usage (2 ranks; the cycles of the refined levels are cached under cache/cycles):
 
     mpirun -n 2 python benchmarks/uncertainty_builtin.py [--kinds thermal_mesh positions ...]
-        [--factor 1.5] [--case-level coarsest|middle|finest] [--out results/uncertainty]
+        [--factor 1.5] [--case-level coarsest|middle|finest] [--levels N]
+        [--out results/uncertainty]
 """
 
 from __future__ import annotations
@@ -68,6 +69,17 @@ CASE_LEVEL = {
     "positions": "middle",
     "tip": "coarsest",
 }
+#: How many levels each kind's study has: four across the face width, where the three of stop 29
+#: (2 / 3 / 5 layers) moved the camera reading by 0.2 and 0.1 K, too little above the readings'
+#: scatter for three solutions to tell a slow trend (their order 0.38: Fs = 3, 2.2 K) from
+#: settling; a fourth level (7 layers) and the least-squares fit through all four do.
+LEVELS = {
+    "thermal_mesh": 3,
+    "structural_mesh": 3,
+    "structural_layers": 4,
+    "positions": 3,
+    "tip": 3,
+}
 #: The quantities of the summary block (docs/refinement.md, refinement_summary).
 SUMMARY = ("camera_max", "mean_bulk", "flank_mean", "max_surface", "friction_power_W")
 ROOT = Path(__file__).resolve().parent.parent
@@ -83,8 +95,14 @@ def main() -> None:
         "--case-level",
         default=None,
         choices=tuple(CASE_LEVELS),
-        help="where the built-in case's resolution sits among the three levels (default: "
+        help="where the built-in case's resolution sits among the levels (default: "
         "CASE_LEVEL of each kind)",
+    )
+    p.add_argument(
+        "--levels",
+        type=int,
+        default=None,
+        help="levels of each study (default: LEVELS of each kind)",
     )
     p.add_argument("--out", default="results/uncertainty")
     p.add_argument(
@@ -105,6 +123,7 @@ def main() -> None:
     for kind in () if args.summary_only else args.kinds:
         t0 = time.perf_counter()
         case_level = args.case_level or CASE_LEVEL[kind]
+        levels = args.levels or LEVELS[kind]
         if args.file_only and not (Path(args.out) / kind / "refinement.json").is_file():
             # an incomplete study (e.g. a cycle that did not converge): say so in its block
             if comm.rank == 0:
@@ -126,13 +145,15 @@ def main() -> None:
                 kind=kind,
                 factor=args.factor,
                 case_level=case_level,
+                levels=levels,
             )
         wall = time.perf_counter() - t0
         if comm.rank == 0:
             write_json(DATA / study.resolution_key / f"{kind}.json", study_uncertainty(case, study))
             caption = (
                 f"\n\n`mpirun -n {comm.size} python benchmarks/uncertainty_builtin.py --kinds "
-                f"{kind} --case-level {case_level}`: {wall:.0f} s on {comm.size} ranks, "
+                f"{kind} --case-level {case_level} --levels {levels}`: {wall:.0f} s on "
+                f"{comm.size} ranks, "
                 f"load average {os.getloadavg()[0]:.1f}."
             )
             if args.file_only:

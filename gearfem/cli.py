@@ -28,6 +28,8 @@ from gearfem.geometry.mesh import build_gear_mesh, mesh_report, plot_pair
 from gearfem.pipeline import read_case, run_thermal_case
 from gearfem.refinement import CASE_LEVELS as REFINEMENT_CASE_LEVELS
 from gearfem.refinement import KINDS as REFINEMENT_KINDS
+from gearfem.refinement import LEVELS as REFINEMENT_LEVELS
+from gearfem.refinement import MAX_LEVELS as REFINEMENT_MAX_LEVELS
 from gearfem.refinement import refinement_study
 from gearfem.study import load_study, run_study
 
@@ -292,6 +294,7 @@ def _cmd_converge(args: argparse.Namespace) -> int:
         kind=args.kind,
         factor=args.factor,
         case_level=args.case_level,
+        levels=args.levels,
     )
     _say(
         f"{args.kind} refinement of {case.name}: DOFs {', '.join(str(n) for n in study.dofs)} "
@@ -538,9 +541,17 @@ def build_parser() -> argparse.ArgumentParser:
         "--case-level",
         default="coarsest",
         choices=tuple(REFINEMENT_CASE_LEVELS),
-        help="where the case's resolution sits among the three levels: the coarsest (levels 1, "
+        help="where the case's resolution sits among the levels: the coarsest (levels 1, "
         "r, r^2 times finer), the middle (1/r, 1, r: u_num from one coarser and one finer "
         "solution) or the finest (1/r^2, 1/r, 1: the fine-grid GCI)",
+    )
+    s.add_argument(
+        "--levels",
+        type=int,
+        default=REFINEMENT_LEVELS,
+        help=f"number of levels, {REFINEMENT_LEVELS} to {REFINEMENT_MAX_LEVELS} (four or more: a "
+        "least-squares fit through all of them, Eça & Hoekstra; the middle case level is then "
+        "the second coarsest)",
     )
     s.add_argument("--duration-s", type=float, default=None, help="override [thermal] duration_s")
     s.set_defaults(func=_cmd_converge)

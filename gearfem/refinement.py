@@ -1,14 +1,17 @@
 """Refinement studies: the numerical uncertainty of every reported quantity.
 
-``gearfem converge CASE.toml --out DIR [--kind KIND]`` runs the chain of a case on three
-systematically refined discretisations, one direction (kind) at a time, and estimates for each
-reported quantity the observed order, the extrapolated value and the grid convergence index with
-the numerical standard uncertainty u_num (:mod:`gearfem.core.gci`) — of the solution at the
-case's own resolution, which is one of the three levels: the coarsest (``case_level =
-"coarsest"``, levels 1, r, r² times finer than the case), the middle one (``"middle"``, levels
-1/r, 1 and r: the case's u_num then comes from one coarser and one finer solution, the GCI of the
-medium grid of Celik et al.) or the finest (``"finest"``, levels 1/r², 1/r and 1: the fine-grid
-GCI of Celik et al., what the procedure reports for the solution it is applied to). Per kind:
+``gearfem converge CASE.toml --out DIR [--kind KIND] [--levels N]`` runs the chain of a case on
+N (default 3) systematically refined discretisations, one direction (kind) at a time, and
+estimates for each reported quantity the observed order, the extrapolated value and the grid
+convergence index with the numerical standard uncertainty u_num (:mod:`gearfem.core.gci`: the
+three-solution GCI, or for four or more the least-squares procedure of Eça & Hoekstra) — of the
+solution at the case's own resolution, which is one of the levels: the coarsest (``case_level =
+"coarsest"``, levels 1, r, r², ... times finer than the case), the second coarsest
+(``"middle"``, levels 1/r, 1, r, ...: the case's u_num then comes from one coarser and finer
+solutions; with three levels the GCI of the medium grid of Celik et al.) or the finest
+(``"finest"``, levels ..., 1/r², 1/r and 1: the fine-grid GCI of Celik et al., what the
+procedure reports for the solution it is applied to). A fourth level tells a slow trend from
+settling where three solutions differ by little more than their scatter. Per kind:
 
 * ``thermal_mesh``: the thermal model's mesh (``[thermal_mesh]``; every element size and the size
   gradient divided by the factor, the layer count multiplied by it and rounded up); the
@@ -52,7 +55,7 @@ from mpi4py import MPI
 from gearfem import pipeline
 from gearfem.config import Case
 from gearfem.core.errors import ParameterError
-from gearfem.core.gci import grid_convergence, representative_size
+from gearfem.core.gci import convergence, representative_size
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.params import require_choice, require_range
 from gearfem.core.results import JsonRecord
@@ -66,22 +69,31 @@ from gearfem.uncertainty import (
     store_study,
 )
 
+#: the number of levels of a study: three by default, up to five
 LEVELS = 3
-#: where the case's own resolution sits among the three levels -> index of the case (coarse to fine)
-CASE_LEVELS = {"coarsest": 0, "middle": 1, "finest": 2}
+MAX_LEVELS = 5
+#: where the case's own resolution sits among the levels (:func:`case_level_index`)
+CASE_LEVELS = ("coarsest", "middle", "finest")
+
+
+def case_level_index(name: str, levels: int = LEVELS) -> int:
+    """Index (coarse to fine) of the case among ``levels`` levels: ``"coarsest"`` 0,
+    ``"middle"`` 1 (one level coarser than the case, the others finer), ``"finest"`` the last."""
+    require_choice("refinement case_level", name, CASE_LEVELS)
+    return {"coarsest": 0, "middle": 1, "finest": levels - 1}[name]
 
 
 @dataclasses.dataclass(frozen=True)
 class RefinementRow(JsonRecord):
-    """One quantity on the three levels and its convergence (values fine to coarse).
+    """One quantity on the study's levels and its convergence (values fine to coarse).
 
     ``gci`` and ``u_num`` are those of the finest level; ``u_num_case`` that of the case's own
     level (:meth:`gearfem.core.gci.Convergence.u_num_at`)."""
 
     quantity: str
     unit: str
-    values: tuple[float, float, float]
-    sizes: tuple[float, float, float]
+    values: tuple[float, ...]
+    sizes: tuple[float, ...]
     observed_order: float
     extrapolated: float
     gci: float
@@ -119,12 +131,14 @@ class RefinementStudy(JsonRecord):
     @property
     def case_value_index(self) -> int:
         """Index of the case's own value in each row's ``values`` (fine to coarse)."""
-        return _value_index(self.case_level)
+        return _value_index(self.case_level, len(self.levels))
 
     @property
     def case_level_name(self) -> str:
-        """``"coarsest"``, ``"middle"`` or ``"finest"`` (:data:`CASE_LEVELS`)."""
-        return next(k for k, v in CASE_LEVELS.items() if v == self.case_level)
+        """``"coarsest"``, ``"middle"`` or ``"finest"`` (:func:`case_level_index`)."""
+        return next(
+            k for k in CASE_LEVELS if case_level_index(k, len(self.levels)) == self.case_level
+        )
 
     def row(self, quantity: str) -> RefinementRow:
         try:
@@ -135,9 +149,9 @@ class RefinementStudy(JsonRecord):
             ) from None
 
 
-def _value_index(case_level: int) -> int:
+def _value_index(case_level: int, levels: int) -> int:
     """Index in a row's values (fine to coarse) of level ``case_level`` (coarse to fine)."""
-    return LEVELS - 1 - case_level
+    return levels - 1 - case_level
 
 
 def refined_mesh(options: MeshOptions, factor: float) -> MeshOptions:
@@ -248,31 +262,33 @@ def refinement_study(
     kind: str = "thermal_mesh",
     factor: float = 1.5,
     case_level: str = "coarsest",
+    levels: int = LEVELS,
 ) -> RefinementStudy:
-    """Run the refinement study of ``case`` in direction ``kind`` (collective); see the module
-    docstring. ``case_level``: ``"coarsest"``, ``"middle"`` or ``"finest"``, where the case's own
-    resolution sits among the three levels."""
+    """Run the refinement study of ``case`` in direction ``kind`` on ``levels`` levels (3 to
+    :data:`MAX_LEVELS`; collective); see the module docstring. ``case_level``: ``"coarsest"``,
+    ``"middle"`` or ``"finest"``, where the case's own resolution sits among the levels."""
     require_choice("refinement kind", kind, KINDS)
     require_range("refinement factor", factor, 1.2, 3.0)
-    require_choice("refinement case_level", case_level, tuple(CASE_LEVELS))
-    at = CASE_LEVELS[case_level]
+    if not (isinstance(levels, int) and LEVELS <= levels <= MAX_LEVELS):
+        raise ParameterError("refinement levels", levels, f"an integer {LEVELS} ... {MAX_LEVELS}")
+    at = case_level_index(case_level, levels)
     if kind != "thermal_mesh" and case.sources.mode != "cycle":
         raise ParameterError(
             "sources.mode", case.sources.mode, "'cycle'", f"a {kind} study re-solves the cycle"
         )
     cases = [
         case if level == at else level_case(case, kind, factor ** (level - at))
-        for level in range(LEVELS)
+        for level in range(levels)
     ]
-    if len({resolution_key(c) for c in cases}) < LEVELS:  # rounded counts can coincide
+    if len({resolution_key(c) for c in cases}) < levels:  # rounded counts can coincide
         raise ParameterError(
             "refinement factor",
             factor,
-            f"a factor that gives {LEVELS} different {kind} levels around the case "
+            f"a factor that gives {levels} different {kind} levels around the case "
             f"(case_level {case_level!r})",
         )
     out = prepare_output(out_dir, "refinement.json", comm)
-    levels, quantities = [], []
+    done, quantities = [], []
     cyc_fixed = None
     if kind == "thermal_mesh" and case.sources.mode == "cycle":
         cyc_fixed, _, _ = pipeline.cycle(case, comm)
@@ -289,16 +305,16 @@ def refinement_study(
             readings = pipeline.on_root(comm, lambda: evaluate(c.instruments, snapshot))
         at_speed = pipeline.CycleAtSpeed.of(cyc, c.operating.speed_rpm) if cyc else None
         size, dofs, setting = _size_and_setting(c, kind, th, cyc)
-        levels.append(RefinementLevel(level, size, dofs, setting))
+        done.append(RefinementLevel(level, size, dofs, setting))
         quantities.append(pipeline.reported_quantities(th, at_speed, readings))
     formal = case.thermal.degree + 1.0 if kind == "thermal_mesh" else None
     rows = []
     for q, (_, unit) in quantities[0].items():
         values = [lq[q][0] for lq in quantities]
-        sizes = [lv.size for lv in levels]
+        sizes = [lv.size for lv in done]
         if not all(math.isfinite(v) for v in values):
             continue
-        conv = grid_convergence(values, sizes, formal_order=formal)
+        conv = convergence(values, sizes, formal_order=formal)
         rows.append(
             RefinementRow(
                 q,
@@ -310,11 +326,11 @@ def refinement_study(
                 conv.gci,
                 conv.u_num,
                 conv.asymptotic,
-                conv.u_num_at(_value_index(at)),  # the case's level
+                conv.u_num_at(_value_index(at, levels)),  # the case's level
             )
         )
     key = resolution_key(case)
-    study = RefinementStudy(case.name, kind, factor, at, key, tuple(levels), tuple(rows))
+    study = RefinementStudy(case.name, kind, factor, at, key, tuple(done), tuple(rows))
     if comm.rank == 0:
         _write_table(study, out)
         _plot(study, out)
@@ -360,8 +376,17 @@ _TITLES = {
 }
 
 
+def _value_headings(n: int) -> list[str]:
+    """Headings of a row's values, fine to coarse: fine, medium, coarse for three levels; fine,
+    level n-2, ..., level 1, coarse for more (levels numbered from 0, the coarsest)."""
+    if n == LEVELS:
+        return ["fine", "medium", "coarse"]
+    return ["fine", *(f"level {i}" for i in range(n - 2, 0, -1)), "coarse"]
+
+
 def _write_table(study: RefinementStudy, out: Path) -> None:
-    cols = ("quantity", "unit", "fine", "medium", "coarse", "order", "extrapolated", "gci")
+    head = [h.replace(" ", "_") for h in _value_headings(len(study.levels))]
+    cols = ("quantity", "unit", *head, "order", "extrapolated", "gci")
     tmp = out / f".refinement.csv.tmp{os.getpid()}"
     with tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
@@ -394,7 +419,7 @@ def markdown(study: RefinementStudy) -> str:
     """The study as a Markdown table with its one-line caption (for refinement.md and docs/)."""
     dofs = ", ".join(str(lv.dofs) for lv in study.levels)
     sizes = ", ".join(f"{lv.size:.4g}" for lv in study.levels)
-    head = ["fine", "medium", "coarse"]  # row values are fine to coarse
+    head = _value_headings(len(study.levels))  # row values are fine to coarse
     head[study.case_value_index] += " (case)"
     lines = [
         f"{_TITLES[study.kind]}, factor {study.factor:g}: levels coarse to fine with h = {sizes} "
@@ -403,18 +428,25 @@ def markdown(study: RefinementStudy) -> str:
         "",
         f"| quantity | unit | {' | '.join(head)} | observed order | extrapolated | "
         "u_num fine | u_num case |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "|---|---|" + "---|" * len(head) + "---|---|---|---|",
     ]
     for r in study.rows:
         flag = "" if r.asymptotic else " *"
+        vals = " | ".join(f"{v:.4g}" for v in r.values)
         lines.append(
-            f"| {r.quantity} | {r.unit} | {r.values[0]:.4g} | {r.values[1]:.4g} | "
-            f"{r.values[2]:.4g} | {r.observed_order:.2f}{flag} | {r.extrapolated:.4g} | "
-            f"{r.u_num:.3g} | {r.u_num_case:.3g} |"
+            f"| {r.quantity} | {r.unit} | {vals} | {r.observed_order:.2f}{flag} | "
+            f"{r.extrapolated:.4g} | {r.u_num:.3g} | {r.u_num_case:.3g} |"
         )
     lines += [
         "",
-        "\\* not in the asymptotic range: Fs = 3 and the order clipped (gearfem/core/gci.py).",
+        "\\* not in the asymptotic range: Fs = 3 and the order clipped (gearfem/core/gci.py)"
+        + (
+            ""
+            if len(study.levels) == LEVELS
+            else "; orders and extrapolations of a least-"
+            "squares fit through all levels, u_num with the fit's scatter"
+        )
+        + ".",
     ]
     return "\n".join(lines)
 

@@ -7,7 +7,12 @@ import math
 import pytest
 
 from gearfem.core.errors import ParameterError
-from gearfem.core.gci import grid_convergence, representative_size
+from gearfem.core.gci import (
+    convergence,
+    grid_convergence,
+    least_squares_convergence,
+    representative_size,
+)
 
 
 @pytest.mark.parametrize("order", [1.0, 2.0, 3.0])
@@ -73,3 +78,60 @@ def test_uncertainty_of_every_level_on_an_exact_power_law(level):
     assert c.gci_at(0) == c.gci
     with pytest.raises(ParameterError):
         c.gci_at(3)
+
+
+@pytest.mark.parametrize("order", [0.8, 1.5, 2.6])
+@pytest.mark.parametrize("sizes", [(0.5, 1 / 3, 0.2, 1 / 7), (0.1, 0.13, 0.2, 0.26, 0.4)])
+def test_least_squares_on_an_exact_power_law(order, sizes):
+    """Four or five solutions φ_h = 3 + 2 h^p (unequal ratios, e.g. the layers 2 / 3 / 5 / 7): the
+    fit is exact (σ = 0), p and φ0 are recovered, and the uncertainty of every level is Fs
+    |φ_i − φ| with Fs = 1.25, as Roache's GCI of that level."""
+    values = [3.0 + 2.0 * h**order for h in sizes]
+    c = least_squares_convergence(values, sizes, formal_order=3.0)
+    assert c.observed_order == pytest.approx(order, rel=1e-6)
+    assert c.extrapolated == pytest.approx(3.0, abs=1e-8)
+    assert c.asymptotic and c.safety_factor == 1.25 and c.scatter == pytest.approx(0, abs=1e-8)
+    for level, v in enumerate(c.values):
+        assert c.gci_at(level) == pytest.approx(1.25 * abs(v - 3.0), rel=1e-6, abs=1e-8)
+    assert c.gci == c.gci_at(0) and c.u_num == pytest.approx(c.gci / 1.15)
+    with pytest.raises(ParameterError, match="refinement level"):
+        c.gci_at(len(sizes))
+
+
+def test_least_squares_with_scatter_brackets_the_error():
+    """A power law of order 1.2 with a scatter of about a tenth of its successive differences:
+    the fit recovers the order roughly, and the expanded uncertainty U of every level brackets its
+    true error (exact value 10)."""
+    sizes = (1 / 2, 1 / 3, 1 / 5, 1 / 7, 1 / 10)
+    noise = (0.004, -0.006, 0.005, -0.003, 0.002)
+    values = [10.0 + 0.5 * h**1.2 + e for h, e in zip(sizes, noise)]
+    c = least_squares_convergence(values, sizes)
+    assert c.asymptotic and 0.9 < c.observed_order < 1.5 and c.scatter > 0.0
+    for level, v in enumerate(c.values):
+        assert c.gci_at(level) >= abs(v - 10.0)  # U, the expanded uncertainty
+
+
+def test_least_squares_outside_the_asymptotic_range():
+    """A slow trend (order 0.3) is not trusted: the fit is repeated at the clipped order 0.5 with
+    Fs = 3, which bounds the coarse level's true error; oscillating solutions are flagged too."""
+    sizes = (1 / 2, 1 / 3, 1 / 5, 1 / 7)
+    values = [5.0 + h**0.3 for h in sizes]
+    c = least_squares_convergence(values, sizes)
+    assert c.observed_order == pytest.approx(0.3, rel=1e-5) and not c.asymptotic
+    assert c.order_used == 0.5 and c.safety_factor == 3.0
+    assert c.gci_at(3) >= abs(values[0] - 5.0)
+    osc = least_squares_convergence([1.0, 1.2, 0.9, 1.1], [0.1, 0.2, 0.3, 0.4])
+    assert not osc.asymptotic and osc.safety_factor == 3.0
+
+
+def test_convergence_takes_the_procedure_of_the_number_of_solutions():
+    sizes3, values3 = (0.1, 0.15, 0.225), (3.02, 3.045, 3.101)
+    assert convergence(values3, sizes3) == grid_convergence(values3, sizes3)
+    four = convergence([*values3, 3.2], [*sizes3, 0.3])
+    assert len(four.fitted) == 4
+    with pytest.raises(ParameterError, match="refinement levels"):
+        least_squares_convergence(values3, sizes3)
+    with pytest.raises(ParameterError, match="mesh sizes"):
+        least_squares_convergence([1.0, 2.0, 3.0, 4.0], [0.1, 0.2, 0.2, 0.4])
+    flat = least_squares_convergence([2.0] * 4, [0.1, 0.2, 0.3, 0.4])
+    assert flat.gci == 0.0 and flat.gci_at(3) == 0.0

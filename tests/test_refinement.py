@@ -11,9 +11,9 @@ import pytest
 
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
-from gearfem.core.gci import grid_convergence
+from gearfem.core.gci import grid_convergence, least_squares_convergence
 from gearfem.geometry.options import MeshOptions
-from gearfem.refinement import RefinementStudy, refined_mesh, refinement_study
+from gearfem.refinement import RefinementStudy, markdown, refined_mesh, refinement_study
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -91,3 +91,27 @@ def test_thermal_refinement_study(tmp_out, comm, case_level):
     assert RefinementStudy.from_json(data) == study
     for name in ("refinement.csv", "refinement.md", "refinement.png"):
         assert (out / name).stat().st_size > 0
+
+
+@pytest.mark.mpi
+def test_a_four_level_study_fits_all_levels(tmp_out, comm):
+    """``--levels 4``: four thermal meshes, each row's u_num of the case from the least-squares
+    fit through all four (gearfem.core.gci.least_squares_convergence), the tables with a column
+    per level; a fifth of the allowed range is refused before anything runs."""
+    out = tmp_out / "converge_four"
+    case = _small_case()
+    study = refinement_study(case, out, comm, "thermal_mesh", 1.5, "coarsest", levels=4)
+    assert len(study.levels) == 4 and all(len(r.values) == 4 for r in study.rows)
+    assert list(study.dofs) == sorted(study.dofs) and len(set(study.dofs)) == 4
+    assert study.case_value_index == 3 and study.case_level_name == "coarsest"
+    for r in study.rows:
+        conv = least_squares_convergence(list(r.values), list(r.sizes), formal_order=2.0)
+        assert r.u_num_case == pytest.approx(conv.u_num_at(3), rel=1e-9, abs=1e-12)
+        assert r.observed_order == pytest.approx(conv.observed_order, rel=1e-9, nan_ok=True)
+    table = markdown(study).splitlines()
+    assert "| fine | level 2 | level 1 | coarse (case) |" in table[2]
+    assert all(row.count("|") == table[2].count("|") for row in table[2:-2])
+    header = (out / "refinement.csv").read_text().splitlines()[0]
+    assert header.startswith("quantity,unit,fine,level_2,level_1,coarse,order")
+    with pytest.raises(ParameterError, match="refinement levels"):
+        refinement_study(case, tmp_out / "converge_six", comm, "thermal_mesh", levels=6)

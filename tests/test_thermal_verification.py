@@ -20,7 +20,7 @@ from mpi4py import MPI
 from scipy.optimize import brentq
 from thermal_meshes import box_domain, sector_domain, square_domain
 
-from gearfem.core.gci import grid_convergence
+from gearfem.core.gci import grid_convergence, least_squares_convergence
 from gearfem.core.materials import ZERO_CELSIUS_K, Material, TemperatureTable
 from gearfem.core.materials import STEFAN_BOLTZMANN_W_m2K4 as SIGMA
 from gearfem.thermal import (
@@ -135,6 +135,19 @@ def test_gci_recovers_the_mms_order_and_brackets_the_error(degree, sizes):
     # a case in the middle of the study (gearfem converge --case-level middle): the medium
     # value's uncertainty brackets its error too
     assert conv.gci_at(1) >= abs(errors[1] - 0.0)
+
+
+@pytest.mark.parametrize("degree, sizes", [(1, (6, 9, 13, 20)), (2, (3, 5, 7, 11))])
+def test_least_squares_recovers_the_mms_order_on_four_meshes(degree, sizes):
+    """The four-level procedure (``gearfem converge --levels 4``) on the same manufactured
+    problem, with unequal ratios: it recovers the order p + 1, and the uncertainty of every level
+    brackets that level's true error (the exact value of an error norm is 0)."""
+    errors = _mms_steady_errors(degree, sizes, k_of_T=False)
+    conv = least_squares_convergence(errors, [1.0 / n for n in sizes], formal_order=degree + 1)
+    assert conv.observed_order == pytest.approx(degree + 1, abs=0.2), conv
+    assert conv.asymptotic
+    for level, e in enumerate(conv.values):
+        assert conv.gci_at(level) >= abs(e)
 
 
 @pytest.mark.parametrize("cp_of_T", [False, True])

@@ -17,13 +17,36 @@ with Fs = 1.25). When the convergence is oscillatory (s < 0), or the differences
 under refinement (faster than order 0.5 would make them), or the observed order is below 0.5 or
 above ``formal_order`` (when given), the estimate is not in the asymptotic range: the order
 used is clipped to [0.5, formal_order], Fs = 3, and the result says ``asymptotic = False``.
+
+Four or more solutions (:func:`least_squares_convergence`; Eça & Hoekstra, J. Comput. Phys. 262
+(2014) 104-130): the three-solution formula would use only three of them, and a study whose
+differences are comparable with the scatter of the solutions cannot tell its order from three.
+The power law is fitted in the least-squares sense,
+
+    φ_i ≈ φ0 + α h_i^p        (p by a bounded scalar search, φ0 and α linear for each p),
+
+with the standard deviation of the fit σ = sqrt(Σ (φ_i − φ_fit,i)² / (n − 3)). In the asymptotic
+range (monotone solutions, 0.5 <= p <= formal order, and σ below the mean difference between
+successive solutions Δ_M/(n − 1), Δ_M the data range: Eça & Hoekstra's test of a good fit),
+Fs = 1.25; otherwise p is clipped to [0.5, formal order], the fit repeated at that order
+(σ with n − 2) and Fs = 3. The uncertainty of the solution on level i is that of the procedure,
+
+    U_i = Fs |φ_i − φ0| + σ + |φ_i − φ_fit,i|,
+
+which for three solutions (an exact fit, σ = 0) is Roache's GCI of that level; the data-range
+bound min(U_i, 3 Δ_M) the procedure applies to orders below 0.5 is not used (gearfem keeps the
+larger, clipped-order estimate). u_num = U / 1.15 as above.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Sequence
+
+import numpy as np
+from scipy.optimize import minimize_scalar
 
 from gearfem.core.errors import ParameterError
 
@@ -36,23 +59,33 @@ GCI_TO_STANDARD = 1.15  # V&V 20: u_num = GCI / 1.15 with Fs = 1.25
 class Convergence:
     """Observed order, extrapolated value and numerical uncertainty of the finest solution."""
 
-    values: tuple[float, float, float]  # φ1 (fine), φ2, φ3 (coarse)
-    sizes: tuple[float, float, float]  # h1 < h2 < h3
-    observed_order: float  # p from the three solutions (nan when they are equal)
+    values: tuple[float, ...]  # φ1 (fine), φ2, ... (coarse)
+    sizes: tuple[float, ...]  # h1 < h2 < ...
+    observed_order: float  # p from the solutions (nan when they are equal)
     order_used: float
     extrapolated: float
     gci: float  # absolute, same unit as the values
     u_num: float  # standard uncertainty of φ1
-    asymptotic: bool  # monotone and 0.5 <= p <= formal order
+    asymptotic: bool  # monotone and 0.5 <= p <= formal order (and a good fit: 4+ solutions)
     safety_factor: float = SAFETY_FACTOR  # Fs used (1.25 in the asymptotic range, else 3)
+    scatter: float = 0.0  # σ, standard deviation of the least-squares fit (0 for 3 solutions)
+    fitted: tuple[float, ...] = ()  # the fit at each size (4+ solutions; 3: the values)
 
     def gci_at(self, level: int) -> float:
-        """GCI of the solution on ``level`` (0: finest, 1: medium, 2: coarsest): Fs |φ_level −
-        φ_ext| with the order and Fs of this estimate (Roache's coarse-grid GCI); level 0 gives
-        :attr:`gci`. For oscillatory convergence the spread bound :attr:`gci` holds for every
-        level."""
-        if level not in (0, 1, 2):
-            raise ParameterError("refinement level", level, "0 (finest), 1 or 2 (coarsest)")
+        """GCI of the solution on ``level`` (0: finest, ..., len(values) − 1: coarsest): Fs
+        |φ_level − φ_ext| with the order and Fs of this estimate (Roache's coarse-grid GCI), plus
+        for a least-squares fit its scatter and the level's distance from the fit; level 0 gives
+        :attr:`gci`. For oscillatory convergence of three solutions the spread bound
+        :attr:`gci` holds for every level."""
+        n = len(self.values)
+        if not (isinstance(level, int) and 0 <= level < n):
+            raise ParameterError("refinement level", level, f"0 (finest) ... {n - 1} (coarsest)")
+        if self.fitted:
+            return (
+                self.safety_factor * abs(self.values[level] - self.extrapolated)
+                + self.scatter
+                + abs(self.values[level] - self.fitted[level])
+            )
         if level == 0 or self.extrapolated == self.values[0]:
             return self.gci
         return self.safety_factor * abs(self.values[level] - self.extrapolated)
@@ -131,4 +164,89 @@ def grid_convergence(
         extrapolated = f[0]
     return Convergence(
         f, h, p, p_used, extrapolated, gci, gci / GCI_TO_STANDARD, asymptotic, safety_factor=fs
+    )
+
+
+def convergence(
+    values: Sequence[float], sizes: Sequence[float], formal_order: float | None = None
+) -> Convergence:
+    """Three solutions: :func:`grid_convergence`; four or more:
+    :func:`least_squares_convergence`."""
+    if len(values) == 3:
+        return grid_convergence(values, sizes, formal_order)
+    return least_squares_convergence(values, sizes, formal_order)
+
+
+#: the orders the least-squares fit searches (a wider range than any order it would trust)
+ORDER_SEARCH = (0.05, 12.0)
+
+
+def _fit(x: np.ndarray, f: np.ndarray, p: float) -> tuple[float, float, float]:
+    """φ0, α and the sum of squared residuals of the least-squares fit f ≈ φ0 + α x^p."""
+    a = np.column_stack([np.ones_like(x), x**p])
+    (phi0, alpha), *_ = np.linalg.lstsq(a, f, rcond=None)
+    res = f - (phi0 + alpha * x**p)
+    return float(phi0), float(alpha), float(res @ res)
+
+
+def least_squares_convergence(
+    values: Sequence[float], sizes: Sequence[float], formal_order: float | None = None
+) -> Convergence:
+    """Four or more solutions ``values`` on meshes of sizes ``sizes`` (any order) → observed
+    order, extrapolation and uncertainty from a least-squares power-law fit (module docstring)."""
+    if len(values) < 4 or len(sizes) != len(values):
+        raise ParameterError(
+            "refinement levels", len(values), "4 or more solutions with as many sizes"
+        )
+    pairs = sorted(zip(sizes, values))
+    h = tuple(float(x) for x, _ in pairs)
+    f = tuple(float(v) for _, v in pairs)
+    if not (h[0] > 0.0 and all(a < b for a, b in itertools.pairwise(h))):
+        raise ParameterError("mesh sizes", sizes, f"{len(h)} distinct positive sizes")
+    if not all(math.isfinite(v) for v in f):
+        raise ParameterError("values", values, "finite numbers")
+    n = len(f)
+    spread = max(f) - min(f)
+    if spread == 0.0:
+        return Convergence(f, h, math.nan, math.nan, f[0], 0.0, 0.0, True, fitted=f)
+    x = np.asarray(h) / h[0]  # relative sizes: 1 = the finest
+    y = np.asarray(f)
+    # the order: the best of a logarithmic scan, refined by a bounded search around it
+    grid = np.geomspace(*ORDER_SEARCH, 200)
+    sse = [_fit(x, y, p)[2] for p in grid]
+    k = int(np.argmin(sse))
+    lo_b, hi_b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    best = minimize_scalar(
+        lambda p: _fit(x, y, p)[2],
+        bounds=(lo_b, hi_b),
+        method="bounded",
+        options={"xatol": 1e-10},
+    )
+    p = float(best.x)
+    lo, hi = 0.5, formal_order if formal_order is not None else math.inf
+    steps = np.diff(y)
+    monotone = bool(np.all(steps > 0.0) or np.all(steps < 0.0))
+    sigma = math.sqrt(_fit(x, y, p)[2] / (n - 3))
+    good_fit = sigma < spread / (n - 1)
+    asymptotic = monotone and good_fit and lo <= p <= hi
+    if asymptotic:
+        p_used, fs = p, SAFETY_FACTOR
+    else:
+        p_used, fs = min(max(p, lo), hi), SAFETY_FACTOR_OUTSIDE
+        sigma = math.sqrt(_fit(x, y, p_used)[2] / (n - 2))
+    phi0, alpha, _ = _fit(x, y, p_used)
+    fitted = tuple(float(v) for v in phi0 + alpha * x**p_used)
+    gci = fs * abs(f[0] - phi0) + sigma + abs(f[0] - fitted[0])
+    return Convergence(
+        f,
+        h,
+        p,
+        p_used,
+        phi0,
+        gci,
+        gci / GCI_TO_STANDARD,
+        asymptotic,
+        safety_factor=fs,
+        scatter=sigma,
+        fitted=fitted,
     )
