@@ -464,13 +464,30 @@ def _plot(study: RefinementStudy, out: Path) -> None:
         if r.unit == "C" and r.quantity.endswith(("max", "mean", "surface", "bulk"))
     ]
     colours = plt.get_cmap("tab20").colors  # one colour per quantity (the default cycle has 10)
+    at = study.case_value_index
     for r, colour in zip(rows, colours[::2] + colours[1::2]):
+        # each quantity relative to the case's own value: the changes (tenths of a kelvin to a
+        # few kelvin) are what the study is about, not the temperatures (100-300 C)
         h = [x / r.sizes[0] for x in r.sizes]
-        ax.plot(h, r.values, "o-", color=colour, label=f"{r.quantity} (±{r.u_num_case:.1f} K)")
-        ax.plot([0.0], [r.extrapolated], "*", color=colour, ms=10)
+        ref = r.values[at]
+        ax.plot(
+            h,
+            [v - ref for v in r.values],
+            "o-",
+            color=colour,
+            label=f"{r.quantity} {ref:.1f} ± {r.u_num_case:.2g} K{'' if r.asymptotic else ' *'}",
+        )
+        shift = 0.012 * (max(h) - 1.0) * (rows.index(r) - len(rows) / 2)  # bars side by side
+        ax.errorbar(h[at] + shift, 0.0, yerr=r.u_num_case, color=colour, capsize=2, lw=1)
+        ax.plot([0.0], [r.extrapolated - ref], "*", color=colour, ms=10)
+    ax.axhline(0.0, color="0.5", lw=0.8)
     ax.set_xlabel("relative size h / h_fine (★: extrapolated to h = 0)")
-    ax.set_ylabel("temperature at the end (°C)")
-    ax.set_title(f"{_TITLES[study.kind]}, factor {study.factor:g} (±: u_num of the case)")
+    ax.set_ylabel("change from the case's value (K)")
+    ax.set_title(
+        f"{_TITLES[study.kind]}, factor {study.factor:g}, {len(study.levels)} levels\n"
+        "(bar at the case's level: ± u_num of the case; *: outside the asymptotic range)",
+        fontsize=10,
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()

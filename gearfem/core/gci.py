@@ -177,7 +177,9 @@ def convergence(
     return least_squares_convergence(values, sizes, formal_order)
 
 
-#: the orders the least-squares fit searches (a wider range than any order it would trust)
+#: the orders the least-squares fit searches (a wider range than any order it would trust); an
+#: observed order at the lower end means that no converging power law fits: the steps between
+#: successive solutions do not shrink under refinement
 ORDER_SEARCH = (0.05, 12.0)
 
 
