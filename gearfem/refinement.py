@@ -7,8 +7,8 @@ convergence index with the numerical standard uncertainty u_num (:mod:`gearfem.c
 three-solution GCI, or for four or more the least-squares procedure of Eça & Hoekstra) — of the
 solution at the case's own resolution, which is one of the levels: the coarsest (``case_level =
 "coarsest"``, levels 1, r, r², ... times finer than the case), the second coarsest
-(``"middle"``, levels 1/r, 1, r, ...: the case's u_num then comes from one coarser and finer
-solutions; with three levels the GCI of the medium grid of Celik et al.) or the finest
+(``"middle"``, levels 1/r, 1, r, ...: the case's u_num then comes from one coarser solution
+and the finer ones; with three levels the GCI of the medium grid of Celik et al.) or the finest
 (``"finest"``, levels ..., 1/r², 1/r and 1: the fine-grid GCI of Celik et al., what the
 procedure reports for the solution it is applied to). A fourth level tells a slow trend from
 settling where three solutions differ by little more than their scatter. Per kind:
