@@ -69,7 +69,7 @@ class Convergence:
     asymptotic: bool  # monotone and 0.5 <= p <= formal order (and a good fit: 4+ solutions)
     safety_factor: float = SAFETY_FACTOR  # Fs used (1.25 in the asymptotic range, else 3)
     scatter: float = 0.0  # σ, standard deviation of the least-squares fit (0 for 3 solutions)
-    fitted: tuple[float, ...] = ()  # the fit at each size (4+ solutions; 3: the values)
+    fitted: tuple[float, ...] = ()  # the fit at each size (4+ solutions; empty for 3)
 
     def gci_at(self, level: int) -> float:
         """GCI of the solution on ``level`` (0: finest, ..., len(values) − 1: coarsest): Fs
