@@ -129,6 +129,21 @@ def observed_order(
     return p, s
 
 
+def _sorted_levels(
+    values: Sequence[float], sizes: Sequence[float]
+) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Sizes and values sorted fine to coarse; the sizes distinct and positive, the values
+    finite."""
+    pairs = sorted(zip(sizes, values))
+    h = tuple(float(x) for x, _ in pairs)
+    f = tuple(float(v) for _, v in pairs)
+    if not (h[0] > 0.0 and all(a < b for a, b in itertools.pairwise(h))):
+        raise ParameterError("mesh sizes", sizes, f"{len(h)} distinct positive sizes")
+    if not all(math.isfinite(v) for v in f):
+        raise ParameterError("values", values, "finite numbers")
+    return h, f
+
+
 def grid_convergence(
     values: Sequence[float], sizes: Sequence[float], formal_order: float | None = None
 ) -> Convergence:
@@ -136,13 +151,7 @@ def grid_convergence(
     here) → observed order, extrapolation and GCI of the finest."""
     if len(values) != 3 or len(sizes) != 3:
         raise ParameterError("refinement levels", len(values), "exactly 3 solutions and 3 sizes")
-    pairs = sorted(zip(sizes, values))
-    h = tuple(float(x) for x, _ in pairs)
-    f = tuple(float(v) for _, v in pairs)
-    if not (0.0 < h[0] < h[1] < h[2]):
-        raise ParameterError("mesh sizes", sizes, "three distinct positive sizes")
-    if not all(math.isfinite(v) for v in f):
-        raise ParameterError("values", values, "finite numbers")
+    h, f = _sorted_levels(values, sizes)
     if f[0] == f[1] == f[2]:
         return Convergence(f, h, math.nan, math.nan, f[0], 0.0, 0.0, True)
     p, s = observed_order(f, h)
@@ -200,13 +209,7 @@ def least_squares_convergence(
         raise ParameterError(
             "refinement levels", len(values), "4 or more solutions with as many sizes"
         )
-    pairs = sorted(zip(sizes, values))
-    h = tuple(float(x) for x, _ in pairs)
-    f = tuple(float(v) for _, v in pairs)
-    if not (h[0] > 0.0 and all(a < b for a, b in itertools.pairwise(h))):
-        raise ParameterError("mesh sizes", sizes, f"{len(h)} distinct positive sizes")
-    if not all(math.isfinite(v) for v in f):
-        raise ParameterError("values", values, "finite numbers")
+    h, f = _sorted_levels(values, sizes)
     n = len(f)
     spread = max(f) - min(f)
     if spread == 0.0:
@@ -228,15 +231,16 @@ def least_squares_convergence(
     lo, hi = 0.5, formal_order if formal_order is not None else math.inf
     steps = np.diff(y)
     monotone = bool(np.all(steps > 0.0) or np.all(steps < 0.0))
-    sigma = math.sqrt(_fit(x, y, p)[2] / (n - 3))
+    phi0, alpha, sse = _fit(x, y, p)
+    sigma = math.sqrt(sse / (n - 3))
     good_fit = sigma < spread / (n - 1)
     asymptotic = monotone and good_fit and lo <= p <= hi
     if asymptotic:
         p_used, fs = p, SAFETY_FACTOR
-    else:
+    else:  # the fit again at the clipped order, which has one free parameter less
         p_used, fs = min(max(p, lo), hi), SAFETY_FACTOR_OUTSIDE
-        sigma = math.sqrt(_fit(x, y, p_used)[2] / (n - 2))
-    phi0, alpha, _ = _fit(x, y, p_used)
+        phi0, alpha, sse = _fit(x, y, p_used)
+        sigma = math.sqrt(sse / (n - 2))
     fitted = tuple(float(v) for v in phi0 + alpha * x**p_used)
     gci = fs * abs(f[0] - phi0) + sigma + abs(f[0] - fitted[0])
     return Convergence(
