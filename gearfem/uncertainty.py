@@ -6,9 +6,10 @@ structural layers across the face width, positions per pitch, tip elements), the
 standard uncertainty u_num of every reported quantity at that resolution (the grid convergence
 index of :mod:`gearfem.core.gci`, divided by 1.15 as in ASME V&V 20). The studies are filed by
 the case's :func:`resolution_key` — a hash of everything that sets the discretisation (geometry,
-both meshes, positions, thermal degree and time error, contact discretisation, the camera's
-footprint, time and aim quadratures) and nothing that sets only the physics (materials, convection,
-friction, sources, operating point, the instruments' optics):
+both meshes, positions, thermal degree and time error, contact discretisation, the flux
+reconstruction's widths and algorithm, the camera's footprint, time and aim quadratures) and
+nothing that sets only the physics (materials, convection, friction, sources, operating point,
+the instruments' optics):
 
 * ``gearfem/data/uncertainty/<key>/<kind>.json``: shipped studies (the built-in case), and
 * ``<cache root>/uncertainty/<key>/<kind>.json``: studies written by ``gearfem converge``
@@ -43,6 +44,7 @@ from gearfem.config import Case
 from gearfem.core.io import read_json, write_json
 from gearfem.core.params import to_dict
 from gearfem.core.results import JsonRecord
+from gearfem.coupling.transfer import RECONSTRUCTION_VERSION
 from gearfem.cycle.cache import cache_root
 
 log = logging.getLogger(__name__)
@@ -104,6 +106,8 @@ def resolution_key(case: Case) -> str:
             case.sources.flux_smoothing_profile_mm,
             case.sources.flux_smoothing_axial_mm,
         ],
+        # the reconstruction's algorithm (2: mirrored at the side faces)
+        "flux_reconstruction": RECONSTRUCTION_VERSION,
         # the camera reading's quadratures (footprint rays, rotation phases, sub-pixel aims)
         "camera_quadrature": [
             case.instruments.camera.subsamples,

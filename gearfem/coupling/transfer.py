@@ -3,13 +3,28 @@
 The cycle gives a flux per facet of one reference tooth sector (body frame, as built), summed
 over discrete positions. It is first reconstructed as a smoother field on the reference facets
 (optional, ``[sources] flux_smoothing_*_mm``): every reference facet j spreads its heat q_j A_j
-over its neighbours i with Gaussian weights A_i K(x_i - x_j) normalised over the neighbours, so
+over its neighbours i with Gaussian weights, balanced so that
 
-    q̃_i = Σ_j S_ij q_j,   S_ij = A_j K_ij / Σ_k A_k K_kj,   Σ_i A_i q̃_i = Σ_j A_j q_j,
+    q̃_i = Σ_j S_ij q_j,   S = D_c K D_A D_c,   c_i Σ_j K_ij A_j c_j = 1 for every i,
 
-with K anisotropic (standard deviations σ_p in the flank's plane, σ_z along the face width, cut at
-3σ). Each flank facet f of the thermal mesh (drive flanks, tips, roots) then takes the mean of
-the reconstructed flux over its area,
+K the symmetric kernel below, A the facet areas, D diagonal. The scaling c (symmetric
+Sinkhorn-Knopp balancing, to 1e-14) makes both the rows of S sum to one (a uniform flux stays
+uniform on every facet) and, K being symmetric, the area-weighted columns Σ_i A_i S_ij = A_j
+(every facet's heat is kept: Σ_i A_i q̃_i = Σ_j A_j q_j). The kernel is anisotropic (standard
+deviations σ_p in the flank's plane, σ_z along the face width, cut at 3σ) and mirrored in the
+two side planes z = 0 and z = b (method of images, a reflecting side face):
+
+    K_ij = G(x_i - x_j) + G(x_i - M_0 x_j) + G(x_i - M_b x_j),
+
+M_0, M_b the reflections. Until stop 30 the kernel was only normalised per column
+(S_ij = A_j G_ij / Σ_k A_k G_kj): the heat was kept, but a facet near a side face or the tip or
+root end of the surface, having neighbours on one side only, sent its heat inwards, and a
+uniform flux came out 0.86 / 0.97 / 1.08 on the first rows of 14 with σ_z = 1.5 mm
+(benchmarks/reconstruction_side_faces.py). The images keep the spread next to a side face the
+reflected Gaussian; the balancing removes what is left (discrete rows, edges in the profile).
+
+Each flank facet f of the thermal mesh (drive flanks, tips, roots) then takes the mean of the
+reconstructed flux over its area,
 
     q_f = Σ_p w_p q̃(ref(x_p)) / Σ_p w_p,
 
@@ -28,6 +43,8 @@ rows S[ref(f), :], shared by the static and the temperature-dependent friction f
 
 from __future__ import annotations
 
+import math
+
 import basix
 import numpy as np
 import scipy.sparse as sps
@@ -35,7 +52,7 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from gearfem.contact.kinematics import evaluate
-from gearfem.core.errors import ParameterError
+from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.facets import FacetReference
 from gearfem.geometry.mesh import parse_group_name
 
@@ -48,26 +65,79 @@ TRANSFER_SUBDIVISIONS = 8
 FLANK_KINDS = ("drive_flank", "tip", "root")
 #: Kernel cut-off of the reconstruction, in standard deviations.
 SMOOTHING_CUTOFF = 3.0
+#: Tolerance and iteration budget of the reconstruction's balancing (:func:`_balance`): the rows of
+#: S sum to 1 and its area-weighted columns to the facets' areas within BALANCE_RTOL.
+BALANCE_RTOL = 1e-14
+BALANCE_MAX_ITERATIONS = 500
+#: What the reconstruction computes, for the keys of stored results made with it (the numerical
+#: uncertainty studies): 1 until stop 30 (normalised per column); 2: balanced, mirrored kernels.
+RECONSTRUCTION_VERSION = 2
 
 
 def smoothing_operator(
-    points_m: np.ndarray, area_m2: np.ndarray, sigma_m: tuple[float, float] | None
+    points_m: np.ndarray,
+    area_m2: np.ndarray,
+    sigma_m: tuple[float, float] | None,
+    side_planes_z_m: tuple[float, float] | None,
 ) -> sps.csr_matrix:
     """The conservative reconstruction S (module docstring) on facets at ``points_m`` (tooth-local,
-    z along the axis) with areas ``area_m2``; the identity for ``sigma_m`` None."""
+    z along the axis) with areas ``area_m2``; the identity for ``sigma_m`` None. The kernel is
+    mirrored in the planes z = ``side_planes_z_m`` (the side faces; None: a face without ends)."""
     n = len(area_m2)
     if sigma_m is None:
         return sps.identity(n, format="csr")
+    points = np.asarray(points_m, dtype=float)
     sp_, sz = sigma_m
-    y = np.asarray(points_m) / np.array([sp_, sp_, sz])
+    scale = np.array([sp_, sp_, sz])
+    y = points / scale
     tree = cKDTree(y)
     pairs = tree.query_pairs(SMOOTHING_CUTOFF, output_type="ndarray")
-    i = np.concatenate([pairs[:, 0], pairs[:, 1], np.arange(n)])
-    j = np.concatenate([pairs[:, 1], pairs[:, 0], np.arange(n)])
-    k = np.exp(-0.5 * np.sum((y[i] - y[j]) ** 2, axis=1))
-    norm = np.bincount(j, weights=area_m2[i] * k, minlength=n)  # Σ_k A_k K_kj
-    w = area_m2[j] * k / norm[j]
-    return sps.csr_matrix((w, (i, j)), shape=(n, n))
+    i = [pairs[:, 0], pairs[:, 1], np.arange(n)]
+    j = [pairs[:, 1], pairs[:, 0], np.arange(n)]
+    k = [np.exp(-0.5 * np.sum((y[a] - y[b]) ** 2, axis=1)) for a, b in zip(i[:2], j[:2])]
+    k.append(np.ones(n))
+    if side_planes_z_m is not None:
+        z0, z1 = side_planes_z_m
+        inside = (points[:, 2] >= z0) & (points[:, 2] <= z1)
+        if not z0 < z1 or not np.all(inside):
+            raise ParameterError(
+                "side_planes_z_m",
+                (z0, z1),
+                f"z0 < z1 bracketing the facets' z, [{points[:, 2].min()}, {points[:, 2].max()}] m",
+            )
+        for plane in (z0, z1):
+            image = points * [1.0, 1.0, -1.0] + [0.0, 0.0, 2.0 * plane]
+            d = tree.sparse_distance_matrix(
+                cKDTree(image / scale), SMOOTHING_CUTOFF, output_type="ndarray"
+            )  # (facet i, image of facet j, distance)
+            i.append(d["i"])
+            j.append(d["j"])
+            k.append(np.exp(-0.5 * d["v"] ** 2))
+    i, j, k = np.concatenate(i), np.concatenate(j), np.concatenate(k)
+    K = sps.csr_matrix((k, (i, j)), shape=(n, n))  # duplicates (a pair and its image) summed
+    c = _balance(K, np.asarray(area_m2, dtype=float))
+    return (sps.diags(c) @ K @ sps.diags(area_m2 * c)).tocsr()
+
+
+def _balance(K: sps.csr_matrix, area: np.ndarray) -> np.ndarray:
+    """The scaling c > 0 with c_i Σ_j K_ij A_j c_j = 1 for every i (symmetric Sinkhorn-Knopp
+    balancing of the symmetric kernel ``K``: c <- sqrt(c / (K A c)), converging geometrically);
+    :class:`ConvergenceError` when it has not reached :data:`BALANCE_RTOL` in
+    :data:`BALANCE_MAX_ITERATIONS`."""
+    c = 1.0 / np.sqrt(K @ area)  # exact for a kernel whose A-weighted sums are all equal
+    err = math.inf
+    for _ in range(BALANCE_MAX_ITERATIONS):
+        r = c * (K @ (area * c))
+        err = float(np.max(np.abs(r - 1.0))) if len(r) else 0.0
+        if err <= BALANCE_RTOL:
+            return c
+        c = c / np.sqrt(r)
+    raise ConvergenceError(
+        "flux reconstruction balancing",
+        f"rows of S sum to 1 within {err:.3e}, not {BALANCE_RTOL:g}",
+        iteration=BALANCE_MAX_ITERATIONS,
+        residual=err,
+    )
 
 
 def tooth_local(
@@ -185,8 +255,13 @@ class FlankTransfer:
         )  # duplicates summed: q_f = Σ_p w_p q(ref(x_p)) / Σ_p w_p
         self.cells, self.local_facet = cf[:, 0], cf[:, 1]
         self.area, self.centroid, self.tooth = area, xc, tooth
+        # the side faces z = 0 and z = b, in the tooth-local frame (the axis point at z = 0)
+        b = gear_mesh.geometry.face_width_mm * 1e-3
         self.smoother = smoothing_operator(
-            fields.facet_points_m - fields.center_m, fields.facet_area_m2, smoothing_m
+            fields.facet_points_m - fields.center_m,
+            fields.facet_area_m2,
+            smoothing_m,
+            (0.0 - fields.center_m[2], b - fields.center_m[2]),
         )
         #: (thermal facets x reference facets): the facet means of the reconstructed flux
         self.sampler = (mean @ self.smoother).tocsr()
@@ -234,6 +309,7 @@ class FlankTransfer:
 __all__ = [
     "AREA_QUADRATURE_DEGREE",
     "FLANK_KINDS",
+    "RECONSTRUCTION_VERSION",
     "SMOOTHING_CUTOFF",
     "TRANSFER_SUBDIVISIONS",
     "FlankTransfer",
