@@ -116,14 +116,15 @@ def main() -> None:
             "reconstruction",
             "first rows from z = 0",
             "first rows from z = b",
-            "largest |row mean - 1|",
-            "largest |facet - 1| (all contact facets)",
+            "largest deviation of a row mean from 1",
+            "of a facet (all contact facets)",
         ),
         table,
     )
     caption = (
-        "\n\nA uniform flux through the reconstruction on the pinion's drive-flank facets of each "
-        "layer level's cycle, area-weighted mean per facet row (1 = unbiased); "
+        "\n\nA uniform flux through the reconstruction on the pinion's contact-surface facets of "
+        "each layer level's cycle; rows: area-weighted means over the drive flank's facet rows "
+        "(1 = unbiased); "
         "`python benchmarks/reconstruction_side_faces.py --docs`."
     )
     print(text)
