@@ -15,7 +15,11 @@ finite-element solve: seconds.
 
     python benchmarks/reconstruction_side_faces.py [--docs]
 
-``--docs`` replaces the block ``reconstruction_side_faces`` of docs/refinement.md.
+It also prints the cycle's own flux per facet row (heat per area relative to the rows' mean, and
+the largest facet flux of each row): what the layers resolve across the face width.
+
+``--docs`` replaces the blocks ``reconstruction_side_faces`` and ``cycle_flux_rows`` of
+docs/refinement.md.
 """
 
 from __future__ import annotations
@@ -62,13 +66,19 @@ def column_normalised(points_m, area_m2, sigma_m) -> sps.csr_matrix:
     return sps.csr_matrix((w, (d["i"], d["j"])), shape=(len(area_m2),) * 2)
 
 
+def _row_max(u: np.ndarray, z: np.ndarray) -> list[float]:
+    """Largest ``u`` per row of facet centroids (rows: z to 1 um), from z = 0."""
+    rows = np.round(z * 1e6).astype(np.int64)
+    return [float(u[rows == r].max()) for r in np.unique(rows)]
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--docs", action="store_true", help="write the docs/refinement.md block")
     args = p.parse_args()
     case = load_case(None)
     b = case.geometry.face_width_mm * 1e-3
-    table = []
+    table, raw = [], []
     for level in LEVELS:
         c = case if level == 0 else level_case(case, "structural_layers", 1.5**level)
         directory = cache_root() / "cycles" / case_cycle_key(c)
@@ -85,6 +95,17 @@ def main() -> None:
         area = f.facet_area_m2
         z = f.facet_points_m[:, 2]
         n_rows = len(np.unique(np.round(z[flank] * 1e6)))
+        # the cycle's own flux per row (no reconstruction): heat per area relative to the flank's
+        q = f.generated_flux_W_m2_per_rad_s[flank]
+        density = _row_means(q, z[flank], area[flank])
+        peak = _row_max(q, z[flank])
+        raw.append(
+            [
+                f"{c.mesh.layers} ({n_rows} rows)",
+                " / ".join(f"{v / np.mean(density):.3f}" for v in density),
+                " / ".join(f"{v:.0f}" for v in peak),
+            ]
+        )
         widths = sorted({c.sources.flux_smoothing_axial_mm, case.sources.flux_smoothing_axial_mm})
         for width in widths:
             sigma = (c.sources.flux_smoothing_profile_mm * 1e-3, width * 1e-3)
@@ -127,9 +148,24 @@ def main() -> None:
         "(1 = unbiased); "
         "`python benchmarks/reconstruction_side_faces.py --docs`."
     )
+    raw_text = markdown_table(
+        (
+            "layers (rows)",
+            "heat per area of each row / the rows' mean, from z = 0",
+            "largest facet flux of each row, W/m² per rad/s",
+        ),
+        raw,
+    )
+    raw_caption = (
+        "\n\nThe pinion's drive-flank flux of each layer level's cycle as the cycle delivers it "
+        "(revolution average, before any reconstruction), per facet row across the face width; "
+        "`python benchmarks/reconstruction_side_faces.py --docs`."
+    )
     print(text)
+    print(raw_text)
     if args.docs:
         replace_block(DOC, "reconstruction_side_faces", text + caption)
+        replace_block(DOC, "cycle_flux_rows", raw_text + raw_caption)
 
 
 if __name__ == "__main__":
