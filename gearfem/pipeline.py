@@ -638,7 +638,7 @@ def friction_outputs(
         src.heat_partition,
         src.heat_fractions(case.materials)[body],
         case.friction.contact_temperature,
-        src.flux_smoothing_m,
+        src.flux_reconstruction,
     )
     state = evaluate_at(problem, model)
     out = friction_summary(model, state)

@@ -106,8 +106,11 @@ def resolution_key(case: Case) -> str:
             case.sources.flux_smoothing_profile_mm,
             case.sources.flux_smoothing_axial_mm,
         ],
-        # the reconstruction's algorithm (2: mirrored at the side faces)
-        "flux_reconstruction": RECONSTRUCTION_VERSION,
+        # the reconstruction's algorithm (2: mirrored at the side faces) and where it is evaluated
+        # (the default's key kept as it was before the option existed)
+        "flux_reconstruction": RECONSTRUCTION_VERSION
+        if case.sources.flux_evaluation == "reference_facets"
+        else f"{RECONSTRUCTION_VERSION}-{case.sources.flux_evaluation}",
         # the camera reading's quadratures (footprint rays, rotation phases, sub-pixel aims)
         "camera_quadrature": [
             case.instruments.camera.subsamples,

@@ -281,15 +281,20 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
     gt = build_gear_mesh(case.geometry, finer, comm, bodies=("pinion",))
     dt = ThermalDomain.from_gear_mesh(gt, "pinion")
     st = cycle_heat_sources(dt, gt, "pinion", back, SourceOptions(), case.materials, speed)
-    src_m = SourceOptions().flux_smoothing_m
     heat_t = _flank_heat(dt, st)
     assert dt.mesh.topology.index_map(3).size_global != dom.mesh.topology.index_map(3).size_global
     assert heat_t == pytest.approx(heat, rel=1e-10)
     # a uniform reference flux reaches every flank facet of that mesh as itself (the balanced
     # reconstruction, then the facet means): 1 to round-off
-    tr = FlankTransfer(dt, gt, "pinion", back.fields["pinion"], smoothing_m=src_m)
-    ones = tr.sample(np.ones(len(back.fields["pinion"].facet_area_m2)))
-    np.testing.assert_allclose(ones, 1.0, rtol=0, atol=1e-12)
+    for options in (SourceOptions(), SourceOptions(flux_evaluation="continuous")):
+        fields = back.fields["pinion"]
+        tr = FlankTransfer(dt, gt, "pinion", fields, reconstruction=options.flux_reconstruction)
+        ones = tr.sample(np.ones(len(fields.facet_area_m2)))
+        np.testing.assert_allclose(ones, 1.0, rtol=0, atol=1e-12)
+    # evaluated continuously at the thermal facets: the heat is kept all the same
+    cont = SourceOptions(flux_evaluation="continuous")
+    sc = cycle_heat_sources(dt, gt, "pinion", back, cont, case.materials, speed)
+    assert _flank_heat(dt, sc) == pytest.approx(heat, rel=1e-10)
     # without the reconstruction of the facet flux: the same heat, a less even flux
     raw = SourceOptions(flux_smoothing_profile_mm=0.0, flux_smoothing_axial_mm=0.0)
     sr = cycle_heat_sources(dt, gt, "pinion", back, raw, case.materials, speed)

@@ -9,9 +9,10 @@ import pytest
 
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.coupling import transfer
-from gearfem.coupling.options import SourceOptions
+from gearfem.coupling.options import FluxReconstruction, SourceOptions
 from gearfem.coupling.transfer import (
     SMOOTHING_CUTOFF,
+    continuous_operator,
     smoothing_operator,
     subdivision_points,
 )
@@ -136,10 +137,68 @@ def test_bad_smoothing_options_are_refused_by_name():
         SourceOptions(flux_smoothing_profile_mm=0.0, flux_smoothing_axial_mm=1.0)
     with pytest.raises(ParameterError, match="flux_smoothing_axial_mm"):
         SourceOptions(flux_smoothing_axial_mm=-1.0)
-    assert (
-        SourceOptions(flux_smoothing_profile_mm=0.0, flux_smoothing_axial_mm=0.0).flux_smoothing_m
-        is None
+    none = SourceOptions(flux_smoothing_profile_mm=0.0, flux_smoothing_axial_mm=0.0)
+    assert none.flux_reconstruction is None
+    with pytest.raises(ParameterError, match="flux_evaluation"):
+        SourceOptions(flux_evaluation="nodal")
+    with pytest.raises(ParameterError, match="flux_evaluation"):  # needs the kernel
+        SourceOptions(
+            flux_smoothing_profile_mm=0.0, flux_smoothing_axial_mm=0.0, flux_evaluation="continuous"
+        )
+    with pytest.raises(ParameterError, match="sigma_m"):
+        FluxReconstruction(sigma_m=(0.0, 1e-3))
+    assert SourceOptions(flux_evaluation="continuous").flux_reconstruction == FluxReconstruction(
+        sigma_m=(1e-4, 1.5e-3), evaluation="continuous"
     )
+
+
+def test_continuous_evaluation_interpolates_the_reconstruction():
+    """The kernel evaluated anywhere: at the facets' own points it is S (c(x_i) = c_i), a uniform
+    flux is uniform at any point (edges and side faces included), and a positive flux stays
+    positive; a point beyond the kernel's reach takes its nearest facet's row of S."""
+    b = 12.934e-3
+    pts, area, _, _ = _rows((0.5,), 4, b)
+    sig, planes = (0.107e-3, 1.5e-3), (0.0, b)
+    S = smoothing_operator(pts, area, sig, planes, tapered=True)
+    at_facets = continuous_operator(pts, pts, area, sig, planes)
+    np.testing.assert_allclose(at_facets.toarray(), S.toarray(), rtol=0, atol=1e-13 * S.max())
+    rng = np.random.default_rng(3)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    t = rng.uniform(0.0, 1.0, (500, 1))
+    targets = lo + t * (hi - lo)  # on the flank's plane, over its whole extent
+    targets[:, 2] = rng.uniform(0.0, b, 500)  # side faces included
+    C = continuous_operator(targets, pts, area, sig, planes)
+    np.testing.assert_allclose(C @ np.ones(len(area)), 1.0, rtol=0, atol=1e-13)
+    assert C.min() >= 0.0
+    far = (hi + np.array([1e-3, 1e-3, 0.0]))[None, :]  # 1 mm beyond the last facet: out of reach
+    nearest = int(np.argmin(np.linalg.norm(pts - far, axis=1)))
+    got = continuous_operator(far, pts, area, sig, planes).toarray().ravel()
+    np.testing.assert_allclose(got, S[nearest].toarray().ravel(), rtol=0, atol=1e-15)
+
+
+def test_continuous_evaluation_has_no_steps_across_the_rows():
+    """Across the face width a flux that differs between two halves of the rows (4 rows of
+    3.2 mm, the built-in case's): evaluated per reference facet it jumps where the rows meet
+    (the largest change between neighbouring points along z stays the jump however close the
+    points), continuously it does not (the largest change halves with the points' spacing)."""
+    b = 12.934e-3
+    pts, area, s, z = _rows((0.5,), 4, b)
+    sig, planes = (0.107e-3, 1.5e-3), (0.0, b)
+    q = np.where(z > b / 2, 2.0, 1.0)
+    S = smoothing_operator(pts, area, sig, planes)
+    mid = pts[np.argmin(np.abs(s - s.mean()))]
+    largest = {}
+    for n in (451, 901):
+        line = np.column_stack(
+            [np.full(n, mid[0]), np.full(n, mid[1]), np.linspace(0.05 * b, 0.95 * b, n)]
+        )
+        smooth = continuous_operator(line, pts, area, sig, planes) @ q
+        nearest = np.argmin(np.linalg.norm(line[:, None, :] - pts[None, :, :], axis=2), axis=1)
+        stepped = (S @ q)[nearest]
+        largest[n] = (np.max(np.abs(np.diff(smooth))), np.max(np.abs(np.diff(stepped))))
+    assert largest[451][0] / largest[901][0] == pytest.approx(2.0, rel=0.02)
+    assert largest[451][1] == pytest.approx(largest[901][1], rel=1e-12)
+    assert largest[901][1] > 0.2 > 20 * largest[901][0]
 
 
 @pytest.mark.parametrize("kind", ["triangle", "quadrilateral"])

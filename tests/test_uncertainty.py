@@ -76,6 +76,9 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
         dataclasses.replace(
             case, sources=dataclasses.replace(case.sources, flux_smoothing_axial_mm=3.0)
         ),
+        dataclasses.replace(
+            case, sources=dataclasses.replace(case.sources, flux_evaluation="continuous")
+        ),
         # the camera reading's quadratures (a study made at 16 footprint rays holds another
         # camera reading than one at 8)
         _with_camera(case, subsamples=16),

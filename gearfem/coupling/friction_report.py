@@ -28,20 +28,23 @@ from petsc4py import PETSc
 from gearfem.contact.friction import FrictionLaw
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.coupling.friction_heat import FluxState, ThermalFrictionFlux
+from gearfem.coupling.options import FluxReconstruction
 from gearfem.coupling.transfer import FlankTransfer
 
 
 def friction_model(
     problem, gear_mesh, body: str, cycle, law: FrictionLaw, materials, speed_rpm: float,
     partition: str, fixed_fraction: float, contact_temperature: str,
-    smoothing_m: tuple[float, float] | None = None,
+    reconstruction: FluxReconstruction | None = None,
 ) -> ThermalFrictionFlux:  # fmt: skip
     """The temperature-dependent friction flux of ``law`` on ``problem``'s mesh (the sources' own
     model when they have one; collective)."""
     model = problem.sources.flank_flux_model
     if isinstance(model, ThermalFrictionFlux):
         return model
-    tr = FlankTransfer(problem.domain, gear_mesh, body, cycle.fields[body], smoothing_m=smoothing_m)
+    tr = FlankTransfer(
+        problem.domain, gear_mesh, body, cycle.fields[body], reconstruction=reconstruction
+    )
     return ThermalFrictionFlux(
         tr, cycle, body, law, materials, speed_rpm, partition, fixed_fraction, contact_temperature
     )

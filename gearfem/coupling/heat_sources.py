@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 from gearfem.contact.friction import FrictionOptions
 from gearfem.core.materials import ZERO_CELSIUS_K, Material
 from gearfem.coupling.friction_heat import ThermalFrictionFlux, reference_flux
-from gearfem.coupling.options import SourceOptions
+from gearfem.coupling.options import FluxReconstruction, SourceOptions
 from gearfem.coupling.transfer import (
     AREA_QUADRATURE_DEGREE,
     FLANK_KINDS,
@@ -74,18 +74,18 @@ def friction_flux_function(
     heat_fraction: float,
     kinds: tuple[str, ...] = FLANK_KINDS,
     reference_flux_W_m2: np.ndarray | None = None,
-    smoothing_m: tuple[float, float] | None = None,
+    reconstruction: FluxReconstruction | None = None,
 ):
     """DG0 flank flux (W/m²) into this gear on the cells next to the contact surfaces, and those
     surfaces' names: ``heat_fraction`` of the generated flux at pinion speed ``omega1_rad_s``
     (or, if given, ``reference_flux_W_m2`` per reference facet, already at the speed and split).
 
-    The reference flux is reconstructed with the Gaussian ``smoothing_m`` (None: as the cycle
-    gives it); each facet of the drive flanks, tips and roots takes the reference facet nearest to
-    its congruent place; every tooth's total is then scaled to the reference tooth's heat
+    The reference flux is reconstructed as ``reconstruction`` says (None: as the cycle gives it);
+    each facet of the drive flanks, tips and roots takes its mean at its congruent place; every
+    tooth's total is then scaled to the reference tooth's heat
     (:mod:`gearfem.coupling.transfer`). Collective (totals are reduced).
     """
-    tr = FlankTransfer(domain, gear_mesh, body, fields, kinds, smoothing_m)
+    tr = FlankTransfer(domain, gear_mesh, body, fields, kinds, reconstruction)
     if reference_flux_W_m2 is None:
         q_ref = heat_fraction * fields.generated_flux_W_m2_per_rad_s * omega1_rad_s
     else:
@@ -133,7 +133,7 @@ def cycle_heat_sources(
             hysteresis_scale=options.hysteresis_scale,
         )
     friction = friction or FrictionOptions()
-    smooth = options.flux_smoothing_m
+    reconstruction = options.flux_reconstruction
     if options.friction and cycle.friction_coefficient > 0.0:
         law = friction.law_for(cycle.friction_coefficient)
         kw["flux_scale"] = options.flux_scale
@@ -143,7 +143,7 @@ def cycle_heat_sources(
             and (options.heat_partition == "fixed")
         ):
             flux, names = friction_flux_function(
-                domain, gear_mesh, body, fields, omega1, fraction, smoothing_m=smooth
+                domain, gear_mesh, body, fields, omega1, fraction, reconstruction=reconstruction
             )
             kw.update(flank_flux_W_m2=flux, flux_surfaces=names)
         elif not law.depends_on_temperature:
@@ -166,12 +166,12 @@ def cycle_heat_sources(
                 omega1,
                 1.0,
                 reference_flux_W_m2=q_ref,
-                smoothing_m=smooth,
+                reconstruction=reconstruction,
             )
             kw.update(flank_flux_W_m2=flux, flux_surfaces=names)
         else:
             kw["flank_flux_model"] = ThermalFrictionFlux(
-                FlankTransfer(domain, gear_mesh, body, fields, smoothing_m=smooth),
+                FlankTransfer(domain, gear_mesh, body, fields, reconstruction=reconstruction),
                 cycle,
                 body,
                 law,

@@ -11,6 +11,8 @@ from gearfem.core.params import require_choice, require_nonnegative, require_ran
 from gearfem.thermal.options import LOADING_FREQUENCIES, PrescribedSources
 
 HEAT_PARTITIONS = ("fixed", "blok")
+#: How a thermal flank facet takes the reconstructed flux (:mod:`gearfem.coupling.transfer`).
+FLUX_EVALUATIONS = ("reference_facets", "continuous")
 #: Keys of earlier versions and what replaces them (a case file that has them is refused by name).
 REMOVED_KEYS = {
     "friction_temperature_coefficient_per_K": (
@@ -20,6 +22,27 @@ REMOVED_KEYS = {
     ),
     "friction_reference_C": "[friction] reference_C",
 }
+
+
+@dataclasses.dataclass(frozen=True)
+class FluxReconstruction:
+    """How the cycle's facet flux is reconstructed before it goes to the thermal mesh
+    (:mod:`gearfem.coupling.transfer`).
+
+    Attributes:
+        sigma_m: Standard deviations (m) of the Gaussian kernel in the flank's plane and along
+            the face width, both > 0.
+        evaluation: One of :data:`FLUX_EVALUATIONS` (see :class:`SourceOptions`).
+    """
+
+    sigma_m: tuple[float, float]
+    evaluation: str = "reference_facets"
+
+    def __post_init__(self) -> None:
+        for name, v in zip(("profile", "axial"), self.sigma_m):
+            if not v > 0.0:
+                raise ParameterError(f"flux reconstruction sigma_m ({name})", v, "> 0 m")
+        require_choice("flux reconstruction evaluation", self.evaluation, FLUX_EVALUATIONS)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +77,11 @@ class SourceOptions:
             (``gearfem converge --kind structural_mesh`` scales the profile width,
             ``structural_layers`` the axial one, ``positions`` the profile width with the
             positions' spacing). 0: none (piecewise constant per structural facet).
+        flux_evaluation: Where the reconstruction is evaluated for the thermal facets:
+            ``"reference_facets"`` (one value per structural facet, the thermal facet's mean of
+            that piecewise constant field; the default) or ``"continuous"`` (the reconstruction's
+            kernel evaluated at the thermal facet's own sample points: a smooth field, no steps at
+            the structural facets' edges). Needs the smoothing widths > 0.
         flank_heat_per_gear_W, u_max_J_m3, flanks: Prescribed mode only (see
             :class:`gearfem.thermal.source_terms.PrescribedSources`).
     """
@@ -71,6 +99,7 @@ class SourceOptions:
     flanks: str = "drive"
     flux_smoothing_profile_mm: float = 0.1
     flux_smoothing_axial_mm: float = 1.5
+    flux_evaluation: str = "reference_facets"
 
     def __post_init__(self) -> None:
         require_choice("sources.mode", self.mode, ("cycle", "prescribed"))
@@ -86,6 +115,14 @@ class SourceOptions:
                 "sources.flux_smoothing_profile_mm",
                 (self.flux_smoothing_profile_mm, self.flux_smoothing_axial_mm),
                 "both > 0 (smoothed) or both 0 (piecewise constant per structural facet)",
+            )
+        require_choice("sources.flux_evaluation", self.flux_evaluation, FLUX_EVALUATIONS)
+        if self.flux_evaluation == "continuous" and self.flux_smoothing_profile_mm == 0.0:
+            raise ParameterError(
+                "sources.flux_evaluation",
+                self.flux_evaluation,
+                "'reference_facets' when flux_smoothing_profile_mm = flux_smoothing_axial_mm = 0",
+                "the continuous evaluation is the smoothing kernel's",
             )
         require_choice("sources.heat_partition", self.heat_partition, HEAT_PARTITIONS)
         if self.mode == "prescribed" and self.heat_partition != "fixed":
@@ -108,11 +145,15 @@ class SourceOptions:
         )
 
     @property
-    def flux_smoothing_m(self) -> tuple[float, float] | None:
-        """(profile, axial) standard deviations of the flux reconstruction (m), None: none."""
+    def flux_reconstruction(self) -> FluxReconstruction | None:
+        """The flux reconstruction these options ask for, None: none (piecewise constant per
+        structural facet)."""
         if self.flux_smoothing_profile_mm == 0.0:
             return None
-        return (self.flux_smoothing_profile_mm * 1e-3, self.flux_smoothing_axial_mm * 1e-3)
+        return FluxReconstruction(
+            sigma_m=(self.flux_smoothing_profile_mm * 1e-3, self.flux_smoothing_axial_mm * 1e-3),
+            evaluation=self.flux_evaluation,
+        )
 
     def heat_fractions(self, materials: dict[str, Material]) -> dict[str, float]:
         """Share of the friction heat generated in the mesh that flows into each gear:

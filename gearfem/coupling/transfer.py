@@ -26,19 +26,34 @@ reflected Gaussian; the balancing removes what is left (discrete rows, edges in 
 Each flank facet f of the thermal mesh (drive flanks, tips, roots) then takes the mean of the
 reconstructed flux over its area,
 
-    q_f = Σ_p w_p q̃(ref(x_p)) / Σ_p w_p,
+    q_f = Σ_p w_p q̃(x_p) / Σ_p w_p,
 
 over the midpoints x_p of a uniform subdivision of the facet (``TRANSFER_SUBDIVISIONS`` per
-side, weights w_p the area Jacobian), each taking the reference facet nearest to its congruent
-place (rotated by whole pitches into the reference sector). Taking one reference facet at the
-centroid instead aliased: the flank's heat band (a few 0.1 mm wide at its foot) is narrower than
-the thermal facets (0.21 mm across the profile on the built-in case), and the heat each facet
-got depended on where its centroid fell in the band, not on the band. Every tooth's total is
-scaled to the reference tooth's heat (a purely geometric correction for meshes that are not
-rotated copies of each other), so the heat put in is conserved to round-off for any pair of
-meshes. Cells next to the facets carry their facets' area-weighted mean
-(DG0). The links (thermal facet, reference facet, weight) of :attr:`FlankTransfer.links` are the
-rows S[ref(f), :], shared by the static and the temperature-dependent friction fluxes.
+side, weights w_p the area Jacobian), each rotated by whole pitches to its congruent place in the
+reference sector. ``[sources] flux_evaluation`` says what q̃(x_p) is:
+
+* ``"reference_facets"`` (default): the reconstructed value of the reference facet nearest x_p,
+  q̃(x_p) = (S q)_ref(x_p). The field is piecewise constant on the structural facets: a thermal
+  mesh finer than them resolves their steps (across the face width the facet rows are a layer's
+  half, 3.2 mm on the built-in case).
+* ``"continuous"``: the kernel evaluated at x_p itself,
+
+      q̃(x) = c(x) Σ_j K(x, x_j) A_j c_j q_j,   c(x) = 1 / Σ_j K(x, x_j) A_j c_j,
+
+  the balancing extended to any point (at a facet's own point c(x_i) = c_i and q̃ = (S q)_i),
+  with the Gaussian tapered to reach zero at its cut-off (a jump there otherwise): a continuous
+  field, a uniform flux still uniform everywhere. A point with no facet within the
+  cut-off takes its nearest facet's (S q).
+
+Taking one reference facet at the thermal facet's centroid instead of the mean aliased: the
+flank's heat band (a few 0.1 mm wide at its foot) is narrower than the thermal facets (0.21 mm
+across the profile on the built-in case), and the heat each facet got depended on where its
+centroid fell in the band, not on the band. Every tooth's total is scaled to the reference
+tooth's heat (a purely geometric correction for meshes that are not rotated copies of each
+other), so the heat put in is conserved to round-off for any pair of meshes. Cells next to the
+facets carry their facets' area-weighted mean (DG0). The links (thermal facet, reference facet,
+weight) of :attr:`FlankTransfer.links` are the non-zeros of the facet means
+(q_f = Σ_j weight q_j), shared by the static and the temperature-dependent friction fluxes.
 """
 
 from __future__ import annotations
@@ -54,6 +69,7 @@ from scipy.spatial import cKDTree
 from gearfem.contact.kinematics import evaluate
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.facets import FacetReference
+from gearfem.coupling.options import FluxReconstruction
 from gearfem.geometry.mesh import parse_group_name
 
 # Facet areas for the per-tooth normalisation: exact enough on curved P2 facets (tip rounds) that
@@ -65,13 +81,78 @@ TRANSFER_SUBDIVISIONS = 8
 FLANK_KINDS = ("drive_flank", "tip", "root")
 #: Kernel cut-off of the reconstruction, in standard deviations.
 SMOOTHING_CUTOFF = 3.0
+#: The Gaussian's value at the cut-off, subtracted by the tapered kernel.
+TAPER = math.exp(-0.5 * SMOOTHING_CUTOFF**2)
 #: Tolerance and iteration budget of the reconstruction's balancing (:func:`_balance`): the rows of
 #: S sum to 1 and its area-weighted columns to the facets' areas within BALANCE_RTOL.
 BALANCE_RTOL = 1e-14
 BALANCE_MAX_ITERATIONS = 500
+#: Thermal facets per block of the continuous evaluation (bounds the memory of the kernel pairs).
+CONTINUOUS_BLOCK_FACETS = 4096
 #: What the reconstruction computes, for the keys of stored results made with it (the numerical
 #: uncertainty studies): 1 until stop 30 (normalised per column); 2: balanced, mirrored kernels.
 RECONSTRUCTION_VERSION = 2
+
+
+def kernel_matrix(
+    targets_m: np.ndarray,
+    sources_m: np.ndarray,
+    sigma_m: tuple[float, float],
+    side_planes_z_m: tuple[float, float] | None,
+    tapered: bool = False,
+) -> sps.csr_matrix:
+    """K_ij = G(x_i - y_j) + G(x_i - M_0 y_j) + G(x_i - M_b y_j) between ``targets_m`` x_i and
+    ``sources_m`` y_j (tooth-local, z along the axis): the anisotropic Gaussian of standard
+    deviations ``sigma_m`` (profile, axial), cut at :data:`SMOOTHING_CUTOFF`, and its images in
+    the planes z = ``side_planes_z_m`` (None: no images). ``tapered``: the Gaussian minus its
+    value at the cut-off, so that it reaches zero there continuously (no jump of 1.1 % of a
+    weight where a facet enters the cut-off). Symmetric when the two point sets are the same."""
+    sp_, sz = sigma_m
+    scale = np.array([sp_, sp_, sz])
+    targets, sources = np.asarray(targets_m, dtype=float), np.asarray(sources_m, dtype=float)
+    tree = cKDTree(targets / scale)
+    images = [sources]
+    if side_planes_z_m is not None:
+        images += [sources * [1.0, 1.0, -1.0] + [0.0, 0.0, 2.0 * z] for z in side_planes_z_m]
+    i, j, k = [], [], []
+    for y in images:
+        d = tree.sparse_distance_matrix(cKDTree(y / scale), SMOOTHING_CUTOFF, output_type="ndarray")
+        i.append(d["i"])
+        j.append(d["j"])
+        g = np.exp(-0.5 * d["v"] ** 2)
+        k.append(np.maximum(g - TAPER, 0.0) if tapered else g)  # >= 0 at d = cut-off by round-off
+    # duplicates (a pair and an image of it) summed
+    return sps.csr_matrix(
+        (np.concatenate(k), (np.concatenate(i), np.concatenate(j))),
+        shape=(len(targets), len(sources)),
+    )
+
+
+def _check_side_planes(points_m: np.ndarray, side_planes_z_m: tuple[float, float] | None) -> None:
+    if side_planes_z_m is None:
+        return
+    z0, z1 = side_planes_z_m
+    z = np.asarray(points_m)[:, 2]
+    if not z0 < z1 or not np.all((z >= z0) & (z <= z1)):
+        raise ParameterError(
+            "side_planes_z_m",
+            (z0, z1),
+            f"z0 < z1 bracketing the facets' z, [{z.min()}, {z.max()}] m",
+        )
+
+
+def balanced_scaling(
+    points_m: np.ndarray,
+    area_m2: np.ndarray,
+    sigma_m: tuple[float, float],
+    side_planes_z_m: tuple[float, float] | None,
+    tapered: bool = False,
+) -> tuple[sps.csr_matrix, np.ndarray]:
+    """The kernel K on the facets at ``points_m`` and its balancing c (module docstring;
+    ``tapered``: :func:`kernel_matrix`)."""
+    _check_side_planes(points_m, side_planes_z_m)
+    K = kernel_matrix(points_m, points_m, sigma_m, side_planes_z_m, tapered)
+    return K, _balance(K, np.asarray(area_m2, dtype=float))
 
 
 def smoothing_operator(
@@ -79,44 +160,45 @@ def smoothing_operator(
     area_m2: np.ndarray,
     sigma_m: tuple[float, float] | None,
     side_planes_z_m: tuple[float, float] | None,
+    tapered: bool = False,
 ) -> sps.csr_matrix:
     """The conservative reconstruction S (module docstring) on facets at ``points_m`` (tooth-local,
     z along the axis) with areas ``area_m2``; the identity for ``sigma_m`` None. The kernel is
-    mirrored in the planes z = ``side_planes_z_m`` (the side faces; None: a face without ends)."""
-    n = len(area_m2)
+    mirrored in the planes z = ``side_planes_z_m`` (the side faces; None: a face without ends) and
+    ``tapered`` as :func:`kernel_matrix` says."""
     if sigma_m is None:
-        return sps.identity(n, format="csr")
-    points = np.asarray(points_m, dtype=float)
-    sp_, sz = sigma_m
-    scale = np.array([sp_, sp_, sz])
-    y = points / scale
-    tree = cKDTree(y)
-    pairs = tree.query_pairs(SMOOTHING_CUTOFF, output_type="ndarray")
-    i = [pairs[:, 0], pairs[:, 1], np.arange(n)]
-    j = [pairs[:, 1], pairs[:, 0], np.arange(n)]
-    k = [np.exp(-0.5 * np.sum((y[a] - y[b]) ** 2, axis=1)) for a, b in zip(i[:2], j[:2])]
-    k.append(np.ones(n))
-    if side_planes_z_m is not None:
-        z0, z1 = side_planes_z_m
-        inside = (points[:, 2] >= z0) & (points[:, 2] <= z1)
-        if not z0 < z1 or not np.all(inside):
-            raise ParameterError(
-                "side_planes_z_m",
-                (z0, z1),
-                f"z0 < z1 bracketing the facets' z, [{points[:, 2].min()}, {points[:, 2].max()}] m",
-            )
-        for plane in (z0, z1):
-            image = points * [1.0, 1.0, -1.0] + [0.0, 0.0, 2.0 * plane]
-            d = tree.sparse_distance_matrix(
-                cKDTree(image / scale), SMOOTHING_CUTOFF, output_type="ndarray"
-            )  # (facet i, image of facet j, distance)
-            i.append(d["i"])
-            j.append(d["j"])
-            k.append(np.exp(-0.5 * d["v"] ** 2))
-    i, j, k = np.concatenate(i), np.concatenate(j), np.concatenate(k)
-    K = sps.csr_matrix((k, (i, j)), shape=(n, n))  # duplicates (a pair and its image) summed
-    c = _balance(K, np.asarray(area_m2, dtype=float))
-    return (sps.diags(c) @ K @ sps.diags(area_m2 * c)).tocsr()
+        return sps.identity(len(area_m2), format="csr")
+    K, c = balanced_scaling(points_m, area_m2, sigma_m, side_planes_z_m, tapered)
+    return (sps.diags(c) @ K @ sps.diags(np.asarray(area_m2, dtype=float) * c)).tocsr()
+
+
+def continuous_operator(
+    targets_m: np.ndarray,
+    points_m: np.ndarray,
+    area_m2: np.ndarray,
+    sigma_m: tuple[float, float],
+    side_planes_z_m: tuple[float, float] | None,
+) -> sps.csr_matrix:
+    """The reconstruction evaluated at ``targets_m`` (module docstring): rows
+    c(x) K(x, x_j) A_j c_j with c(x) = 1 / Σ_j K(x, x_j) A_j c_j, so that a uniform flux gives
+    the same value everywhere and, at a facet's own point, the row of S. The kernel is the
+    tapered one (:func:`kernel_matrix`), so the field is continuous: S here is
+    ``smoothing_operator(..., tapered=True)``. A target with no facet within the kernel's cut-off
+    takes its nearest facet's row of S."""
+    K, c = balanced_scaling(points_m, area_m2, sigma_m, side_planes_z_m, tapered=True)
+    w = np.asarray(area_m2, dtype=float) * c
+    Kx = kernel_matrix(targets_m, points_m, sigma_m, side_planes_z_m, tapered=True)
+    total = Kx @ w
+    far = total <= 0.0
+    rows = sps.diags(1.0 / np.where(far, np.inf, total)) @ Kx @ sps.diags(w)
+    if np.any(far):
+        scale = np.array([sigma_m[0], sigma_m[0], sigma_m[1]])
+        _, nearest = cKDTree(np.asarray(points_m) / scale).query(np.asarray(targets_m)[far] / scale)
+        pick = sps.csr_matrix(
+            (np.ones(len(nearest)), (np.flatnonzero(far), nearest)), shape=Kx.shape
+        )
+        rows = rows + pick @ (sps.diags(c) @ K @ sps.diags(w))
+    return rows.tocsr()
 
 
 def _balance(K: sps.csr_matrix, area: np.ndarray) -> np.ndarray:
@@ -175,9 +257,9 @@ class FlankTransfer:
     Attributes: ``names`` (facet groups), ``cells``/``local_facet`` (cell and local facet of every
     owned flank facet), ``area`` (m²), ``centroid`` (m), ``tooth`` (thermal tooth index),
     ``num_teeth``, ``Q`` (the DG0 space), ``num_cells`` (local, owned and ghost), ``cell_area``
-    (flank area of each facet's cell), ``smoother`` (S on the reference facets), ``sampler`` (the
-    facet means of S q: thermal facets x reference facets), ``links`` (facet, reference facet,
-    weight: the non-zeros of ``sampler``).
+    (flank area of each facet's cell), ``sampler`` (thermal facets x reference facets: the facet
+    means of the reconstruction, per reference facet or continuous as ``reconstruction`` says),
+    ``links`` (facet, reference facet, weight: the non-zeros of ``sampler``).
     """
 
     def __init__(
@@ -187,7 +269,7 @@ class FlankTransfer:
         body: str,
         fields,
         kinds=FLANK_KINDS,
-        smoothing_m: tuple[float, float] | None = None,
+        reconstruction: FluxReconstruction | None = None,
     ) -> None:
         from dolfinx import fem
 
@@ -247,24 +329,49 @@ class FlankTransfer:
             [c * rel[..., 0] - s_ * rel[..., 1], s_ * rel[..., 0] + c * rel[..., 1], rel[..., 2]],
             axis=-1,
         )
-        _, j = cKDTree(fields.facet_points_m - fields.center_m).query(local.reshape(-1, 3))
+        ref_points = fields.facet_points_m - fields.center_m
         n_ref = len(fields.facet_area_m2)
-        mean = sps.csr_matrix(
-            ((jac / jac.sum(axis=1, keepdims=True)).ravel(), (np.repeat(np.arange(nf), m), j)),
-            shape=(nf, n_ref),
-        )  # duplicates summed: q_f = Σ_p w_p q(ref(x_p)) / Σ_p w_p
-        self.cells, self.local_facet = cf[:, 0], cf[:, 1]
-        self.area, self.centroid, self.tooth = area, xc, tooth
+        weight = (jac / jac.sum(axis=1, keepdims=True)).ravel()
         # the side faces z = 0 and z = b, in the tooth-local frame (the axis point at z = 0)
         b = gear_mesh.geometry.face_width_mm * 1e-3
-        self.smoother = smoothing_operator(
-            fields.facet_points_m - fields.center_m,
-            fields.facet_area_m2,
-            smoothing_m,
-            (0.0 - fields.center_m[2], b - fields.center_m[2]),
-        )
-        #: (thermal facets x reference facets): the facet means of the reconstructed flux
-        self.sampler = (mean @ self.smoother).tocsr()
+        planes = (0.0 - fields.center_m[2], b - fields.center_m[2])
+        self.cells, self.local_facet = cf[:, 0], cf[:, 1]
+        self.area, self.centroid, self.tooth = area, xc, tooth
+        if reconstruction is not None and reconstruction.evaluation == "continuous":
+            #: (thermal facets x reference facets): the facet means of the reconstruction
+            #: evaluated at the sample points (in blocks of facets: memory)
+            blocks = []
+            for f0 in range(0, nf, CONTINUOUS_BLOCK_FACETS):
+                f1 = min(nf, f0 + CONTINUOUS_BLOCK_FACETS)
+                at = continuous_operator(
+                    local[f0:f1].reshape(-1, 3),
+                    ref_points,
+                    fields.facet_area_m2,
+                    reconstruction.sigma_m,
+                    planes,
+                )
+                mean = sps.csr_matrix(
+                    (
+                        weight[f0 * m : f1 * m],
+                        (np.repeat(np.arange(f1 - f0), m), np.arange((f1 - f0) * m)),
+                    ),
+                    shape=(f1 - f0, (f1 - f0) * m),
+                )
+                blocks.append(mean @ at)
+            self.sampler = sps.vstack(blocks).tocsr() if blocks else sps.csr_matrix((0, n_ref))
+        else:
+            _, j = cKDTree(ref_points).query(local.reshape(-1, 3))
+            mean = sps.csr_matrix(
+                (weight, (np.repeat(np.arange(nf), m), j)), shape=(nf, n_ref)
+            )  # duplicates summed: q_f = Σ_p w_p q(ref(x_p)) / Σ_p w_p
+            smoother = smoothing_operator(
+                ref_points,
+                fields.facet_area_m2,
+                None if reconstruction is None else reconstruction.sigma_m,
+                planes,
+            )
+            #: (thermal facets x reference facets): the facet means of the reconstructed flux
+            self.sampler = (mean @ smoother).tocsr()
         rows = self.sampler.tocoo()
         self.links = (rows.row.astype(np.int64), rows.col.astype(np.int64), rows.data)
         self.num_teeth = len(angles)
@@ -313,6 +420,9 @@ __all__ = [
     "SMOOTHING_CUTOFF",
     "TRANSFER_SUBDIVISIONS",
     "FlankTransfer",
+    "balanced_scaling",
+    "continuous_operator",
+    "kernel_matrix",
     "smoothing_operator",
     "subdivision_points",
     "tooth_local",
