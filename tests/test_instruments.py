@@ -36,7 +36,7 @@ from gearfem.instruments.options import (
 from gearfem.instruments.probes import read_probe
 from gearfem.instruments.radiometry import Band, directional_emissivity, refractive_index
 from gearfem.instruments.scene import Surface, gear_surface
-from gearfem.instruments.snapshot import KINDS, CycleTorques, FieldSnapshot
+from gearfem.instruments.snapshot import KINDS, BodyField, CycleTorques, FieldSnapshot
 from gearfem.instruments.torque import read_torque
 from gearfem.thermal.options import ThermalOptions
 
@@ -844,3 +844,49 @@ def test_run_without_instruments_reads_nothing(tmp_path_factory):
     assert summ.headline.camera_max_C is None
     if comm.rank == 0:
         assert not (base / "run" / "instruments").exists()
+
+
+def _one_face_body(T_of_xy, quadratic=True) -> BodyField:
+    """A BodyField of one tetrahedron whose face z = 0 (vertices (1,0,0), (0,1,0), (0,0,0)) is a
+    drive flank, with nodal temperatures T_of_xy(x, y) (K)."""
+    v = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 0], [0, 0, 1.0]])
+    edges = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)]  # basix order of the cell's edges
+    nodes = np.vstack([v, [0.5 * (v[a] + v[b]) for a, b in edges]]) if quadratic else v
+    face = [0, 1, 2, 6, 8, 9] if quadratic else [0, 1, 2]  # then the edges (1,2), (0,2), (0,1)
+    return BodyField(
+        body="pinion",
+        nodes_m=nodes,
+        cells=np.arange(len(nodes))[None, :],
+        faces=np.array([face]),
+        face_kind=np.array([KINDS.index("drive_flank")]),
+        temperature_K=T_of_xy(nodes[:, 0], nodes[:, 1])[None, :],
+        center_m=np.zeros(3),
+        tooth_angles_rad=np.zeros(1),
+        teeth=30,
+        rotation_sense=1,
+        speed_rpm=1000.0,
+        emissivity=0.9,
+        temperatures_C={},
+    )
+
+
+def test_hottest_point_is_the_fields_maximum_between_the_nodes():
+    """A quadratic field is exact on a quadratic face: its maximum inside the face (at a lattice
+    point) is found to round-off, where it is, and above the hottest node; on a linear face the
+    field's maximum is the hottest node's."""
+
+    def peak(x, y):
+        return 400.0 - 50.0 * ((x - 4 / 12) ** 2 + (y - 3 / 12) ** 2)
+
+    body = _one_face_body(peak)
+    hottest, x = body.hottest_point(0)
+    assert hottest == pytest.approx(400.0, abs=1e-12)
+    np.testing.assert_allclose(x, [4 / 12, 3 / 12, 0.0], atol=1e-14)
+    assert np.max(body.temperature_K) < 400.0 - 0.5  # the hottest node is 0.9 K below
+    # off the lattice: within 50 K/m^2 x (half a lattice step)^2 x 2 of the peak
+    off = _one_face_body(lambda x, y: 400.0 - 50.0 * ((x - 0.3) ** 2 + (y - 0.27) ** 2))
+    assert off.hottest_point(0)[0] == pytest.approx(400.0, abs=2 * 50.0 * (0.5 / 12) ** 2)
+    linear = _one_face_body(lambda x, y: 300.0 + x + 2 * y, quadratic=False)
+    assert linear.hottest_point(0)[0] == pytest.approx(302.0, abs=1e-12)
+    with pytest.raises(ParameterError, match="kinds"):
+        body.hottest_point(0, kinds=("tip",))
