@@ -5,7 +5,7 @@ For each kind (thermal mesh, structural contact zone, structural layers, positio
 elements) this runs
 :func:`gearfem.refinement.refinement_study` on the built-in thesis case (its resolution the middle
 of three levels for the thermal mesh and the positions, the coarsest for the other kinds:
-:data:`CASE_LEVEL`), then
+:data:`gearfem.uncertainty.BUILTIN_CASE_LEVEL`), then
 (rank 0):
 
 * files the study as package data, ``gearfem/data/uncertainty/<resolution key>/<kind>.json``:
@@ -46,7 +46,13 @@ from gearfem.refinement import (
     refinement_study,
     study_uncertainty,
 )
-from gearfem.uncertainty import resolution_key, run_uncertainty, stored_studies
+from gearfem.uncertainty import (
+    BUILTIN_CASE_LEVEL,
+    BUILTIN_LEVELS,
+    resolution_key,
+    run_uncertainty,
+    stored_studies,
+)
 
 #: The docs/refinement.md block of each kind.
 BLOCKS = {
@@ -55,30 +61,6 @@ BLOCKS = {
     "structural_layers": "refinement_structural_layers",
     "positions": "refinement_positions",
     "tip": "refinement_tip",
-}
-#: Where the built-in case sits in each kind's study (the shipped studies): in the middle of the
-#: thermal-mesh study (the coarsest convention's finest level would have about 800k DOFs per
-#: gear) and of the positions study (12 / 18 / 27 positions per pitch: the middle-grid GCI, from
-#: one coarser and one finer cycle), the coarsest of the others (a contact zone 1.5x coarser than
-#: the case's is outside the range where the pitch-point pressure has converged, docs/cycle.md;
-#: 2 layers coarsened by 1.5 round back up to 2).
-CASE_LEVEL = {
-    "thermal_mesh": "middle",
-    "structural_mesh": "coarsest",
-    "structural_layers": "coarsest",
-    "positions": "middle",
-    "tip": "coarsest",
-}
-#: How many levels each kind's study has: four across the face width, where the three of stop 29
-#: (2 / 3 / 5 layers) moved the camera reading by 0.2 and 0.1 K, too little above the readings'
-#: scatter for three solutions to tell a slow trend (their order 0.38: Fs = 3, 2.2 K) from
-#: settling; a fourth level (7 layers) and the least-squares fit through all four do.
-LEVELS = {
-    "thermal_mesh": 3,
-    "structural_mesh": 3,
-    "structural_layers": 4,
-    "positions": 3,
-    "tip": 3,
 }
 #: The quantities of the summary block (docs/refinement.md, refinement_summary).
 SUMMARY = ("camera_max", "mean_bulk", "flank_mean", "max_surface", "friction_power_W")
@@ -96,13 +78,13 @@ def main() -> None:
         default=None,
         choices=tuple(CASE_LEVELS),
         help="where the built-in case's resolution sits among the levels (default: "
-        "CASE_LEVEL of each kind)",
+        "BUILTIN_CASE_LEVEL of each kind)",
     )
     p.add_argument(
         "--levels",
         type=int,
         default=None,
-        help="levels of each study (default: LEVELS of each kind)",
+        help="levels of each study (default: BUILTIN_LEVELS of each kind)",
     )
     p.add_argument("--out", default="results/uncertainty")
     p.add_argument(
@@ -122,8 +104,8 @@ def main() -> None:
     case = load_case(None)
     for kind in () if args.summary_only else args.kinds:
         t0 = time.perf_counter()
-        case_level = args.case_level or CASE_LEVEL[kind]
-        levels = args.levels or LEVELS[kind]
+        case_level = args.case_level or BUILTIN_CASE_LEVEL[kind]
+        levels = args.levels or BUILTIN_LEVELS[kind]
         if args.file_only and not (Path(args.out) / kind / "refinement.json").is_file():
             # an incomplete study (e.g. a cycle that did not converge): say so in its block
             if comm.rank == 0:

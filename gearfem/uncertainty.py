@@ -59,6 +59,32 @@ SAME_VALUE_RTOL = 1e-6
 
 KINDS = ("thermal_mesh", "structural_mesh", "structural_layers", "positions", "tip")
 
+#: Where the built-in case sits in each kind's study (the shipped studies,
+#: benchmarks/uncertainty_builtin.py): in the middle of the
+#: thermal-mesh study (the coarsest convention's finest level would have about 800k DOFs per
+#: gear) and of the positions study (12 / 18 / 27 positions per pitch: the middle-grid GCI, from
+#: one coarser and one finer cycle), the coarsest of the others (a contact zone 1.5x coarser than
+#: the case's is outside the range where the pitch-point pressure has converged, docs/cycle.md;
+#: 2 layers coarsened by 1.5 round back up to 2).
+BUILTIN_CASE_LEVEL = {
+    "thermal_mesh": "middle",
+    "structural_mesh": "coarsest",
+    "structural_layers": "coarsest",
+    "positions": "middle",
+    "tip": "coarsest",
+}
+#: How many levels each kind's study has: four across the face width, where the three of stop 29
+#: (2 / 3 / 5 layers) moved the camera reading by 0.2 and 0.1 K, too little above the readings'
+#: scatter for three solutions to tell a slow trend (their order 0.38: Fs = 3, 2.2 K) from
+#: settling; a fourth level (7 layers) and the least-squares fit through all four do.
+BUILTIN_LEVELS = {
+    "thermal_mesh": 3,
+    "structural_mesh": 3,
+    "structural_layers": 4,
+    "positions": 3,
+    "tip": 3,
+}
+
 # the [thermal] and [contact] keys that set the discretisation (the rest is physics)
 _THERMAL_RESOLUTION = (
     "degree",

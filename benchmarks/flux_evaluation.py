@@ -1,0 +1,153 @@
+"""Does the continuous evaluation of the flux reconstruction make the hottest node converge?
+
+The built-in case's hottest node (a maximum over the drive flank's nodes, at the flank foot) had
+no converging order under thermal-mesh refinement (284.2 / 284.9 / 285.7 C on 83k / 195k / 538k
+DOFs per gear, stop 31: u_num 13.2 K) nor across the structural layers (9.3 K). The
+reconstruction is evaluated per structural facet (``[sources] flux_evaluation =
+"reference_facets"``): piecewise constant on facets whose rows are 3.2 mm apart across the face
+width, steps that a finer thermal mesh resolves. This runs the built-in case's refinement studies
+(the shipped design: :data:`gearfem.uncertainty.BUILTIN_CASE_LEVEL` and ``BUILTIN_LEVELS``) with
+``flux_evaluation = "continuous"`` (the reconstruction's kernel evaluated at each thermal facet's
+own sample points) and prints each beside the filed study of the default
+(gearfem/data/uncertainty/<key>/<kind>.json).
+
+    mpirun -n 2 python benchmarks/flux_evaluation.py [--kinds thermal_mesh structural_layers]
+        [--out results/flux_evaluation] [--reuse] [--docs] [--stage]
+
+Thermal mesh about 25 min on 2 cores (the case's cycle cached, else 2 min more); structural
+layers about 45 min with its cycles computed (2 / 3 / 5 / 7 layers: 106 / 198 / 476 / 1045 s).
+The studies are not filed for the built-in case (the evaluation is part of the resolution key).
+``--reuse``: read a complete study from OUT/<kind>/refinement.json instead of running it.
+``--docs``: replace the kind's block of docs/refinement.md (:data:`BLOCKS`). ``--stage``: copy
+each study's refinement.json and plot to benchmarks/studies/continuous/<kind>/, from where
+``uncertainty_builtin.py --file-only --out benchmarks/studies/continuous --kinds ...`` files them
+once the built-in case evaluates continuously (its key is then theirs; the script checks).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import shutil
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
+from gearfem.config import load_case
+from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.io import read_json
+from gearfem.refinement import RefinementStudy, markdown, refinement_study
+from gearfem.uncertainty import (
+    BUILTIN_CASE_LEVEL,
+    BUILTIN_LEVELS,
+    resolution_key,
+    stored_studies,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC = ROOT / "docs" / "refinement.md"
+STAGE = ROOT / "benchmarks" / "studies" / "continuous"
+#: The docs/refinement.md block of each kind compared so far (the two that carried the hottest
+#: node's u_num; the others' studies run the same way once added here).
+BLOCKS = {
+    "thermal_mesh": "flux_evaluation_thermal_mesh",
+    "structural_layers": "flux_evaluation_structural_layers",
+}
+#: The quantities compared (the headline's and the flank's).
+SHOWN = ("max_surface", "flank_mean", "camera_max", "mean_bulk", "tip_max", "root_max")
+
+
+def comparison(study: RefinementStudy, filed, where: str, wall: float | None, size: int) -> str:
+    """The continuous study beside the filed default's value and u_num (Markdown)."""
+    rows = {r.quantity: r for r in study.rows}
+    body = [
+        [
+            q,
+            f"{filed.values[q]:.4g}",
+            f"{filed.u_num[q]:.3g}",
+            " / ".join(f"{v:.4g}" for v in reversed(rows[q].values)),
+            f"{rows[q].observed_order:.2f}{'' if rows[q].asymptotic else ' *'}",
+            f"{rows[q].u_num_case:.3g}",
+        ]
+        for q in SHOWN
+        if q in rows and q in filed.values
+    ]
+    levels = ", ".join(str(d) for d in study.dofs)
+    table = markdown_table(
+        (
+            "quantity (C)",
+            "reference_facets: case",
+            "u_num case",
+            "continuous: coarse ... fine",
+            "order",
+            "u_num case",
+        ),
+        body,
+    )
+    run = (
+        f"`mpirun -n {size} python benchmarks/flux_evaluation.py --kinds {study.kind} --docs`: "
+        f"{wall:.0f} s on {size} ranks, load average {os.getloadavg()[0]:.1f}."
+        if wall is not None
+        else f"Filed from the study's refinement.json ({study.resolution_key})."
+    )
+    return (
+        f"{study.kind} study of the built-in case (factor {study.factor:g}, the case the "
+        f"{study.case_level_name} of {len(study.levels)} levels of {levels} DOFs): the "
+        f"reconstruction evaluated per structural facet (the filed study, {where}) and "
+        f"continuously at the thermal facets' sample points.\n\n{table}\n\n"
+        "\\* not in the asymptotic range: Fs = 3 and the order clipped.\n\n" + run
+    )
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--kinds", nargs="+", default=["thermal_mesh"], choices=tuple(BLOCKS))
+    p.add_argument("--out", default="results/flux_evaluation")
+    p.add_argument("--reuse", action="store_true", help="read OUT/<kind>/refinement.json")
+    p.add_argument("--docs", action="store_true", help="write the docs/refinement.md blocks")
+    p.add_argument("--stage", action="store_true", help="copy the studies to " + str(STAGE))
+    args = p.parse_args()
+    comm = MPI.COMM_WORLD
+    case = load_case(None)
+    filed_studies = stored_studies(resolution_key(case))
+    continuous = dataclasses.replace(
+        case, sources=dataclasses.replace(case.sources, flux_evaluation="continuous")
+    )
+    for kind in args.kinds:
+        if kind not in filed_studies:
+            raise SystemExit(f"no filed {kind} study of the built-in case: run it first")
+        out = Path(args.out) / kind
+        t0 = time.perf_counter()
+        if args.reuse:
+            study, wall = RefinementStudy.from_json(read_json(out / "refinement.json")), None
+            if study.resolution_key != resolution_key(continuous) or study.kind != kind:
+                raise SystemExit(f"{out}: not a {kind} study of the continuous evaluation")
+        else:
+            study = refinement_study(
+                continuous,
+                out,
+                comm,
+                kind=kind,
+                factor=1.5,
+                case_level=BUILTIN_CASE_LEVEL[kind],
+                levels=BUILTIN_LEVELS[kind],
+            )
+            wall = time.perf_counter() - t0
+        if comm.rank == 0:
+            text = comparison(study, *filed_studies[kind], wall, comm.size)
+            print(markdown(study), flush=True)
+            print(text, flush=True)
+            if args.docs:
+                replace_block(DOC, BLOCKS[kind], text)
+            if args.stage:
+                (STAGE / kind).mkdir(parents=True, exist_ok=True)
+                for name in ("refinement.json", "refinement.png"):
+                    shutil.copy(out / name, STAGE / kind / name)
+        comm.barrier()
+
+
+if __name__ == "__main__":
+    main()
