@@ -136,7 +136,7 @@ class FacetReference:
             return self.element.tabulate(derivatives, np.ascontiguousarray(xi))[..., 0]
         x, y = xi[:, 0], xi[:, 1]
         if self.facet_type == basix.CellType.triangle:
-            out = _triangle_shape(x, y, self.degree)
+            out = triangle_shape(x, y, self.degree)
         else:
             out = _quad_shape(x, y, self.degree)
         return out[: 3 if derivatives == 1 else 6] if derivatives else out[:1]
@@ -185,8 +185,10 @@ class FacetReference:
         return out
 
 
-def _triangle_shape(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
-    """P1/P2 triangle shape functions and derivatives (value, d1, d2, d11, d12, d22) x (n, nn)."""
+def triangle_shape(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
+    """P1/P2 triangle shape functions and derivatives (value, d1, d2, d11, d12, d22) x (n, nn) at
+    reference points (x, y); nodes: the vertices (0,0), (1,0), (0,1), then the edges (1,2),
+    (0,2), (0,1)."""
     n = len(x)
     z, o = np.zeros(n), np.ones(n)
     l0, l1, l2 = 1.0 - x - y, x, y

@@ -1,5 +1,5 @@
 """What a finished run keeps for its instruments: the temperature fields of the gears and the
-cycle's torques, independent of how many ranks computed them (numpy only).
+cycle's torques, independent of how many ranks computed them (numpy; no DOLFINx).
 
 Per gear (:class:`BodyField`): the thermal mesh gathered on one rank, its nodes sorted by their
 coordinates (so the arrays are the same whatever the partition), the cells (10-node tetrahedra for
@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from gearfem.core.errors import ParameterError
+from gearfem.core.facets import triangle_shape
 
 KINDS = (
     "side_front",
@@ -57,21 +58,11 @@ def face_lattice(n: int) -> np.ndarray:
 def face_trace_basis(lam: np.ndarray, nodes_per_face: int) -> np.ndarray:
     """The face's nodal basis at barycentric points ``lam`` (m, 3): linear (3 nodes) or quadratic
     (6 nodes: the vertices, then the edges (1,2), (0,2), (0,1), as :attr:`BodyField.faces`)."""
-    l0, l1, l2 = np.asarray(lam, dtype=float).T
-    if nodes_per_face == 3:
-        return np.column_stack([l0, l1, l2])
-    if nodes_per_face == 6:
-        return np.column_stack(
-            [
-                l0 * (2 * l0 - 1),
-                l1 * (2 * l1 - 1),
-                l2 * (2 * l2 - 1),
-                4 * l1 * l2,
-                4 * l0 * l2,
-                4 * l0 * l1,
-            ]
-        )
-    raise ParameterError("nodes_per_face", nodes_per_face, "3 (linear) or 6 (quadratic)")
+    degree = {3: 1, 6: 2}.get(nodes_per_face)
+    if degree is None:
+        raise ParameterError("nodes_per_face", nodes_per_face, "3 (linear) or 6 (quadratic)")
+    lam = np.asarray(lam, dtype=float)
+    return triangle_shape(lam[:, 1], lam[:, 2], degree)[0]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
