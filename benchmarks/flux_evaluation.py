@@ -12,16 +12,18 @@ own sample points) and prints each beside the filed study of the default
 (gearfem/data/uncertainty/<key>/<kind>.json).
 
     mpirun -n 2 python benchmarks/flux_evaluation.py [--kinds thermal_mesh structural_layers]
-        [--out results/flux_evaluation] [--reuse] [--docs] [--stage]
+        [--axial-width-mm W] [--out results/flux_evaluation] [--reuse] [--docs] [--stage]
 
 Thermal mesh about 25 min on 2 cores (the case's cycle cached, else 2 min more); structural
 layers about 45 min with its cycles computed (2 / 3 / 5 / 7 layers: 106 / 198 / 476 / 1045 s).
 The studies are not filed for the built-in case (the evaluation is part of the resolution key).
 ``--reuse``: read a complete study from OUT/<kind>/refinement.json instead of running it.
+``--axial-width-mm``: the case's ``[sources] flux_smoothing_axial_mm`` for these studies (default
+the built-in case's; the layers study scales it with the layers, as for the filed one).
 ``--docs``: replace the kind's block of docs/refinement.md (:data:`BLOCKS`). ``--stage``: copy
-each study's refinement.json and plot to benchmarks/studies/continuous/<kind>/, from where
-``uncertainty_builtin.py --file-only --out benchmarks/studies/continuous --kinds ...`` files them
-once the built-in case evaluates continuously (its key is then theirs; the script checks).
+each study's refinement.json and plot to benchmarks/studies/<resolution key>/<kind>/, from where
+``uncertainty_builtin.py --file-only --out benchmarks/studies/<key> --kinds ...`` files them once
+the built-in case is that resolution (the script checks the key).
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ from gearfem.uncertainty import (
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "refinement.md"
-STAGE = ROOT / "benchmarks" / "studies" / "continuous"
+STAGE = ROOT / "benchmarks" / "studies"
 #: The docs/refinement.md block of each kind compared so far (the two that carried the hottest
 #: node's u_num; the others' studies run the same way once added here).
 BLOCKS = {
@@ -60,8 +62,11 @@ BLOCKS = {
 SHOWN = ("max_surface", "flank_mean", "camera_max", "mean_bulk", "tip_max", "root_max")
 
 
-def comparison(study: RefinementStudy, filed, where: str, wall: float | None, size: int) -> str:
-    """The continuous study beside the filed default's value and u_num (Markdown)."""
+def comparison(
+    study: RefinementStudy, filed, where: str, width_mm: float, wall: float | None, size: int
+) -> str:
+    """The continuous study (axial width ``width_mm`` at the case) beside the filed default's
+    value and u_num (Markdown)."""
     rows = {r.quantity: r for r in study.rows}
     body = [
         [
@@ -88,7 +93,8 @@ def comparison(study: RefinementStudy, filed, where: str, wall: float | None, si
         body,
     )
     run = (
-        f"`mpirun -n {size} python benchmarks/flux_evaluation.py --kinds {study.kind} --docs`: "
+        f"`mpirun -n {size} python benchmarks/flux_evaluation.py --kinds {study.kind} "
+        f"--axial-width-mm {width_mm:g} --docs`: "
         f"{wall:.0f} s on {size} ranks, load average {os.getloadavg()[0]:.1f}."
         if wall is not None
         else f"Filed from the study's refinement.json ({study.resolution_key})."
@@ -97,7 +103,8 @@ def comparison(study: RefinementStudy, filed, where: str, wall: float | None, si
         f"{study.kind} study of the built-in case (factor {study.factor:g}, the case the "
         f"{study.case_level_name} of {len(study.levels)} levels of {levels} DOFs): the "
         f"reconstruction evaluated per structural facet (the filed study, {where}) and "
-        f"continuously at the thermal facets' sample points.\n\n{table}\n\n"
+        f"continuously at the thermal facets' sample points, axial width {width_mm:g} mm at the "
+        f"case.\n\n{table}\n\n"
         "\\* not in the asymptotic range: Fs = 3 and the order clipped.\n\n" + run
     )
 
@@ -109,12 +116,18 @@ def main() -> None:
     p.add_argument("--reuse", action="store_true", help="read OUT/<kind>/refinement.json")
     p.add_argument("--docs", action="store_true", help="write the docs/refinement.md blocks")
     p.add_argument("--stage", action="store_true", help="copy the studies to " + str(STAGE))
+    p.add_argument("--axial-width-mm", type=float, default=None)
     args = p.parse_args()
     comm = MPI.COMM_WORLD
     case = load_case(None)
     filed_studies = stored_studies(resolution_key(case))
     continuous = dataclasses.replace(
-        case, sources=dataclasses.replace(case.sources, flux_evaluation="continuous")
+        case,
+        sources=dataclasses.replace(
+            case.sources,
+            flux_evaluation="continuous",
+            flux_smoothing_axial_mm=args.axial_width_mm or case.sources.flux_smoothing_axial_mm,
+        ),
     )
     for kind in args.kinds:
         if kind not in filed_studies:
@@ -137,15 +150,17 @@ def main() -> None:
             )
             wall = time.perf_counter() - t0
         if comm.rank == 0:
-            text = comparison(study, *filed_studies[kind], wall, comm.size)
+            width = continuous.sources.flux_smoothing_axial_mm
+            text = comparison(study, *filed_studies[kind], width, wall, comm.size)
             print(markdown(study), flush=True)
             print(text, flush=True)
             if args.docs:
                 replace_block(DOC, BLOCKS[kind], text)
             if args.stage:
-                (STAGE / kind).mkdir(parents=True, exist_ok=True)
+                stage = STAGE / study.resolution_key / kind
+                stage.mkdir(parents=True, exist_ok=True)
                 for name in ("refinement.json", "refinement.png"):
-                    shutil.copy(out / name, STAGE / kind / name)
+                    shutil.copy(out / name, stage / name)
         comm.barrier()
 
 
