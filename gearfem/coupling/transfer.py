@@ -178,14 +178,16 @@ def continuous_operator(
     area_m2: np.ndarray,
     sigma_m: tuple[float, float],
     side_planes_z_m: tuple[float, float] | None,
+    balanced: tuple[sps.csr_matrix, np.ndarray] | None = None,
 ) -> sps.csr_matrix:
     """The reconstruction evaluated at ``targets_m`` (module docstring): rows
     c(x) K(x, x_j) A_j c_j with c(x) = 1 / Σ_j K(x, x_j) A_j c_j, so that a uniform flux gives
     the same value everywhere and, at a facet's own point, the row of S. The kernel is the
     tapered one (:func:`kernel_matrix`), so the field is continuous: S here is
     ``smoothing_operator(..., tapered=True)``. A target with no facet within the kernel's cut-off
-    takes its nearest facet's row of S."""
-    K, c = balanced_scaling(points_m, area_m2, sigma_m, side_planes_z_m, tapered=True)
+    takes its nearest facet's row of S. ``balanced``: the facets' tapered kernel and balancing,
+    :func:`balanced_scaling` (``tapered=True``), when the caller evaluates in blocks."""
+    K, c = balanced or balanced_scaling(points_m, area_m2, sigma_m, side_planes_z_m, tapered=True)
     w = np.asarray(area_m2, dtype=float) * c
     Kx = kernel_matrix(targets_m, points_m, sigma_m, side_planes_z_m, tapered=True)
     total = Kx @ w
@@ -340,6 +342,9 @@ class FlankTransfer:
         if reconstruction is not None and reconstruction.evaluation == "continuous":
             #: (thermal facets x reference facets): the facet means of the reconstruction
             #: evaluated at the sample points (in blocks of facets: memory)
+            balanced = balanced_scaling(
+                ref_points, fields.facet_area_m2, reconstruction.sigma_m, planes, tapered=True
+            )  # once for all blocks
             blocks = []
             for f0 in range(0, nf, CONTINUOUS_BLOCK_FACETS):
                 f1 = min(nf, f0 + CONTINUOUS_BLOCK_FACETS)
@@ -349,6 +354,7 @@ class FlankTransfer:
                     fields.facet_area_m2,
                     reconstruction.sigma_m,
                     planes,
+                    balanced,
                 )
                 mean = sps.csr_matrix(
                     (
