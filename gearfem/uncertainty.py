@@ -261,7 +261,8 @@ def _scaled(
 
 def run_uncertainty(case: Case, values: dict[str, float]) -> RunUncertainty | None:
     """u_num of each of a run's ``values`` (quantity name -> value, in the studies' units) from
-    the studies stored for the case's resolution; None when there is none."""
+    the studies stored for the case's resolution; None when there is none. A quantity that some
+    of the stored studies do not follow (added after they ran) gets none."""
     key = resolution_key(case)
     found = stored_studies(key)
     if not found:
@@ -270,10 +271,10 @@ def run_uncertainty(case: Case, values: dict[str, float]) -> RunUncertainty | No
     for q, v in values.items():
         if v is None or not math.isfinite(v):
             continue
+        if any(q not in study.u_num for study, _ in found.values()):
+            continue  # a sum over some of the directions would understate u_num
         parts, asym, scaled = {}, True, False
         for kind, (study, _) in found.items():
-            if q not in study.u_num:
-                continue
             u, s = _scaled(study, q, v, case.thermal.ambient_C)
             parts[kind] = u
             asym = asym and study.asymptotic[q]

@@ -162,6 +162,28 @@ def test_studies_combine_in_quadrature_and_scale_with_the_rise(store):
     assert far.quantities["max_surface"].scaled
 
 
+def test_a_quantity_some_studies_lack_gets_no_u_num(store):
+    """A quantity added after some studies ran (the field's surface maximum) would sum only the
+    directions that measured it: it gets no u_num until every stored study follows it."""
+    case = _unshipped_case()
+    store_study(_study(case, "thermal_mesh", 3.0, 0.4))
+    newer = _study(case, "positions", 4.0, 0.3)
+    newer = dataclasses.replace(
+        newer,
+        values={**newer.values, "max_surface_field": 251.0},
+        units={**newer.units, "max_surface_field": "C"},
+        u_num={**newer.u_num, "max_surface_field": 1.0},
+        asymptotic={**newer.asymptotic, "max_surface_field": True},
+    )
+    store_study(newer)
+    run = run_uncertainty(case, {"max_surface": 250.0, "max_surface_field": 251.0})
+    assert run.quantities["max_surface"].u_num == pytest.approx(5.0)
+    assert "max_surface_field" not in run.quantities
+    store_study(dataclasses.replace(newer, kind="thermal_mesh"))  # now both follow it
+    run = run_uncertainty(case, {"max_surface": 250.0, "max_surface_field": 251.0})
+    assert run.quantities["max_surface_field"].u_num == pytest.approx(math.sqrt(2.0))
+
+
 def test_another_resolution_finds_nothing(store):
     case = load_case(None)
     store_study(_study(case, "thermal_mesh", 3.0, 0.4))
