@@ -176,6 +176,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"mean bulk {h.mean_bulk_temperature_C:.1f} C; VDI 2736 flank "
         f"{h.vdi2736_flank1_C or nan:.1f} C, root {h.vdi2736_root1_C or nan:.1f} C"
     )
+    if h.max_surface_field_C is not None:
+        _say(
+            f"the field's surface maximum (between the nodes) {h.max_surface_field_C:.1f} C, "
+            f"the hottest surface node {h.max_surface_temperature_C:.1f} C"
+        )
     if h.camera_max_C is not None and summary.instruments is not None:
         end = summary.instruments.camera["end"]
         _say(

@@ -153,6 +153,9 @@ class Headline(JsonRecord):
     camera_max_steady_C: float | None = None
     camera_max_at_times_C: dict[str, float] | None = None
     torque_loss_Nm: float | None = None
+    # the surface maximum of the quadratic field, between the nodes (max_surface_temperature_C is
+    # the hottest node; None: no field recorded)
+    max_surface_field_C: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -260,12 +263,17 @@ def reported_quantities(
     thermal: dict[str, Any],
     cycle: CycleAtSpeed | None,
     readings: InstrumentReadings | None = None,
+    surface_field_max_C: float | None = None,
 ) -> dict[str, tuple[float, str]]:
     """The quantities a run reports and a refinement study follows, name -> (value, unit): every
-    temperature of the thermal summary at the end of the run, the instruments' readings at the end
-    (``camera_max``, ``probe:NAME``, ``torque_loss_Nm``) and, with a cycle, its friction power,
-    effective contact ratio, pitch-point and largest pressures and mean transmission error."""
+    temperature of the thermal summary at the end of the run, ``max_surface_field`` (the
+    surface maximum of the field between the nodes, :func:`surface_field_max`) when given, the
+    instruments' readings at the end (``camera_max``, ``probe:NAME``, ``torque_loss_Nm``) and,
+    with a cycle, its friction power, effective contact ratio, pitch-point and largest pressures
+    and mean transmission error."""
     out = {q: (v, "C") for q, v in thermal.get("final_temperatures_C", {}).items()}
+    if surface_field_max_C is not None:
+        out["max_surface_field"] = (surface_field_max_C, "C")
     if readings is not None:
         if "end" in readings.camera:
             out["camera_max"] = (readings.camera["end"].max_C, "C")
@@ -282,6 +290,26 @@ def reported_quantities(
             transmission_error_mean_um=(cycle.transmission_error_um["mean"], "um"),
         )
     return out
+
+
+def surface_field_max(
+    snapshot: FieldSnapshot | None, body: str, comm: MPI.Comm, label: str = "end"
+) -> float | None:
+    """The largest temperature (C) of ``body``'s finite-element field on its surface (teeth, side
+    faces and bore, as ``max_surface``) at snapshot time ``label``, where the quadratic field may
+    peak between the nodes (:meth:`BodyField.hottest_point`); never below the hottest node
+    ``max_surface``. None when no snapshot was recorded (no instrument reads a field) or it lacks
+    ``body`` or ``label``. Collective: the snapshot lives on rank 0, the value is broadcast."""
+
+    def on_rank0() -> float | None:
+        if body not in snapshot.bodies or label not in snapshot.labels:
+            return None
+        t_K, _ = snapshot.bodies[body].hottest_point(snapshot.label_index(label))
+        return t_K - ZERO_CELSIUS_K
+
+    if not comm.bcast(snapshot is not None, root=0):
+        return None
+    return on_root(comm, on_rank0)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -799,9 +827,9 @@ def run(
     at_speed = None
     if cyc is not None:
         at_speed = CycleAtSpeed.of(cyc, case.operating.speed_rpm, CycleCache(str(cdir), cached))
-    unc = run_uncertainty(
-        case, {q: v for q, (v, _) in reported_quantities(th, at_speed, readings).items()}
-    )
+    field_max = surface_field_max(snapshot, case.thermal.body, comm)
+    reported = reported_quantities(th, at_speed, readings, field_max)
+    unc = run_uncertainty(case, {q: v for q, (v, _) in reported.items()})
     summary = RunSummary(
         case=case.name,
         speed_rpm=case.operating.speed_rpm,
@@ -811,7 +839,7 @@ def run(
         wall_time_s=times,
         mpi_size=comm.size,
         cycle=at_speed,
-        headline=headline(th, base, at_speed, unc, case.thermal.ambient_C, readings),
+        headline=headline(th, base, at_speed, unc, case.thermal.ambient_C, readings, field_max),
         numerical_uncertainty=unc,
         instruments=readings,
         thermal_other=next(iter(others.values()), None),
@@ -832,15 +860,18 @@ def headline(
     uncertainty: RunUncertainty | None = None,
     ambient_C: float | None = None,
     readings: InstrumentReadings | None = None,
+    surface_field_max_C: float | None = None,
 ) -> Headline:
     """The headline numbers of a run from its stage summaries (with u_num where a refinement
-    study of the case's resolution is stored)."""
+    study of the case's resolution is stored); ``surface_field_max_C``: see
+    :func:`surface_field_max`."""
     final = thermal.get("final_temperatures_C", {})
     u_num = None
     if uncertainty is not None:
         u_num = {}
         for field, q in (
             ("max_surface_temperature_C", "max_surface"),
+            ("max_surface_field_C", "max_surface_field"),
             ("mean_bulk_temperature_C", "mean_bulk"),
             ("friction_power_W", "friction_power_W"),
             ("effective_contact_ratio", "effective_contact_ratio"),
@@ -860,6 +891,7 @@ def headline(
     return Headline(
         time_s=thermal.get("time_s"),
         max_surface_temperature_C=final.get("max_surface"),
+        max_surface_field_C=surface_field_max_C,
         mean_bulk_temperature_C=final.get("mean_bulk"),
         steady_max_surface_temperature_C=thermal.get("steady_state_C", {}).get("max_surface"),
         at_times_max_surface_C={

@@ -306,7 +306,8 @@ def refinement_study(
         at_speed = pipeline.CycleAtSpeed.of(cyc, c.operating.speed_rpm) if cyc else None
         size, dofs, setting = _size_and_setting(c, kind, th, cyc)
         done.append(RefinementLevel(level, size, dofs, setting))
-        quantities.append(pipeline.reported_quantities(th, at_speed, readings))
+        field_max = pipeline.surface_field_max(snapshot, c.thermal.body, comm)
+        quantities.append(pipeline.reported_quantities(th, at_speed, readings, field_max))
     formal = case.thermal.degree + 1.0 if kind == "thermal_mesh" else None
     rows = []
     for q, (_, unit) in quantities[0].items():

@@ -707,6 +707,10 @@ def test_run_writes_every_reading_and_observe_reads_them_again(comms, tmp_path_f
     assert summ.thermal_other is not None and summ.thermal_other["body"] == "wheel"
     assert summ.headline.camera_max_C == ins.camera["end"].max_C
     assert summ.headline.camera_max_at_times_C == {"60": ins.camera["60"].max_C}
+    # the field's surface maximum: on linear (P1) faces the hottest node itself
+    assert summ.headline.max_surface_field_C == pytest.approx(
+        summ.headline.max_surface_temperature_C, abs=1e-9
+    )
     again = pipeline.RunSummary.read(out / "summary.json")
     assert again.instruments == ins
     for name in ins.files:
@@ -842,6 +846,7 @@ def test_run_without_instruments_reads_nothing(tmp_path_factory):
     summ = pipeline.run(case, base / "run", comm, progress=False)
     assert summ.instruments is None and summ.thermal_other is None
     assert summ.headline.camera_max_C is None
+    assert summ.headline.max_surface_field_C is None  # no field recorded
     if comm.rank == 0:
         assert not (base / "run" / "instruments").exists()
 
