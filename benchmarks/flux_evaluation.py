@@ -19,7 +19,9 @@ layers about 45 min with its cycles computed (2 / 3 / 5 / 7 layers: 106 / 198 / 
 The studies are not filed for the built-in case (the evaluation is part of the resolution key).
 ``--reuse``: read a complete study from OUT/<kind>/refinement.json instead of running it.
 ``--axial-width-mm``: the case's ``[sources] flux_smoothing_axial_mm`` for these studies (default
-the built-in case's; the layers study scales it with the layers, as for the filed one).
+the built-in case's; since stop 33 the layers study keeps it, as
+:func:`gearfem.refinement.level_case` does for the continuous evaluation; stop 32's block ran
+with it scaled with the layers).
 ``--docs``: replace the kind's block of docs/refinement.md (:data:`BLOCKS`). ``--stage``: copy
 each study's refinement.json and plot to benchmarks/studies/<resolution key>/<kind>/, from where
 ``uncertainty_builtin.py --file-only --out benchmarks/studies/<key> --kinds ...`` files them once

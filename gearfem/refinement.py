@@ -205,7 +205,11 @@ def level_case(case: Case, kind: str, factor: float) -> Case:
     with the positions' spacing (it smooths the comb of the positions' contact bands: shrunk at a
     fixed spacing, the comb appears and the hottest node climbs, docs/refinement.md), its axial
     width with the structural layers; the contact zone's refinement keeps both (finer facets
-    represent the same reconstructed flux more finely)."""
+    represent the same reconstructed flux more finely). Evaluated continuously (``[sources]
+    flux_evaluation = "continuous"``) the reconstruction is a smooth flux whose axial width is
+    its own, not the layers': the layers study keeps it, and so refines the structural solution
+    only (per facet the flux is a step per facet row, which the width must follow to converge).
+    """
     require_choice("refinement kind", kind, KINDS)
     pinned = dataclasses.replace(case, thermal_mesh=case.thermal_mesh_options)
     if kind == "thermal_mesh":
@@ -215,15 +219,17 @@ def level_case(case: Case, kind: str, factor: float) -> Case:
     src = case.sources
     if kind == "structural_mesh":
         return dataclasses.replace(pinned, mesh=refined_contact_zone(case.mesh, factor))
-    if kind == "structural_layers":  # and the axial reconstruction with the layers' thickness
+    if kind == "structural_layers":
         layers = _layers(case.mesh.layers, factor)
-        smooth = dataclasses.replace(
+        mesh = dataclasses.replace(case.mesh, layers=layers)
+        if src.flux_evaluation == "continuous":  # a smooth flux of its own width: kept
+            return dataclasses.replace(pinned, mesh=mesh)
+        smooth = dataclasses.replace(  # per facet: the axial width with the layers' thickness
             src,
             flux_smoothing_axial_mm=_divided(
                 src.flux_smoothing_axial_mm, layers / case.mesh.layers
             ),
         )
-        mesh = dataclasses.replace(case.mesh, layers=layers)
         return dataclasses.replace(pinned, mesh=mesh, sources=smooth)
     if kind == "tip":
         mesh = dataclasses.replace(case.mesh, size_tip_mm=_divided(case.mesh.size_tip_mm, factor))

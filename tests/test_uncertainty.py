@@ -109,6 +109,12 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     )  # the axial reconstruction follows the layers' thickness
     assert lay.sources.flux_smoothing_profile_mm == src.flux_smoothing_profile_mm
     assert level_case(lay, "structural_layers", 1.5).mesh.layers == 5  # 4.5 rounded up
+    # evaluated continuously the reconstruction is a smooth flux of its own width: kept
+    smooth = dataclasses.replace(
+        case, sources=dataclasses.replace(src, flux_evaluation="continuous")
+    )
+    lay_c = level_case(smooth, "structural_layers", 1.5)
+    assert lay_c.mesh.layers == 3 and lay_c.sources == smooth.sources
     t = level_case(case, "tip", 2.0)
     assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
     assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
