@@ -4,11 +4,12 @@ The structural-layers study of the built-in case (2 / 3 / 5 / 7 element layers a
 face width; docs/refinement.md) has no converging order for the hottest node: it rises about 1 K
 per level with either evaluation of the flux reconstruction (block
 ``flux_evaluation_structural_layers``). This solves the case at the layer counts asked for
-(default 2 and 10: the case and the study's next level at factor 1.5) with each setting of the
-reconstruction (evaluation and axial width at the case's 2 layers; the width scaled with the
-layers as the per-facet evaluation's study does, :func:`gearfem.refinement.level_case`, or kept
-with ``--fixed-width``). It prints, per layer count and setting, the quantities a study follows
-(:func:`gearfem.pipeline.reported_quantities` of the same runs), among them the pinion's surface
+(default 2 and 10: the case, and 1.43 times the study's finest 7 layers; the study's own factor
+1.5 would give 11) with each setting of the reconstruction (evaluation and axial width at the
+case's 2 layers; the width scaled with the layers as the per-facet evaluation's study does,
+:func:`gearfem.refinement.level_case`, or kept with ``--fixed-width``). It prints, per layer
+count and setting, the quantities a study follows (:func:`gearfem.pipeline.reported_quantities`
+of the same runs), among them the pinion's surface
 maximum of the quadratic field ``max_surface_field`` (:func:`gearfem.pipeline.surface_field_max`)
 and where it is, and with three or more layer counts their convergence (gearfem.core.gci).
 
