@@ -14,8 +14,10 @@ own sample points) and prints each beside the filed study of the default
     mpirun -n 2 python benchmarks/flux_evaluation.py [--kinds thermal_mesh structural_layers]
         [--axial-width-mm W] [--out results/flux_evaluation] [--reuse] [--docs] [--stage]
 
-Thermal mesh about 25 min on 2 cores (the case's cycle cached, else 2 min more); structural
-layers about 45 min with its cycles computed (2 / 3 / 5 / 7 layers: 106 / 198 / 476 / 1045 s).
+Any kind of :data:`gearfem.uncertainty.BUILTIN_LEVELS`. Thermal mesh about 25 min on 2 cores
+(the case's cycle cached, else 2 min more); structural layers about 45 min with its cycles
+computed (2 / 3 / 5 / 7 layers: 106 / 198 / 476 / 1045 s); structural mesh, positions and tip
+each two more cycles and three thermal runs.
 The studies are not filed for the built-in case (the evaluation is part of the resolution key).
 ``--reuse``: read a complete study from OUT/<kind>/refinement.json instead of running it.
 ``--axial-width-mm``: the case's ``[sources] flux_smoothing_axial_mm`` for these studies (default
@@ -41,7 +43,7 @@ from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.config import load_case
-from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.doctables import markdown_table, read_block, replace_block
 from gearfem.core.io import read_json
 from gearfem.refinement import RefinementStudy, markdown, refinement_study
 from gearfem.uncertainty import (
@@ -54,12 +56,8 @@ from gearfem.uncertainty import (
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "refinement.md"
 STAGE = ROOT / "benchmarks" / "studies"
-#: The docs/refinement.md block of each kind compared so far (the two that carried the hottest
-#: node's u_num; the others' studies run the same way once added here).
-BLOCKS = {
-    "thermal_mesh": "flux_evaluation_thermal_mesh",
-    "structural_layers": "flux_evaluation_structural_layers",
-}
+#: The docs/refinement.md block of each kind (``--docs`` requires it to be in the page).
+BLOCKS = {kind: f"flux_evaluation_{kind}" for kind in BUILTIN_LEVELS}
 #: The quantities compared (the headline's and the flank's).
 SHOWN = ("max_surface", "flank_mean", "camera_max", "mean_bulk", "tip_max", "root_max")
 
@@ -120,6 +118,9 @@ def main() -> None:
     p.add_argument("--stage", action="store_true", help="copy the studies to " + str(STAGE))
     p.add_argument("--axial-width-mm", type=float, default=None)
     args = p.parse_args()
+    if args.docs:  # before hours of runs: every block written is in the page
+        for kind in args.kinds:
+            read_block(DOC, BLOCKS[kind])
     comm = MPI.COMM_WORLD
     case = load_case(None)
     filed_studies = stored_studies(resolution_key(case))
