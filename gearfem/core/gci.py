@@ -33,9 +33,13 @@ Fs = 1.25; otherwise p is clipped to [0.5, formal order], the fit repeated at th
 
     U_i = Fs |φ_i − φ0| + σ + |φ_i − φ_fit,i|,
 
-which for three solutions (an exact fit, σ = 0) is Roache's GCI of that level; the data-range
-bound min(U_i, 3 Δ_M) the procedure applies to orders below 0.5 is not used (gearfem keeps the
-larger, clipped-order estimate). u_num = U / 1.15 as above.
+which for three solutions (an exact fit, σ = 0) is Roache's GCI of that level. u_num = U / 1.15
+as above. Where no order in range fits, gearfem departs from the 2014 procedure, which refits at
+fixed orders instead (1, 2 and α h + β h² below 0.5; 1 and 2 above 2; each also weighted by
+1/h), keeps the fit of least scatter, and when σ is not below Δ_M/(n − 1) takes
+U_i = 3 σ (n − 1)/Δ_M (|φ_fit,i − φ0| + σ + |φ_i − φ_fit,i|); gearfem clips the order and keeps
+Fs = 3. ``benchmarks/uncertainty_method.py`` compares the two on a study. Neither bounds U by
+the data range (that bound is the 2008 procedure's, J. Mar. Sci. Technol. 13 (2008)).
 """
 
 from __future__ import annotations
