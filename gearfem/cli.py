@@ -116,6 +116,14 @@ def _cmd_thermal(args: argparse.Namespace) -> int:
     return 0
 
 
+def with_u_num(headline: pipeline.Headline, field: str, unit: str, digits: int = 1) -> str:
+    """The headline's ``field`` with its u_num where a study gives one: "284.9 ± 16.3 C"."""
+    value = getattr(headline, field)
+    u = (headline.u_num or {}).get(field)
+    text = f"{value:.{digits}f}" + (f" ± {u:.{digits}f}" if u is not None else "")
+    return f"{text} {unit}".rstrip()
+
+
 def _say(*a, **k) -> None:
     from mpi4py import MPI
 
@@ -171,20 +179,35 @@ def _cmd_run(args: argparse.Namespace) -> int:
     nan = float("nan")
     _say(
         f"{case.name}: {case.operating.speed_rpm:g} rpm, {case.operating.torque_Nm:g} N m, "
-        f"t = {h.time_s:g} s: max surface {h.max_surface_temperature_C:.1f} C "
+        f"t = {h.time_s:g} s: max surface "
+        f"{with_u_num(h, 'max_surface_temperature_C', 'C')} "
         f"(steady {h.steady_max_surface_temperature_C or nan:.1f} C), "
-        f"mean bulk {h.mean_bulk_temperature_C:.1f} C; VDI 2736 flank "
+        f"mean bulk {with_u_num(h, 'mean_bulk_temperature_C', 'C')}; VDI 2736 flank "
         f"{h.vdi2736_flank1_C or nan:.1f} C, root {h.vdi2736_root1_C or nan:.1f} C"
     )
     if h.max_surface_field_C is not None:
         _say(
-            f"the field's surface maximum (between the nodes) {h.max_surface_field_C:.1f} C, "
-            f"the hottest surface node {h.max_surface_temperature_C:.1f} C"
+            "the field's surface maximum (between the nodes) "
+            f"{with_u_num(h, 'max_surface_field_C', 'C')}, the hottest surface node "
+            f"{h.max_surface_temperature_C:.1f} C"
+        )
+    if h.friction_power_W is not None:
+        _say(
+            f"friction heat of the pair {with_u_num(h, 'friction_power_W', 'W', 2)}, effective "
+            f"contact ratio {with_u_num(h, 'effective_contact_ratio', '', 3)}"
+        )
+    u = summary.numerical_uncertainty
+    if u is not None:
+        missing = f"; no study of: {', '.join(u.missing)}" if u.missing else ""
+        _say(
+            f"± u_num: numerical standard uncertainty from the refinement studies of resolution "
+            f"{u.resolution_key} (docs/refinement.md){missing}"
         )
     if h.camera_max_C is not None and summary.instruments is not None:
         end = summary.instruments.camera["end"]
         _say(
-            f"IR camera ({case.instruments.camera.view} view): camera_max {h.camera_max_C:.1f} C "
+            f"IR camera ({case.instruments.camera.view} view): camera_max "
+            f"{with_u_num(h, 'camera_max_C', 'C')} "
             f"at the end (steady {h.camera_max_steady_C or nan:.1f} C; the unknown sub-pixel aim "
             f"{end.aim_std_C:.1f} K), at pixel {end.pixel} on {end.body} {end.surface} at the "
             f"nominal aim; the hottest model node of the pair is {end.hottest_node_C:.1f} C"

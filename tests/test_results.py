@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from gearfem.cli import with_u_num
 from gearfem.diagnose.candidates import LIBRARY
 from gearfem.diagnose.data import Dataset, Measurement
 from gearfem.diagnose.report import DiagnosisReport
@@ -55,6 +56,19 @@ def test_run_summary_round_trip_and_attribute_access(tmp_path):
     assert RunSummary.read(path) == s
     # a run without a cycle (prescribed sources)
     assert _through_json(dataclasses.replace(s, cycle=None)).cycle is None
+
+
+def test_the_run_prints_each_headline_number_with_its_u_num():
+    """gearfem run's console lines quote u_num beside a number that has one, and nothing
+    beside one that has none."""
+    head = Headline(
+        900.0, 284.884, 98.19, None, {}, 63.41, 1.7217, u_num={"friction_power_W": 0.336}
+    )
+    assert with_u_num(head, "max_surface_temperature_C", "C") == "284.9 C"
+    assert with_u_num(head, "friction_power_W", "W", 2) == "63.41 ± 0.34 W"
+    assert with_u_num(head, "effective_contact_ratio", "", 3) == "1.722"
+    studied = dataclasses.replace(head, u_num={"max_surface_temperature_C": 16.29})
+    assert with_u_num(studied, "max_surface_temperature_C", "C") == "284.9 ± 16.3 C"
 
 
 def test_study_result_round_trip():
