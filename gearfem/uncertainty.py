@@ -279,9 +279,8 @@ def run_uncertainty(case: Case, values: dict[str, float]) -> RunUncertainty | No
             parts[kind] = u
             asym = asym and study.asymptotic[q]
             scaled = scaled or s
-        if parts:
-            total = math.sqrt(sum(u * u for u in parts.values()))
-            quantities[q] = QuantityUncertainty(total, parts, asym, scaled)
+        total = math.sqrt(sum(u * u for u in parts.values()))  # found is not empty
+        quantities[q] = QuantityUncertainty(total, parts, asym, scaled)
     return RunUncertainty(
         resolution_key=key,
         sources={k: where for k, (_, where) in found.items()},
