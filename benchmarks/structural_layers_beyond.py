@@ -42,8 +42,7 @@ from gearfem.config import load_case
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.gci import convergence
 from gearfem.core.io import read_json
-from gearfem.instruments.evaluate import evaluate
-from gearfem.refinement import RefinementStudy, level_case
+from gearfem.refinement import RefinementStudy, level_case, solve_level
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "refinement.md"
@@ -126,13 +125,8 @@ def main() -> None:
             t_cycle = time.perf_counter() - tc
             kept = "_fixed" if args.fixed_width else ""
             out = Path(args.out) / f"layers{layers}_{evaluation}_{width:g}mm{kept}"
-            th, _, snapshot = pipeline.observed_thermal(
-                case, out, comm, cyc, write_fields=False, steady=False, write_plot=False
-            )
-            readings = pipeline.on_root(comm, lambda: evaluate(case.instruments, snapshot))
-            at_speed = pipeline.CycleAtSpeed.of(cyc, case.operating.speed_rpm)
-            field_max = pipeline.surface_field_max(snapshot, case.thermal.body, comm)
-            q = pipeline.reported_quantities(th, at_speed, readings, field_max)
+            solved = solve_level(case, out, comm, cyc)  # as each level of a study
+            q, snapshot = solved.quantities, solved.snapshot
             series.setdefault(setting_label(evaluation, width), {})[layers] = {
                 name: value for name, (value, _) in q.items()
             }

@@ -261,6 +261,33 @@ def _size_and_setting(case: Case, kind: str, thermal: dict, cycle) -> tuple[floa
     return 1.0 / n, dofs, {"positions_per_pitch": n}
 
 
+@dataclasses.dataclass(frozen=True)
+class LevelSolution:
+    """One level of a study solved: the thermal summary of ``[thermal] body``, the instruments'
+    snapshot of the thermal models (rank 0; None without instruments) and the reported
+    quantities (:func:`gearfem.pipeline.reported_quantities`: name -> (value, unit))."""
+
+    thermal: dict[str, Any]
+    snapshot: Any
+    quantities: dict[str, tuple[float, str]]
+
+
+def solve_level(case: Case, out_dir: Path, comm: MPI.Comm, cycle) -> LevelSolution:
+    """The thermal models the instruments read (both gears with the camera) on ``cycle`` (the
+    case's cycle result, None for prescribed sources), their readings and every reported
+    quantity, as each level of :func:`refinement_study` is measured (collective)."""
+    th, _, snapshot = pipeline.observed_thermal(
+        case, out_dir, comm, cycle, write_fields=False, steady=False, write_plot=False
+    )
+    readings = None
+    if comm.bcast(snapshot is not None, root=0):
+        readings = pipeline.on_root(comm, lambda: evaluate(case.instruments, snapshot))
+    at_speed = pipeline.CycleAtSpeed.of(cycle, case.operating.speed_rpm) if cycle else None
+    field_max = pipeline.surface_field_max(snapshot, case.thermal.body, comm)
+    quantities = pipeline.reported_quantities(th, at_speed, readings, field_max)
+    return LevelSolution(th, snapshot, quantities)
+
+
 def refinement_study(
     case: Case,
     out_dir: str | Path,
@@ -302,18 +329,10 @@ def refinement_study(
         cyc = cyc_fixed
         if cyc is None and c.sources.mode == "cycle":
             cyc, _, _ = pipeline.cycle(c, comm)
-        # the thermal models the instruments read (both gears with the camera) and the readings
-        th, _, snapshot = pipeline.observed_thermal(
-            c, out / f"level{level}", comm, cyc, write_fields=False, steady=False, write_plot=False
-        )
-        readings = None
-        if comm.bcast(snapshot is not None, root=0):
-            readings = pipeline.on_root(comm, lambda: evaluate(c.instruments, snapshot))
-        at_speed = pipeline.CycleAtSpeed.of(cyc, c.operating.speed_rpm) if cyc else None
-        size, dofs, setting = _size_and_setting(c, kind, th, cyc)
+        solved = solve_level(c, out / f"level{level}", comm, cyc)
+        size, dofs, setting = _size_and_setting(c, kind, solved.thermal, cyc)
         done.append(RefinementLevel(level, size, dofs, setting))
-        field_max = pipeline.surface_field_max(snapshot, c.thermal.body, comm)
-        quantities.append(pipeline.reported_quantities(th, at_speed, readings, field_max))
+        quantities.append(solved.quantities)
     formal = case.thermal.degree + 1.0 if kind == "thermal_mesh" else None
     rows = []
     for q, (_, unit) in quantities[0].items():
