@@ -47,6 +47,7 @@ from gearfem.cycle.cache import (
     cycle_key,
 )
 from gearfem.cycle.cache import load as load_cycle
+from gearfem.cycle.measures import pitch_point_band_pressure_Pa
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.report import write_cycle_outputs
 from gearfem.geometry.involute import GearPair
@@ -103,10 +104,15 @@ class CycleAtSpeed(JsonRecord):
     cycle_wall_time_s: float
     info: dict[str, Any]
     cache: CycleCache | None = None
+    # the pitch point's contact band as a Hertz profile of its load and spread, 2 w / (π a): the
+    # converged measure beside the largest pointwise pressure (gearfem.cycle.measures; None
+    # without a contact history)
+    pitch_point_band_pressure_MPa: float | None = None
 
     @classmethod
     def of(cls, cyc, speed_rpm: float, cache: CycleCache | None = None) -> CycleAtSpeed:
         omega = 2.0 * math.pi * speed_rpm / 60.0
+        band = pitch_point_band_pressure_Pa(cyc)
         return cls(
             effective_contact_ratio=cyc.effective_contact_ratio(),
             theoretical_contact_ratio=cyc.theoretical_contact_ratio,
@@ -124,6 +130,7 @@ class CycleAtSpeed(JsonRecord):
             cycle_wall_time_s=float(np.sum(cyc.wall_time_s)),
             info=dict(cyc.info),
             cache=cache,
+            pitch_point_band_pressure_MPa=band / 1e6 if band is not None else None,
         )
 
 
@@ -269,8 +276,9 @@ def reported_quantities(
     temperature of the thermal summary at the end of the run, ``max_surface_field`` (the
     surface maximum of the field between the nodes, :func:`surface_field_max`) when given, the
     instruments' readings at the end (``camera_max``, ``probe:NAME``, ``torque_loss_Nm``) and,
-    with a cycle, its friction power, effective contact ratio, pitch-point and largest pressures
-    and mean transmission error."""
+    with a cycle, its friction power, effective contact ratio, pitch-point pressures (the largest
+    pointwise one and its band's Hertz-profile peak) and largest pressure and mean transmission
+    error."""
     out = {q: (v, "C") for q, v in thermal.get("final_temperatures_C", {}).items()}
     if surface_field_max_C is not None:
         out["max_surface_field"] = (surface_field_max_C, "C")
@@ -289,6 +297,8 @@ def reported_quantities(
             max_contact_pressure_MPa=(cycle.max_contact_pressure_MPa, "MPa"),
             transmission_error_mean_um=(cycle.transmission_error_um["mean"], "um"),
         )
+        if cycle.pitch_point_band_pressure_MPa is not None:
+            out["pitch_point_band_pressure_MPa"] = (cycle.pitch_point_band_pressure_MPa, "MPa")
     return out
 
 
