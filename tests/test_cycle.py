@@ -34,7 +34,7 @@ from gearfem.coupling.transfer import FlankTransfer
 from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
 from gearfem.cycle.cache import load, save
 from gearfem.cycle.history import Z_BINS, ContactHistory
-from gearfem.cycle.measures import hertz_peak_pressure_Pa, pitch_point_band_pressure_Pa
+from gearfem.cycle.measures import pitch_point_band_pressure_Pa, pitch_point_bands
 from gearfem.geometry.mesh import build_gear_mesh, parse_group_name
 from gearfem.geometry.options import BODIES, MeshOptions
 from gearfem.thermal import ThermalBoundary, ThermalProblem
@@ -615,19 +615,20 @@ def test_bad_cycle_inputs_name_the_parameter(change, name):
 
 @pytest.mark.slow
 def test_the_pitch_point_band_pressure_is_the_hertz_peak_of_its_band(loaded):
-    """The pitch point's band pressure 2 w / (π a) (gearfem.cycle.measures): the peak of the
-    Hertz profile with the band's load and measured spread, so close to Hertz's own peak of that
-    load on the involute radii, and to the largest pointwise pressure there."""
+    """The pitch point's band pressure (gearfem.cycle.measures): the mean over the pitch tooth's
+    slices of the middle half of the face width of 2 w / (π a), the peak of the Hertz profile
+    with the slice's load and measured spread; so close to Hertz's own peak of those loads on the
+    involute radii (the largest pointwise pressure samples the peaks of the discrete solution)."""
     h = loaded.history
-    band = pitch_point_band_pressure_Pa(loaded)
+    bands = pitch_point_bands(loaded)
     width = Z_BINS * h.z_bin_m
-    sel = (h.position == 0) & h.of("pinion") & (np.abs(h.point_m[:, 2] - width / 2) <= width / 4)
-    i = np.argmax(hertz_peak_pressure_Pa(h)[sel])
-    w, a, a_h = (v[sel][i] for v in (h.load_per_length_N_m, h.half_width_m, h.hertz_half_width_m))
-    assert band == pytest.approx(2 * w / (math.pi * a), rel=1e-12)
-    hertz = 2 * w / (math.pi * a_h)
-    # measured: TINY 61.0 MPa against Hertz 56.1 and the pointwise 60.5 (its band 8 % narrower
-    # than Hertz's); the built-in case 53.1 against 52.0 and 51.7 (2 layers) ... 52.0 against
-    # 51.2 and 53.4 (10 layers)
-    assert band == pytest.approx(hertz, rel=0.1)
-    assert band == pytest.approx(loaded.p_max_mid_Pa[0], rel=0.05)
+    assert len(bands) == Z_BINS // 2  # one band per slice of the middle half, one tooth
+    assert np.all(np.abs(h.point_m[bands, 2] - width / 2) <= width / 4)
+    assert len(set(h.tooth[bands])) == 1 and np.all(h.position[bands] == 0)
+    w, a, a_h = h.load_per_length_N_m[bands], h.half_width_m[bands], h.hertz_half_width_m[bands]
+    band = pitch_point_band_pressure_Pa(loaded)
+    assert band == pytest.approx(np.mean(2 * w / (math.pi * a)), rel=1e-12)
+    hertz = np.mean(2 * w / (math.pi * a_h))
+    # measured: TINY (one layer) 53.0 MPa against Hertz 52.4 (its largest pointwise pressure
+    # 60.5); the built-in case 51.0 against 50.9 (2 layers) ... 51.1 against 50.8 (10 layers)
+    assert band == pytest.approx(hertz, rel=0.03)

@@ -32,14 +32,32 @@ def hertz_peak_pressure_Pa(history: ContactHistory) -> np.ndarray:
     return 2.0 * history.load_per_length_N_m / (math.pi * a)
 
 
-def pitch_point_band_pressure_Pa(cycle: CycleResult) -> float | None:
-    """The largest p̂0 of the pinion's contact bands in the middle half of the face width at the
+def pitch_point_bands(cycle: CycleResult) -> np.ndarray | None:
+    """One contact point (an index into the history) of each band of the pitch point: at the
     first position (the pitch point, where ``p_max_mid_Pa[0]`` is the largest pointwise
-    pressure). None without a contact history or contact there."""
+    pressure), the bands of the pinion tooth that carries the most load there, in the middle half
+    of the face width (each band one slice of it, :data:`~gearfem.cycle.history.Z_BINS` slices
+    across the face). None without a contact history or contact there."""
     h = cycle.history
     if h is None or h.num_points == 0:
         return None
     width = Z_BINS * h.z_bin_m  # the recorder's slices span the face width
     mid = np.abs(h.point_m[:, 2] - 0.5 * width) <= 0.25 * width
-    sel = (h.position == 0) & h.of("pinion") & mid
-    return float(np.max(hertz_peak_pressure_Pa(h)[sel])) if np.any(sel) else None
+    sel = np.nonzero((h.position == 0) & h.of("pinion") & mid)[0]
+    if len(sel) == 0:
+        return None
+    _, first = np.unique(h.band[sel], return_index=True)
+    bands = sel[first]
+    teeth = h.tooth[bands]
+    load = {k: float(np.sum(h.load_per_length_N_m[bands][teeth == k])) for k in np.unique(teeth)}
+    return bands[teeth == max(load, key=load.get)]
+
+
+def pitch_point_band_pressure_Pa(cycle: CycleResult) -> float | None:
+    """The pitch point's band pressure: the mean p̂0 over :func:`pitch_point_bands`. A mean over
+    the slices, not their largest: a slice's load samples the facet rows it cuts, which alternate
+    by a few per cent (docs/refinement.md)."""
+    bands = pitch_point_bands(cycle)
+    if bands is None:
+        return None
+    return float(np.mean(hertz_peak_pressure_Pa(cycle.history)[bands]))
