@@ -22,22 +22,25 @@ level for the quantities of refinement studies' refinement.json:
 
 ``--add-level``: one more level (its representative size, as the study's ``sizes``) with the
 given quantities' values (e.g. the 10-layer solutions of ``structural_layers_beyond.py``);
-quantities without a value there keep the study's levels. No solves; milliseconds.
+quantities without a value there keep the study's levels. ``--docs``: replace the block
+``uncertainty_method`` of docs/refinement.md with the table. No solves; milliseconds.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gearfem.core.doctables import markdown_table
+from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.gci import GCI_TO_STANDARD, convergence
 from gearfem.core.io import read_json
 from gearfem.refinement import RefinementStudy
 
+DOC = Path(__file__).resolve().parents[1] / "docs" / "refinement.md"
 P_LOW, P_HIGH = 0.5, 2.0  # the 2014 procedure's range of trusted orders (Fs 1.25 up to 2.1)
 
 
@@ -48,6 +51,8 @@ def _weighted_fit(h: np.ndarray, f: np.ndarray, w: np.ndarray, columns: list[np.
     coef, *_ = np.linalg.lstsq(a * sw[:, None], f * sw, rcond=None)
     fit = a @ coef
     n, n_p = len(f), a.shape[1]
+    if n <= n_p:  # as many solutions as parameters (three levels): an exact fit
+        return float(coef[0]), fit, 0.0
     sigma = math.sqrt(n * float(np.sum(w * (f - fit) ** 2)) / (n - n_p))
     return float(coef[0]), fit, sigma
 
@@ -97,6 +102,7 @@ def main() -> None:
     p.add_argument("studies", nargs="+", help="refinement.json files")
     p.add_argument("--quantities", nargs="+", default=["max_surface", "camera_max"])
     p.add_argument("--add-level", nargs="+", metavar="SIZE Q=VALUE", default=None)
+    p.add_argument("--docs", action="store_true", help="write the block uncertainty_method")
     args = p.parse_args()
     extra_size, extra = None, {}
     if args.add_level:
@@ -119,6 +125,10 @@ def main() -> None:
                 ours = convergence(values, sizes).u_num_at(level)
             else:
                 ours = r.u_num_case
+            if len(values) < 4:  # gearfem: the three-solution GCI, which the 2014 fit is not for
+                rows.append([f"{study.kind} ({study.resolution_key})", q, "3", f"{ours:.3g}"])
+                rows[-1] += ["three levels: not compared", "-"]
+                continue
             theirs, fit = eca_hoekstra_2014(values, sizes, level)
             rows.append(
                 [
@@ -138,7 +148,21 @@ def main() -> None:
         "Eça & Hoekstra 2014: fit",
         "u_num case",
     )
-    print(markdown_table(header, rows))
+    added = ", ".join(f"{k} {v:g}" for k, v in extra.items())
+    extra_note = f" Levels added: size {extra_size:g} with {added}." if extra else ""
+    text = (
+        markdown_table(header, rows)
+        + "\n\nu_num of the case's level by gearfem's rule (gearfem.core.gci) and by the 2014 "
+        + "procedure's formulas (this script's own implementation, in its docstring)."
+        + extra_note
+        + f"\n\n`python benchmarks/uncertainty_method.py {' '.join(args.studies)} --quantities "
+        + " ".join(args.quantities)
+        + (f" --add-level {' '.join(args.add_level)}" if args.add_level else "")
+        + " --docs`."
+    )
+    print(text)
+    if args.docs:
+        replace_block(DOC, "uncertainty_method", text)
 
 
 if __name__ == "__main__":
