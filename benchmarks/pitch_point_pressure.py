@@ -37,6 +37,13 @@ from gearfem.cycle.measures import (
 from gearfem.refinement import level_case
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "refinement.md"
+#: the docs/refinement.md block of each kind
+BLOCKS = {
+    "structural_layers": "pitch_point_pressure_structural_layers",
+    "structural_mesh": "pitch_point_pressure_structural_mesh",
+    "tip": "pitch_point_pressure_tip",
+    "positions": "pitch_point_pressure_positions",
+}
 
 
 def _measures(cyc) -> tuple[float, float, float, float, float]:
@@ -56,7 +63,7 @@ def _measures(cyc) -> tuple[float, float, float, float, float]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--kind", default="structural_layers")
+    p.add_argument("--kind", default="structural_layers", choices=tuple(BLOCKS))
     p.add_argument("--layers", nargs="+", type=int, default=[2, 3, 5, 7, 10])
     p.add_argument("--factors", nargs="+", type=float, default=[1.0, 1.5, 2.25])
     p.add_argument("--solve", action="store_true", help="solve the levels not cached")
@@ -132,7 +139,7 @@ def main() -> None:
     )
     print(text, flush=True)
     if args.docs:
-        replace_block(DOC, f"pitch_point_pressure_{args.kind}", text)
+        replace_block(DOC, BLOCKS[args.kind], text)
 
 
 if __name__ == "__main__":
