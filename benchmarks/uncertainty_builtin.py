@@ -63,7 +63,14 @@ BLOCKS = {
     "tip": "refinement_tip",
 }
 #: The quantities of the summary block (docs/refinement.md, refinement_summary).
-SUMMARY = ("camera_max", "mean_bulk", "flank_mean", "max_surface", "friction_power_W")
+SUMMARY = (
+    "camera_max",
+    "mean_bulk",
+    "flank_mean",
+    "max_surface_field",
+    "max_surface",
+    "friction_power_W",
+)
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "gearfem" / "data" / "uncertainty"
 DOC = ROOT / "docs" / "refinement.md"

@@ -77,7 +77,7 @@ def test_resolution_key_follows_the_discretisation_not_the_physics():
             case, sources=dataclasses.replace(case.sources, flux_smoothing_axial_mm=3.0)
         ),
         dataclasses.replace(
-            case, sources=dataclasses.replace(case.sources, flux_evaluation="continuous")
+            case, sources=dataclasses.replace(case.sources, flux_evaluation="reference_facets")
         ),
         # the camera reading's quadratures (a study made at 16 footprint rays holds another
         # camera reading than one at 8)
@@ -101,20 +101,21 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     # the contact zone's facets
     src = case.sources
     assert s.sources == src
-    lay = level_case(case, "structural_layers", 1.5)  # 2 -> 3 layers, nothing else
+    # evaluated per structural facet, the axial reconstruction follows the layers' thickness
+    facets = dataclasses.replace(
+        case, sources=dataclasses.replace(src, flux_evaluation="reference_facets")
+    )
+    lay = level_case(facets, "structural_layers", 1.5)  # 2 -> 3 layers
     assert lay.mesh == dataclasses.replace(case.mesh, layers=3)
     assert lay.thermal_mesh_options == case.thermal_mesh
-    assert lay.sources.flux_smoothing_axial_mm == pytest.approx(
-        src.flux_smoothing_axial_mm * 2 / 3
-    )  # the axial reconstruction follows the layers' thickness
+    assert lay.sources.flux_smoothing_axial_mm == pytest.approx(src.flux_smoothing_axial_mm * 2 / 3)
     assert lay.sources.flux_smoothing_profile_mm == src.flux_smoothing_profile_mm
     assert level_case(lay, "structural_layers", 1.5).mesh.layers == 5  # 4.5 rounded up
-    # evaluated continuously the reconstruction is a smooth flux of its own width: kept
-    smooth = dataclasses.replace(
-        case, sources=dataclasses.replace(src, flux_evaluation="continuous")
-    )
-    lay_c = level_case(smooth, "structural_layers", 1.5)
-    assert lay_c.mesh.layers == 3 and lay_c.sources == smooth.sources
+    # evaluated continuously (the built-in case) the reconstruction is a smooth flux of its own
+    # width: kept
+    assert src.flux_evaluation == "continuous"
+    lay_c = level_case(case, "structural_layers", 1.5)
+    assert lay_c.mesh.layers == 3 and lay_c.sources == src
     t = level_case(case, "tip", 2.0)
     assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
     assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
