@@ -11,8 +11,8 @@ refits at fixed orders and keeps the fit of least scatter (the order below 0.5: 
     U_i = Fs ε_i + σ + |φ_i − φ_fit,i|                     (σ < Δφ)
     U_i = 3 σ/Δφ (ε_i + σ + |φ_i − φ_fit,i|)               (σ >= Δφ),   ε_i = |φ_fit,i − φ0|,
 
-and no bound by the data range (the bound min(U, k Δ_M), Δ_M the largest difference between two
-solutions, is the 2008 procedure's, J. Mar. Sci. Technol. 13 (2008)). This script implements
+and no bound by the data range (Δ_M, the largest difference between two solutions, belongs to
+the 2008 procedure, J. Mar. Sci. Technol. 13 (2008)). This script implements
 those formulas independently of gearfem (as reconstructed from two implementations that cite the
 paper's equations; the paper's text was not at hand) and prints both u_num = U/1.15 of the case's
 level for the quantities of refinement studies' refinement.json:
