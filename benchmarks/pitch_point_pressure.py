@@ -28,7 +28,6 @@ from gearfem import pipeline
 from gearfem.config import load_case
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.gci import convergence
-from gearfem.cycle.cache import cache_root
 from gearfem.cycle.measures import (
     hertz_peak_pressure_Pa,
     pitch_point_band_pressure_Pa,
@@ -78,8 +77,7 @@ def main() -> None:
     rows, series, sizes, skipped = [], [], [], []
     for f in factors:
         case = base if f == 1.0 else level_case(base, args.kind, f)
-        key = pipeline.case_cycle_key(case)
-        if not (cache_root() / "cycles" / key).is_dir() and not args.solve:
+        if not (pipeline.case_cycle_dir(case) / "cycle.json").is_file() and not args.solve:
             skipped.append(f"{f:g}")
             continue
         cyc, _, _ = pipeline.cycle(case, comm)

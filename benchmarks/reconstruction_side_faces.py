@@ -35,8 +35,8 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem.config import load_case
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.coupling.transfer import SMOOTHING_CUTOFF, smoothing_operator
-from gearfem.cycle.cache import cache_root, load
-from gearfem.pipeline import case_cycle_key
+from gearfem.cycle.cache import load
+from gearfem.pipeline import case_cycle_dir
 from gearfem.refinement import level_case
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -81,7 +81,7 @@ def main() -> None:
     table, raw = [], []
     for level in LEVELS:
         c = case if level == 0 else level_case(case, "structural_layers", 1.5**level)
-        directory = cache_root() / "cycles" / case_cycle_key(c)
+        directory = case_cycle_dir(c)
         if not (directory / "cycle.json").is_file():
             raise SystemExit(
                 f"no cached cycle of {c.mesh.layers} layers in {directory}: run "

@@ -115,16 +115,13 @@ def main() -> None:
             r = study.row(q)
             values, sizes = list(r.values), list(r.sizes)
             case_h = sizes[study.case_value_index]
-            if q in extra:
+            if q in extra:  # one more level: the study's rule again (formal order: none)
+                if study.kind == "thermal_mesh":
+                    raise SystemExit("--add-level: not for thermal_mesh (its formal order)")
                 values.append(extra[q])
                 sizes.append(extra_size)
             level = sorted(sizes).index(case_h)
-            if q in extra:  # the study's rule again, on one more level (formal order: none)
-                if study.kind == "thermal_mesh":
-                    raise SystemExit("--add-level: not for thermal_mesh (its formal order)")
-                ours = convergence(values, sizes).u_num_at(level)
-            else:
-                ours = r.u_num_case
+            ours = convergence(values, sizes).u_num_at(level) if q in extra else r.u_num_case
             if len(values) < 4:  # gearfem: the three-solution GCI, which the 2014 fit is not for
                 rows.append([f"{study.kind} ({study.resolution_key})", q, "3", f"{ours:.3g}"])
                 rows[-1] += ["three levels: not compared", "-"]

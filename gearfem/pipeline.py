@@ -209,6 +209,12 @@ def case_cycle_key(case: Case) -> str:
     )
 
 
+def case_cycle_dir(case: Case) -> Path:
+    """Where the cycle of the case's torque is stored (:func:`case_cycle_key` under
+    ``<cache>/cycles/``; complete when it holds cycle.json and cycle.npz)."""
+    return cache_root() / "cycles" / case_cycle_key(case)
+
+
 def case_compliance_context(case: Case) -> str:
     """The part of the gear-compliance store key that comes from the case (mesh, elastic
     constants, code); the store adds each gear's contact DOFs and supports."""
@@ -947,7 +953,7 @@ def run_thermal_case(
     comm = comm or MPI.COMM_WORLD
     cyc = None
     if case.sources.mode == "cycle":
-        directory = cache_root() / "cycles" / case_cycle_key(case)
+        directory = case_cycle_dir(case)
         if not comm.bcast((directory / "cycle.json").exists(), root=0):
             raise ParameterError(
                 "sources.mode",
