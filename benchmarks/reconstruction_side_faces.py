@@ -19,12 +19,14 @@ It also prints the cycle's own flux per facet row (heat per area relative to the
 the largest facet flux of each row): what the layers resolve across the face width.
 
 ``--docs`` replaces the blocks ``reconstruction_side_faces`` and ``cycle_flux_rows`` of
-docs/refinement.md.
+docs/refinement.md. The axial widths are those of the per-facet layers study (1.5 mm at the
+case, scaled with the layers), the built-in case's until stop 33.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +45,8 @@ ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "refinement.md"
 #: Layer levels of the study (factor 1.5 from the case's 2 layers) and the rows shown per side.
 LEVELS = (0, 1, 2, 3)
+#: the per-facet study's axial width of the reconstruction at the case (2 layers), mm
+PER_FACET_AXIAL_WIDTH_MM = 1.5
 ROWS_SHOWN = 3
 
 
@@ -76,7 +80,17 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--docs", action="store_true", help="write the docs/refinement.md block")
     args = p.parse_args()
-    case = load_case(None)
+    # the per-facet layers study these rows were measured for (the built-in case's resolution
+    # until stop 33; since stop 34 it is evaluated continuously with the width kept)
+    builtin = load_case(None)
+    case = dataclasses.replace(
+        builtin,
+        sources=dataclasses.replace(
+            builtin.sources,
+            flux_evaluation="reference_facets",
+            flux_smoothing_axial_mm=PER_FACET_AXIAL_WIDTH_MM,
+        ),
+    )
     b = case.geometry.face_width_mm * 1e-3
     table, raw = [], []
     for level in LEVELS:
