@@ -17,7 +17,7 @@ from mpi4py import MPI
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
 from gearfem.core.params import to_dict
-from gearfem.geometry.extrude import GMSH_REF
+from gearfem.geometry.extrude import GMSH_REF, layer_planes
 from gearfem.geometry.gmsh_pair import gmsh_session
 from gearfem.geometry.involute import GearPair, GearPairGeometry
 from gearfem.geometry.mesh import (
@@ -422,6 +422,60 @@ def test_hex_variant(cache):
     # no quadrilateral corner on a tangent curve junction (tip round / land / flank): such a corner
     # is 180 degrees once curved and its scaled Jacobian ~ 1e-4 (what blossom recombination gave)
     assert gm.build_info["quality"]["min_scaled_jacobian"] > 0.2
+
+
+def test_layer_planes_uniform_and_graded():
+    b = 12.934e-3
+    assert np.array_equal(layer_planes(b, 2, 2), np.linspace(0.0, b, 5))  # equal: as before
+    assert np.array_equal(layer_planes(b, 3, 2, 1.0), np.linspace(0.0, b, 7))
+    for layers, g in ((4, 8.0), (5, 20.0), (7, 3.0)):
+        z = layer_planes(b, layers, 2, g)
+        bounds, t = z[::2], np.diff(z[::2])
+        assert z[0] == 0.0 and z[-1] == b and np.all(np.diff(z) > 0)
+        assert np.allclose(z[1::2], 0.5 * (bounds[:-1] + bounds[1:]), rtol=0, atol=1e-16)
+        assert np.allclose(t, t[::-1], rtol=1e-12)  # symmetric about the middle
+        # thinnest at the side faces, growing geometrically towards the middle: the layers of
+        # the front half in the neighbour ratio G^(2 / layers) of the size function s(xi)
+        front = t[: layers // 2]
+        assert np.allclose(front[1:] / front[:-1], g ** (2.0 / layers), rtol=1e-12)
+        assert t.min() == pytest.approx(t[0], rel=1e-12) == t[-1]
+        side = b * (g ** (2.0 / layers) - 1.0) / (2.0 * (g - 1.0))
+        assert t[0] == pytest.approx(side, rel=1e-12)
+    # refining the count keeps the size function: 4 -> 8 layers halves every layer (nested)
+    z4, z8 = layer_planes(b, 4, 1, 8.0), layer_planes(b, 8, 1, 8.0)
+    assert np.allclose(z8[::2], z4, rtol=0, atol=1e-15)
+    # the discrete middle-to-side ratio, G^(1 - 2 / layers), tends to G as the layers multiply
+    for layers in (4, 40):
+        t = np.diff(layer_planes(b, layers, 1, 8.0))
+        assert t[layers // 2 - 1] / t[0] == pytest.approx(8.0 ** (1.0 - 2.0 / layers), rel=1e-12)
+
+
+@pytest.mark.parametrize("grading", [1.0, 0.5, 2000.0])
+def test_layer_grading_is_checked(grading):
+    if grading == 1.0:  # equal layers: stored as None, so equal layers keep one cache key
+        assert MeshOptions(layer_grading=grading).layer_grading is None
+        assert cache_key(THESIS, MeshOptions(layer_grading=1.0)) == cache_key(THESIS, MeshOptions())
+        return
+    with pytest.raises(ParameterError) as err:
+        MeshOptions(layer_grading=grading)
+    assert err.value.name == "mesh.layer_grading" and "1" in err.value.allowed
+
+
+def test_graded_layers_mesh(cache):
+    options = dataclasses.replace(COARSE, layers=4, layer_grading=8.0)
+    gm = build_gear_mesh(THESIS, options, MPI.COMM_WORLD, cache_dir=cache, bodies=("pinion",))
+    assert gm.cache_key != cache_key(THESIS, dataclasses.replace(options, layer_grading=None))
+    _check_groups(gm)
+    b = THESIS.face_width_mm * 1e-3
+    z = np.unique(np.round(gm.mesh.geometry.x[:, 2], 12))
+    z = np.unique(np.round(np.concatenate(gm.mesh.comm.allgather(z)), 12))
+    assert np.allclose(z, layer_planes(b, 4, 2, 8.0), rtol=0, atol=1e-12)
+    v = body_volumes_m3(gm)["pinion"]
+    exact = GearPair(THESIS).pinion.body_area_m2(8) * b
+    assert abs(v - exact) / exact < 1e-5
+    q = gm.build_info["quality"]
+    assert q["side_layer_thickness_mm"] == pytest.approx(1e3 * layer_planes(b, 4, 1, 8.0)[1])
+    assert q["layer_thickness_mm"] == pytest.approx(1e3 * np.diff(layer_planes(b, 4, 1, 8.0)).max())
 
 
 def test_full_gear_is_closed(cache):

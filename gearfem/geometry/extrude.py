@@ -135,16 +135,47 @@ def _edge_mid_table(cell_type: int) -> list[tuple[int, int, int]]:
     return out
 
 
+def layer_planes(
+    face_width_m: float, layers: int, order: int, grading: float | None = None
+) -> np.ndarray:
+    """z of the node planes (``order * layers + 1``, metres): the layers' bounding planes and, for
+    order 2, each layer's middle plane. Equal layers without ``grading``; with a ratio G > 1 the
+    bounding planes are ``b s(i / layers)``, ``s(xi) = (G^(2 xi) - 1) / (2 (G - 1))`` for xi <=
+    1/2 and ``1 - s(1 - xi)`` beyond (:class:`~gearfem.geometry.options.MeshOptions`)."""
+    if grading is None or grading == 1.0:
+        return np.linspace(0.0, face_width_m, order * layers + 1)
+    xi = np.arange(layers + 1) / layers
+    half = np.minimum(xi, 1.0 - xi)
+    s = (grading ** (2.0 * half) - 1.0) / (2.0 * (grading - 1.0))
+    s = np.where(xi <= 0.5, s, 1.0 - s)
+    bounds = face_width_m * s
+    bounds[0], bounds[-1] = 0.0, face_width_m
+    if order == 1:
+        return bounds
+    z = np.empty(order * layers + 1)
+    z[::order] = bounds
+    for k in range(1, order):  # interior planes of each layer, equally spaced within it
+        z[k::order] = bounds[:-1] + (bounds[1:] - bounds[:-1]) * (k / order)
+    return z
+
+
 class _Extruder:
     """Node numbering of the swept mesh: node (i, j) = 2D node i on plane j -> j * n2 + i."""
 
-    def __init__(self, sec: Section2D, face_width_m: float, layers: int, order: int) -> None:
+    def __init__(
+        self,
+        sec: Section2D,
+        face_width_m: float,
+        layers: int,
+        order: int,
+        grading: float | None = None,
+    ) -> None:
         self.sec = sec
         self.n2 = len(sec.nodes)
         self.q = order
         self.layers = layers
         self.planes = order * layers + 1
-        z = np.linspace(0.0, face_width_m, self.planes)
+        z = layer_planes(face_width_m, layers, order, grading)
         self.nodes = np.column_stack([np.tile(sec.nodes, (self.planes, 1)), np.repeat(z, self.n2)])
         self._mid = None
         if order == 2:
@@ -185,12 +216,19 @@ class _Extruder:
         return self.idx(i_mid, (pa + pb) // 2)
 
 
-def extrude(sec: Section2D, face_width_m: float, layers: int, order: int) -> SweptBody:
-    """Extrude a 2D section mesh over ``z in [0, face_width_m]`` with ``layers`` element layers:
+def extrude(
+    sec: Section2D,
+    face_width_m: float,
+    layers: int,
+    order: int,
+    grading: float | None = None,
+) -> SweptBody:
+    """Extrude a 2D section mesh over ``z in [0, face_width_m]`` with ``layers`` element layers
+    (equal, or graded towards both side faces by ``grading``: :func:`layer_planes`):
     quadrilaterals -> hexahedra, triangles -> prisms split into three tetrahedra each (diagonals
     of the side faces from the lower- to the higher-numbered vertex, consistent between
     neighbours). High-order nodes come from the 2D mesh (curved boundary) and straight in z."""
-    sw = _Extruder(sec, face_width_m, layers, order)
+    sw = _Extruder(sec, face_width_m, layers, order, grading)
     q = order
     quad = sec.cell_type in (3, 10)
     facets: dict[str, np.ndarray] = {}

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from gearfem.geometry.extrude import GMSH_REF, Section2D, SweptBody, extrude
+from gearfem.geometry.extrude import GMSH_REF, Section2D, SweptBody, extrude, layer_planes
 from gearfem.geometry.involute import GearPair, GearPairGeometry, ToothProfile
 from gearfem.geometry.options import (
     BODIES,
@@ -586,7 +586,10 @@ def write_model(
     t_2d = time.perf_counter() - t0
     angles = [section_angles_deg(sec) for sec in sections.values()]
     b = geometry.face_width_mm * 1e-3
-    bodies = [extrude(sections[body], b, options.layers, options.order) for body in bodies]
+    bodies = [
+        extrude(sections[body], b, options.layers, options.order, options.layer_grading)
+        for body in bodies
+    ]
     with gmsh_session("gearfem_pair") as gmsh:
         groups, cell_tags, surfaces = _write_discrete(gmsh, bodies)
         t_mesh = time.perf_counter() - t0
@@ -594,7 +597,9 @@ def write_model(
         stats["areas_mm2"] = _areas_mm2(gmsh, bodies, surfaces)
         stats["quality"]["section_min_angle_deg"] = min(a[0] for a in angles)
         stats["quality"]["section_max_angle_deg"] = max(a[1] for a in angles)
-        stats["quality"]["layer_thickness_mm"] = geometry.face_width_mm / options.layers
+        bounds = layer_planes(geometry.face_width_mm, options.layers, 1, options.layer_grading)
+        stats["quality"]["layer_thickness_mm"] = float(np.max(np.diff(bounds)))
+        stats["quality"]["side_layer_thickness_mm"] = float(bounds[1] - bounds[0])
         gmsh.option.setNumber("Mesh.Binary", 1)
         gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
         gmsh.option.setNumber("Mesh.SaveAll", 0)

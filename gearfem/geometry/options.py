@@ -33,6 +33,15 @@ class MeshOptions:
             only, because DOLFINx 0.11 cannot tag facets of mixed hex/prism meshes).
         order: Geometry/element order (2: 10-node tets or 27-node hexes, curved on the boundary).
         layers: Element layers across the face width (thesis: 3).
+        layer_grading: How the layers are spaced across the face width: None (or 1) for equal
+            layers; a ratio G > 1 grades them towards both side faces, where the free edges
+            relieve the contact within a few tenths of a millimetre. The layer planes are
+            ``z = b s(i / layers)`` with the size function ``s(xi) = (G^(2 xi) - 1) / (2 (G -
+            1))`` on the front half (mirrored on the back half): the local layer thickness grows
+            geometrically from the side faces to the middle by the factor G (the discrete
+            thicknesses by G^(1 - 2 / layers) for an even count), and refining the layer count
+            keeps the same size function (geometrically similar levels). 1 is stored as None,
+            so that equal layers keep one cache key.
         size_flank_mm: Element size on the drive flanks of the refined teeth (profile direction;
             the Hertz half-width at 8 N m is about 0.3 mm).
         size_tip_mm: Size on the tips of the refined teeth.
@@ -58,6 +67,7 @@ class MeshOptions:
     element: str = "tet"
     order: int = 2
     layers: int = 3
+    layer_grading: float | None = None
     size_flank_mm: float = 0.12
     size_tip_mm: float = 0.15
     size_root_mm: float = 0.25
@@ -75,6 +85,15 @@ class MeshOptions:
         set_("element", require_choice(p + "element", self.element, ("tet", "hex")))
         set_("order", require_int(p + "order", self.order, lo=1, hi=2))
         set_("layers", require_int(p + "layers", self.layers, lo=1))
+        if self.layer_grading is not None:
+            g = require_range(
+                p + "layer_grading",
+                self.layer_grading,
+                1.0,
+                1000.0,
+                reason="the middle layers' thickness over the side-face layers' (1: equal layers)",
+            )
+            set_("layer_grading", None if g == 1.0 else g)
         for key in (
             "size_flank_mm",
             "size_tip_mm",
