@@ -35,6 +35,7 @@ CYCLE_CHANGES = {
     "contact penalty": _replace(CASE, "contact", penalty_factor=2 * CASE.contact.penalty_factor),
     "flank element size": _replace(CASE, "mesh", size_flank_mm=0.3),
     "face width": _replace(CASE, "geometry", face_width_mm=10.0),
+    "layer grading": _replace(CASE, "mesh", layer_grading=2.0),
     "positions per pitch": _replace(
         CASE, "cycle", positions_per_pitch=CASE.cycle.positions_per_pitch + 2
     ),
@@ -127,7 +128,10 @@ def test_cycle_key_ignores_what_is_applied_after_the_cycle(name):
 
 def test_mesh_key_changes_with_options_geometry_and_bodies():
     base = mesh_key(CASE.geometry, CASE.mesh)
-    assert mesh_key(CASE.geometry, dataclasses.replace(CASE.mesh, layers=4)) != base
+    assert mesh_key(CASE.geometry, dataclasses.replace(CASE.mesh, layers=5)) != base
+    equal = mesh_key(CASE.geometry, dataclasses.replace(CASE.mesh, layer_grading=None))
+    assert mesh_key(CASE.geometry, dataclasses.replace(CASE.mesh, layer_grading=4.0)) != equal
+    assert mesh_key(CASE.geometry, dataclasses.replace(CASE.mesh, layer_grading=1.0)) == equal
     assert mesh_key(dataclasses.replace(CASE.geometry, bore_radius_mm=12.0), CASE.mesh) != base
     assert mesh_key(CASE.geometry, CASE.mesh, bodies=("pinion",)) != base
     # the same bodies in another order are the same mesh
