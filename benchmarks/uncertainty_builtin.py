@@ -43,6 +43,7 @@ from gearfem.refinement import (
     KINDS,
     RefinementStudy,
     markdown,
+    plot,
     refinement_study,
     study_uncertainty,
 )
@@ -148,10 +149,11 @@ def main() -> None:
             if args.file_only:
                 caption = f"\n\n{args.note or 'Filed from ' + args.out + '/' + kind}."
             replace_block(DOC, BLOCKS[kind], markdown(study) + caption)
-            shutil.copy(
-                Path(args.out) / kind / "refinement.png",
-                ROOT / "docs" / "images" / f"refinement_{kind}.png",
-            )
+            image = ROOT / "docs" / "images" / f"refinement_{kind}.png"
+            if args.file_only:  # drawn again from the study: the plot of the current code
+                plot(study, image)
+            else:
+                shutil.copy(Path(args.out) / kind / "refinement.png", image)
             print(markdown(study), flush=True)
         comm.barrier()
     if comm.rank == 0:

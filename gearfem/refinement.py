@@ -359,7 +359,7 @@ def refinement_study(
     study = RefinementStudy(case.name, kind, factor, at, key, tuple(done), tuple(rows))
     if comm.rank == 0:
         _write_table(study, out)
-        _plot(study, out)
+        plot(study, out / "refinement.png")
         store_study(study_uncertainty(case, study))
         write_json(out / "refinement.json", study)  # last: marks a complete study
     comm.barrier()
@@ -477,7 +477,9 @@ def markdown(study: RefinementStudy) -> str:
     return "\n".join(lines)
 
 
-def _plot(study: RefinementStudy, out: Path) -> None:
+def plot(study: RefinementStudy, path: Path) -> None:
+    """The study's temperatures against h, each relative to the case's value, with the case's
+    u_num and the extrapolated values (PNG at ``path``)."""
     import matplotlib  # plotting only here: not imported with the CLI
 
     matplotlib.use("Agg")
@@ -487,7 +489,7 @@ def _plot(study: RefinementStudy, out: Path) -> None:
     rows = [
         r
         for r in study.rows
-        if r.unit == "C" and r.quantity.endswith(("max", "mean", "surface", "bulk"))
+        if r.unit == "C" and r.quantity.endswith(("max", "mean", "surface", "bulk", "field"))
     ]
     colours = plt.get_cmap("tab20").colors  # one colour per quantity (the default cycle has 10)
     at = study.case_value_index
@@ -517,5 +519,5 @@ def _plot(study: RefinementStudy, out: Path) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
-    fig.savefig(out / "refinement.png", dpi=120)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
