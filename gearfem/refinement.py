@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import itertools
 import math
 import os
 from pathlib import Path
@@ -441,6 +442,35 @@ def _write_table(study: RefinementStudy, out: Path) -> None:
     (out / "refinement.md").write_text("\n".join(lines))
 
 
+#: how far a level's layer ratio may stray from the study's factor and still count as similar
+LAYER_RATIO_TOLERANCE = 0.02
+
+
+def layer_similarity(study: RefinementStudy) -> str:
+    """A caption sentence when a thermal study's levels are not geometrically similar across the
+    face width (empty otherwise). The layers are refined with the element sizes but rounded up
+    to whole layers (:func:`refined_mesh`), so a case at 4 layers gives 3 / 4 / 6 at factor 1.5:
+    refined by 1.33, then 1.5. The representative size h (from the DOFs) averages that over the
+    mesh; a quantity the axial resolution governs (the hottest surface temperature in the middle
+    of the face width) sees other ratios and may show no order (docs/refinement.md, "Graded
+    layers")."""
+    if study.kind != "thermal_mesh":
+        return ""
+    layers = [lv.setting.get("layers") for lv in study.levels]
+    if any(n is None for n in layers):
+        return ""
+    ratios = [b / a for a, b in itertools.pairwise(layers)]
+    if all(abs(r / study.factor - 1.0) <= LAYER_RATIO_TOLERANCE for r in ratios):
+        return ""
+    return (
+        f" The layers across the face width, {' / '.join(str(n) for n in layers)}, refine by "
+        f"{', '.join(f'{r:.3g}' for r in ratios)} (rounded up to whole layers), not by "
+        f"{study.factor:g}: across the face width the levels are not geometrically similar, and a "
+        "quantity the axial resolution governs may show no order; a case whose layers times the "
+        "factor are whole numbers (4 / 6 / 9 at 1.5) avoids it."
+    )
+
+
 def markdown(study: RefinementStudy) -> str:
     """The study as a Markdown table with its one-line caption (for refinement.md and docs/)."""
     dofs = ", ".join(str(lv.dofs) for lv in study.levels)
@@ -450,7 +480,7 @@ def markdown(study: RefinementStudy) -> str:
     lines = [
         f"{_TITLES[study.kind]}, factor {study.factor:g}: levels coarse to fine with h = {sizes} "
         f"and {dofs} DOFs; the case's resolution is the {study.case_level_name}. Values at the "
-        "end of the run.",
+        "end of the run." + layer_similarity(study),
         "",
         f"| quantity | unit | {' | '.join(head)} | observed order | extrapolated | "
         "u_num fine | u_num case |",

@@ -13,7 +13,14 @@ from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
 from gearfem.core.gci import grid_convergence, least_squares_convergence
 from gearfem.geometry.options import MeshOptions
-from gearfem.refinement import RefinementStudy, markdown, refined_mesh, refinement_study
+from gearfem.refinement import (
+    RefinementLevel,
+    RefinementStudy,
+    layer_similarity,
+    markdown,
+    refined_mesh,
+    refinement_study,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -52,6 +59,30 @@ def test_refined_mesh_scales_sizes_and_layers():
     # the entry size refines with the contact zone when set, and stays off when not
     assert refined_mesh(MeshOptions(size_entry_mm=0.06), 1.5).size_entry_mm == pytest.approx(0.04)
     assert refined_mesh(MeshOptions(), 1.5).size_entry_mm is None
+
+
+def _study_with_layers(kind: str, layers: tuple[int, ...]) -> RefinementStudy:
+    levels = tuple(
+        RefinementLevel(i, 0.02 / 1.5**i, 1000 * (i + 1), {"layers": n})
+        for i, n in enumerate(layers)
+    )
+    return RefinementStudy("case", kind, 1.5, 1, "key", levels, ())
+
+
+def test_a_thermal_study_says_when_its_layers_are_not_similar():
+    """The layers refine with the element sizes but are rounded up to whole layers: a case at 4
+    thermal layers gives 3 / 4 / 6 at factor 1.5 (refined by 1.33, then 1.5), which the
+    representative size from the DOFs does not show. The table's caption says so; 4 / 6 / 9 (by
+    1.5 exactly) and the structural layers' own study (h = 1 / layers) say nothing."""
+    rounded = _study_with_layers("thermal_mesh", (3, 4, 6))
+    sentence = layer_similarity(rounded)
+    assert "3 / 4 / 6" in sentence and "1.33, 1.5" in sentence and "not by 1.5" in sentence
+    assert sentence in markdown(rounded).splitlines()[0]
+    assert layer_similarity(_study_with_layers("thermal_mesh", (4, 6, 9))) == ""
+    assert layer_similarity(_study_with_layers("structural_layers", (3, 4, 6))) == ""
+    # the levels the tool makes from a case at 4 layers are the rounded ones
+    coarse = refined_mesh(MeshOptions(layers=4), 1.0 / 1.5)
+    assert (coarse.layers, refined_mesh(MeshOptions(layers=4), 1.5).layers) == (3, 6)
 
 
 def test_levels_that_round_to_the_same_discretisation_are_refused(tmp_path, comm):
