@@ -15,12 +15,14 @@ import math
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
+import scipy.sparse as sp
 from dolfinx.mesh import entities_to_geometry
 from mpi4py import MPI
 from test_cycle import _case, _model
 
 from gearfem import pipeline
-from gearfem.contact import ContactOptions
+from gearfem.contact import ContactOptions, condensed
 from gearfem.contact.compliance import (
     Condensation,
     body_dofs,
@@ -149,6 +151,42 @@ def test_condensed_hertz_matches_the_full_solver(comms):
     one, world = out["condensed", 1], out["condensed", MPI.COMM_WORLD.size]
     assert world.force_per_length_N_m == pytest.approx(one.force_per_length_N_m, rel=1e-8)
     assert world.p0_fe_Pa == pytest.approx(one.p0_fe_Pa, rel=1e-8)
+
+
+def test_refinement_with_an_earlier_lu_solves_the_new_system_or_gives_up():
+    """The active-set solve's iterative refinement: with the LU of a nearby system (contact
+    stiffness changed by 0.1 %) it reaches the new system's solution to 1e-12; with the LU of a
+    system five times stiffer it gives up (None) instead of returning a poor direction."""
+    rng = np.random.default_rng(7)
+    n = 300
+    B = rng.standard_normal((n, n)) / math.sqrt(n)
+    C = B @ B.T + 0.1 * np.eye(n)  # a compliance: symmetric positive definite
+    k = rng.uniform(1.0, 1e3, n)
+    rhs = rng.standard_normal((n, 2))
+    lu = sla.lu_factor(np.eye(n) + k[:, None] * C)
+    near = sp.diags(k * (1.0 + 1e-3 * rng.uniform(-1, 1, n))).tocsr()
+    x = CondensedContactProblem._refine(lu, near, C, rhs)
+    exact = np.linalg.solve(np.eye(n) + near @ C, rhs)
+    assert x is not None
+    assert np.abs(x - exact).max() <= 1e-10 * np.abs(exact).max()
+    assert CondensedContactProblem._refine(lu, sp.diags(5.0 * k).tocsr(), C, rhs) is None
+
+
+def test_condensed_hertz_reuses_factorisations_and_keeps_the_answer(monkeypatch):
+    """Hertz line contact (h = 14 mm) on the condensed solver: with the refinement on the last LU
+    it factorises fewer times than it takes Newton directions, and gives the force and the peak
+    pressure of the solve that factorises at every direction to 1e-9."""
+    out = {}
+    for passes in (condensed.REFINE_PASSES, 0):
+        monkeypatch.setattr(condensed, "REFINE_PASSES", passes)
+        case = hertz_case(MPI.COMM_SELF, HERTZ, contact_size=0.014, solver="condensed")
+        case.problem.solve("hertz")
+        out[passes] = (compare_hertz(case), case.problem.info, len(case.problem.active_sizes))
+    (reuse, info, directions), (fresh, info0, directions0) = out.values()
+    assert info0["dense_factorizations"] == directions0
+    assert info["dense_factorizations"] < directions
+    assert reuse.force_per_length_N_m == pytest.approx(fresh.force_per_length_N_m, rel=1e-9)
+    assert reuse.p0_fe_Pa == pytest.approx(fresh.p0_fe_Pa, rel=1e-9)
 
 
 def test_condensed_non_convergence_names_reason_step_and_iteration():

@@ -66,6 +66,13 @@ log = logging.getLogger(__name__)
 
 ROOT = Condensation.root
 
+#: Iterative refinement with the last LU of the active-set system
+#: (:meth:`CondensedContactProblem._active_solve`): accepted at this residual relative to the
+#: right-hand side (a new LU leaves 1e-15 to 1e-13; Newton's own tolerance is 1e-9 of the forces
+#: by default), within this many passes.
+REFINE_RTOL = 1e-12
+REFINE_PASSES = 6
+
 
 @dataclasses.dataclass
 class _CondensedState:
@@ -210,8 +217,14 @@ class CondensedContactProblem(ContactProblem):
         self._ubar_free: dict[str, np.ndarray] = {}  # owner: response to u_D on the free DOFs
         self._bc_signature: np.ndarray | None = None
         self.dense_factorizations = 0
+        self.dense_solve_s = 0.0  # on the root: forming and solving the active-set systems
+        self.direction_s = 0.0  # on the root: the whole Newton direction (incl. the above)
+        self.state_s = 0.0  # this rank: contact residuals and tangents (:meth:`state`)
+        self.active_sizes: list[int] = []  # active DOFs per Newton direction
         self.zone_sizes: list[int] = []  # condensed DOFs the segmentation reaches, per Newton solve
         self._zone: dict[str, tuple] = {}
+        self._cg: tuple[np.ndarray, np.ndarray] | None = None  # root: the last (g, C g)
+        self._lu: tuple[np.ndarray, tuple] | None = None  # root: the last (a, LU of I + K_aa C_aa)
         self.back_substitution_error = 0.0  # max |u_f(c) − u_c| / max |u_c| at the last solve
         self.setup_time_s = time.perf_counter() - t0
 
@@ -297,6 +310,7 @@ class CondensedContactProblem(ContactProblem):
     # -------------------------------------------------------------------------------------------
     def state(self, matrix: bool = True) -> _CondensedState:
         """Contact residual and tangent at the current u_c and motions (collective)."""
+        t_start = time.perf_counter()
         self.write_uc()
         u_loc = self.u.x.array
         n = self.num_condensed
@@ -353,30 +367,36 @@ class CondensedContactProblem(ContactProblem):
             if ctl is not None:
                 scale = max(scale, abs(ctl.torque_Nm) / ctl.length_scale_m)
         st.norm, st.scale = self.comm.bcast((norm, scale), root=ROOT)
+        self.state_s += time.perf_counter() - t_start
         return st
 
     def direction(self, st: _CondensedState, label: str, iteration: int):
         """Newton direction (δu_c, δψ) on every rank, δg on the root."""
         ctl = self.controlled
-        du = dpsi = dg = None
+        du = dpsi = dg = stats = None
         failure = None
         if self.comm.rank == ROOT:
             try:
-                du, dpsi, dg = self._direction_root(st, label, iteration)
+                du, dpsi, dg, stats = self._direction_root(st, label, iteration)
             except ConvergenceError as err:
                 failure = (err.solver, err.reason, err.step, err.iteration)
         failure = self.comm.bcast(failure, root=ROOT)
         if failure is not None:  # raised on every rank
             raise ConvergenceError(*failure)
-        du, dpsi = self.comm.bcast((du, dpsi), root=ROOT)
+        du, dpsi, stats = self.comm.bcast((du, dpsi, stats), root=ROOT)
+        self.dense_solve_s += stats[0]
+        self.direction_s += stats[1]
+        self.active_sizes.append(stats[2])
         self.linear_solves += 2 if ctl is not None else 1
-        self.dense_factorizations += 1
-        self.factorizations += 1
+        self.dense_factorizations += int(stats[3])
+        self.factorizations += int(stats[3])
         return du, dpsi, dg
 
     def _direction_root(self, st: _CondensedState, label: str, iteration: int):
-        """(δu_c, δψ, δg) on the root; δu_c only on the zone Z (the nodes the frozen segmentation
-        can reach: nothing else is read before :meth:`newton` refreshes u_c = ū + C g)."""
+        """(δu_c, δψ, δg, (dense solve s, direction s, active DOFs)) on the root; δu_c only on
+        the zone Z (the nodes the frozen segmentation can reach: nothing else is read before
+        :meth:`newton` refreshes u_c = ū + C g)."""
+        t_start = time.perf_counter()
         ctl = self.controlled
         n = self.num_condensed
         on = np.zeros(n, dtype=bool)  # the active DOFs, sorted (a mask: no sort of the COO)
@@ -400,18 +420,9 @@ class CondensedContactProblem(ContactProblem):
             Caa[np.ix_(sel, sel)] = CZZ[np.ix_(pa, pa)]
             CXa[sel] = self._c_times(name, X[sl], rows=pa)
         log.debug("%s Newton %d: %d active DOFs of %d", label, iteration, len(a), n)
-        A = np.eye(len(a)) + Kaa @ Caa
+        t_dense = time.perf_counter()
         rhs = Y[a] - Kaa @ CXa
-        try:
-            lu = sla.lu_factor(A, check_finite=True)
-            X[a] = sla.lu_solve(lu, rhs)
-        except (ValueError, sla.LinAlgError) as err:
-            raise ConvergenceError(
-                "condensed contact linear solve (dense LU)",
-                str(err),
-                step=label,
-                iteration=iteration,
-            ) from err
+        X[a], factored = self._active_solve(a, Kaa, Caa, rhs, label, iteration)
         if not np.isfinite(X).all():
             raise ConvergenceError(
                 "condensed contact linear solve (dense LU)",
@@ -419,12 +430,15 @@ class CondensedContactProblem(ContactProblem):
                 step=label,
                 iteration=iteration,
             )
+        t_dense = time.perf_counter() - t_dense
         U = np.zeros_like(X)
         for name, sl in self.slices.items():
             zb = self._zone[name][0]
             U[sl][zb] = self._c_times(name, X[sl])
+        # seconds, seconds, DOFs, whether a new factorisation was made
+        stats = (t_dense, time.perf_counter() - t_start, len(a), factored)
         if ctl is None:
-            return U[:, 0], 0.0, X[:, 0]
+            return U[:, 0], 0.0, X[:, 0], stats
         D = st.k_pp + float(st.k_pu @ U[:, 1])
         if not (D > 0.0 and np.isfinite(D)):
             raise ConvergenceError(
@@ -435,7 +449,57 @@ class CondensedContactProblem(ContactProblem):
                 iteration=iteration,
             )
         dpsi = -(st.R_psi + float(st.k_pu @ U[:, 0])) / D
-        return U[:, 0] + dpsi * U[:, 1], dpsi, X[:, 0] + dpsi * X[:, 1]
+        return U[:, 0] + dpsi * U[:, 1], dpsi, X[:, 0] + dpsi * X[:, 1], stats
+
+    def _active_solve(
+        self, a: np.ndarray, Kaa, Caa: np.ndarray, rhs: np.ndarray, label: str, iteration: int
+    ) -> tuple[np.ndarray, bool]:
+        """Solve (I + K_aa C_aa) x = rhs; returns x and whether A was factorised anew.
+
+        While the active set a is the one of the last factorisation, that LU (of the tangent of
+        an earlier iterate) preconditions iterative refinement on the current A, applied as
+        x + K_aa (C_aa x) without forming it: each pass costs a few n² products instead of the
+        n³ of a new LU and the sparse-times-dense product that forms A. The refinement is kept
+        only when it converges to :data:`REFINE_RTOL` of the right-hand side, shrinking the
+        residual at least twofold per pass, within :data:`REFINE_PASSES` passes; otherwise (and
+        when a changed) A is formed and factorised, and the new LU kept for the next directions."""
+        if self._lu is not None and np.array_equal(self._lu[0], a):
+            x = self._refine(self._lu[1], Kaa, Caa, rhs)
+            if x is not None:
+                return x, False
+        A = np.eye(len(a)) + Kaa @ Caa
+        try:
+            lu = sla.lu_factor(A, check_finite=True)
+            x = sla.lu_solve(lu, rhs)
+        except (ValueError, sla.LinAlgError) as err:
+            raise ConvergenceError(
+                "condensed contact linear solve (dense LU)",
+                str(err),
+                step=label,
+                iteration=iteration,
+            ) from err
+        self._lu = (a.copy(), lu)
+        return x, True
+
+    @staticmethod
+    def _refine(lu, Kaa, Caa: np.ndarray, rhs: np.ndarray) -> np.ndarray | None:
+        """Iterative refinement of (I + K_aa C_aa) x = rhs preconditioned by ``lu``; None when it
+        does not converge as :meth:`_active_solve` requires."""
+        size = float(np.linalg.norm(rhs))
+        if not np.isfinite(size):
+            return None
+        x = sla.lu_solve(lu, rhs)
+        last = np.inf
+        for _ in range(REFINE_PASSES):
+            r = rhs - (x + Kaa @ (Caa @ x))
+            norm = float(np.linalg.norm(r))
+            if not np.isfinite(norm) or norm > 0.5 * last:
+                return None
+            if norm <= REFINE_RTOL * size:
+                return x
+            x = x + sla.lu_solve(lu, r)
+            last = norm
+        return None
 
     def _c_times(self, name: str, Xb: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
         """(C_b X_b) on the zone rows of body ``name`` (or on the zone positions ``rows``).
@@ -501,7 +565,17 @@ class CondensedContactProblem(ContactProblem):
 
     def _compliance_times(self, g: np.ndarray) -> np.ndarray:
         """C g per body. g vanishes off the DOFs contact has touched: C is symmetric, so C g is
-        the combination of C's rows at g's non-zeros (contiguous rows, not a full pass over C)."""
+        the combination of C's rows at g's non-zeros (contiguous rows, not a full pass over C).
+        The last product is kept: a Newton solve starts from the g the last one ended with (the
+        Uzawa and slip-direction passes change the multipliers, not g), and each product reads a
+        few hundred MB of C."""
+        if self._cg is not None and np.array_equal(self._cg[0], g):
+            return self._cg[1].copy()
+        out = self._compliance_times_of(g)
+        self._cg = (g.copy(), out.copy())
+        return out
+
+    def _compliance_times_of(self, g: np.ndarray) -> np.ndarray:
         out = np.empty_like(g)
         for name, sl in self.slices.items():
             C, gb = self.condensation.compliance[name], g[sl]
@@ -573,6 +647,10 @@ class CondensedContactProblem(ContactProblem):
             "peak_rss_MB_after_condensation": ci.peak_rss_MB,
             "dense_factorizations": self.dense_factorizations,
             "zone_dofs_mean": float(np.mean(self.zone_sizes)) if self.zone_sizes else 0.0,
+            "active_dofs_mean": float(np.mean(self.active_sizes)) if self.active_sizes else 0.0,
+            "dense_solve_s": self.dense_solve_s,
+            "direction_s": self.direction_s,
+            "state_s": self.state_s,
             "back_substitution_error": self.back_substitution_error,
         }
 
