@@ -28,7 +28,10 @@ iterations; wall time (max over ranks) of the mesh (cache load and DOLFINx impor
 set-up (spaces, stiffness, contact surfaces; with the condensed solver the factorisations and the
 condensation or the store), of the cycle solve, and their sum; the CPU time of the cycle solve
 (process time of the busiest rank: on a loaded machine it shows what a quiet one would take on 1
-rank; MPICH ranks poll while they wait, so on 2 ranks it includes waiting); whether the
+rank; MPICH ranks poll while they wait, so on 2 ranks it includes waiting); with the condensed
+solver, rank 0's time in contact states (residual and tangent, incl. waiting for the other ranks'
+points) and in Newton directions (of which forming and solving the active-set systems), and the
+LU factorisations against the directions (the rest reuse the last LU); whether the
 compliances came from the store; the dense compliance blocks held on rank 0 (MB); peak resident
 memory (max over ranks, and summed); the mean transmission error and the effective contact ratio.
 The machine has 2 cores shared with other developers: the 1-minute load average before and after
@@ -186,6 +189,12 @@ def cycle_rows(args) -> list[dict]:
                     "from_store": bool(condensed and all(info["compliance_from_store"].values())),
                     "condensation_s": info.get("condensation_s", 0.0),
                     "factorization_s": info.get("factorization_s", 0.0),
+                    # the condensed Newton's parts (rank 0: it does the dense algebra)
+                    "state_s": info.get("state_s", 0.0),
+                    "direction_s": info.get("direction_s", 0.0),
+                    "dense_solve_s": info.get("dense_solve_s", 0.0),
+                    "lu": info.get("dense_factorizations", 0),
+                    "directions": info.get("newton_directions", 0),
                     "compliance_MB": info.get("compliance_MB_root", 0.0),
                     "mem_max_MB": mx,
                     "mem_sum_MB": tot,
@@ -216,6 +225,8 @@ HEADERS = (
     "set-up (s)",
     "cycle (s)",
     "cycle CPU (s)",
+    "contact states / directions (dense solves) (s)",
+    "LU / directions",
     "total (s)",
     "compliance",
     "C on rank 0 (MB)",
@@ -248,6 +259,10 @@ def table_rows(rows) -> list[list]:
                 f"{r['setup_s']:.1f}",
                 f"{r['cycle_s']:.1f}",
                 f"{r['cycle_cpu_s']:.1f}",
+                f"{r['state_s']:.0f} / {r['direction_s']:.0f} ({r['dense_solve_s']:.0f})"
+                if r["directions"]
+                else "–",
+                f"{r['lu']} / {r['directions']}" if r["directions"] else "–",
                 f"**{r['total_s']:.1f}**",
                 comp,
                 f"{r['compliance_MB']:.0f}" if r["compliance_MB"] else "–",

@@ -647,6 +647,7 @@ class CondensedContactProblem(ContactProblem):
             "peak_rss_MB_after_condensation": ci.peak_rss_MB,
             "dense_factorizations": self.dense_factorizations,
             "zone_dofs_mean": float(np.mean(self.zone_sizes)) if self.zone_sizes else 0.0,
+            "newton_directions": len(self.active_sizes),
             "active_dofs_mean": float(np.mean(self.active_sizes)) if self.active_sizes else 0.0,
             "dense_solve_s": self.dense_solve_s,
             "direction_s": self.direction_s,
