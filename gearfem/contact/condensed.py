@@ -393,9 +393,9 @@ class CondensedContactProblem(ContactProblem):
         return du, dpsi, dg
 
     def _direction_root(self, st: _CondensedState, label: str, iteration: int):
-        """(δu_c, δψ, δg, (dense solve s, direction s, active DOFs)) on the root; δu_c only on
-        the zone Z (the nodes the frozen segmentation can reach: nothing else is read before
-        :meth:`newton` refreshes u_c = ū + C g)."""
+        """(δu_c, δψ, δg, (dense solve s, direction s, active DOFs, whether A was factorised))
+        on the root; δu_c only on the zone Z (the nodes the frozen segmentation can reach:
+        nothing else is read before :meth:`newton` refreshes u_c = ū + C g)."""
         t_start = time.perf_counter()
         ctl = self.controlled
         n = self.num_condensed
