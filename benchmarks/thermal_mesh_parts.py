@@ -73,6 +73,9 @@ def main() -> None:
             "r_mm": math.hypot(rel[0], rel[1]) * 1e3,
             "z_mm": rel[2] * 1e3,
             "wall_s": wall_s,
+            # counts and rank 0's seconds of the transient Newton solver (Jacobians, residuals,
+            # linear solves with their factorisations)
+            "transient_solver": thermal.get("transient_solver"),
         }
         print("RESULT", json.dumps(result), flush=True)
 

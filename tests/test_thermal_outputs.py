@@ -67,6 +67,14 @@ def test_run_writes_complete_outputs(tmp_out):
             s["complete"] and s["steps"] == len(records) - 1 and s["ranks"] == MPI.COMM_WORLD.size
         )
         assert s["model_fraction"] == pytest.approx(2 / 30)
+        # where the run's time went: every accepted step's Newton iterations each took a
+        # residual after the step's first one; a factorisation is made at a Jacobian only
+        work = s["transient_solver"]
+        assert work["residuals"] >= s["steps"] + s["newton_iterations"]
+        assert 1 <= work["factorisations"] <= work["jacobians"] <= work["residuals"]
+        assert work["krylov_iterations"] >= s["newton_iterations"]
+        timed_s = work["jacobian_s"] + work["residual_s"] + work["linear_solve_s"]
+        assert 0.0 < timed_s < s["wall_time_s"]
         assert (out / "thermal_history.png").stat().st_size > 0
         assert (out / "temperature.bp").is_dir()
         assert not (out / "thermal_history.csv.partial").exists()

@@ -28,8 +28,10 @@ Newton iteration stays exact: the residual and the Jacobian are always the curre
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -46,6 +48,30 @@ MAX_HALVINGS = 12
 #: KSP reasons of an indefinite operator or preconditioner (DIVERGED_INDEFINITE_PC,
 #: DIVERGED_INDEFINITE_MAT): CG needs a positive definite Jacobian.
 INDEFINITE_REASONS = (-8, -10)
+
+
+@dataclasses.dataclass(frozen=True)
+class SolverStatistics:
+    """The work of a :class:`NewtonSolver` so far: counts, and wall seconds on this rank.
+
+    jacobians: Jacobian assemblies (J_nl assembled and added to alpha M + K).
+    residuals: Residual evaluations.
+    factorisations: Preconditioner builds (MUMPS factorisations of the ``direct`` solver).
+    krylov_iterations: Krylov iterations over all linear solves.
+    jacobian_s, residual_s, linear_solve_s: Time in each (the linear solves include the
+        factorisations).
+    """
+
+    jacobians: int
+    residuals: int
+    factorisations: int
+    krylov_iterations: int
+    jacobian_s: float
+    residual_s: float
+    linear_solve_s: float
+
+    def as_dict(self) -> dict[str, float]:
+        return dataclasses.asdict(self)
 
 
 class NewtonSolver:
@@ -120,6 +146,8 @@ class NewtonSolver:
         self.switched_to_general = False
         self.pc_builds = 0
         self.linear_iterations = 0
+        self._jacobians = self._residuals = 0
+        self._jacobian_s = self._residual_s = self._linear_solve_s = 0.0
 
         # The options stay in the database while the solver lives: some are read only when the
         # preconditioner is first set up (e.g. the sub-PC of block Jacobi).
@@ -129,6 +157,18 @@ class NewtonSolver:
         self._options = set_options(prefix, {}, options)
         ksp.setFromOptions()
         self.ksp = ksp
+
+    def statistics(self) -> SolverStatistics:
+        """Counts and times of the work done so far (see :class:`SolverStatistics`)."""
+        return SolverStatistics(
+            jacobians=self._jacobians,
+            residuals=self._residuals,
+            factorisations=self.pc_builds,
+            krylov_iterations=self.linear_iterations,
+            jacobian_s=self._jacobian_s,
+            residual_s=self._residual_s,
+            linear_solve_s=self._linear_solve_s,
+        )
 
     def _forget_options(self) -> None:
         self._options.clear()
@@ -198,6 +238,7 @@ class NewtonSolver:
         from dolfinx.fem.petsc import assemble_vector
         from petsc4py import PETSc
 
+        t0 = time.perf_counter()
         if self.pre_residual is not None:
             self.pre_residual()
         x = self.T.x.petsc_vec
@@ -212,12 +253,16 @@ class NewtonSolver:
             self.b.axpy(self.alpha, self._tmp)
         if self._have_c:
             self.b.axpy(1.0, self._c)
-        return self.b.norm()
+        norm = self.b.norm()
+        self._residuals += 1
+        self._residual_s += time.perf_counter() - t0
+        return norm
 
     def _jacobian(self) -> None:
         from dolfinx.fem.petsc import assemble_matrix
         from petsc4py import PETSc
 
+        t0 = time.perf_counter()
         J = self.A
         J.zeroEntries()
         same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
@@ -230,6 +275,17 @@ class NewtonSolver:
         J.assemble()
         if self.extra_jacobian is not None:
             self.extra_jacobian(J)
+        self._jacobians += 1
+        self._jacobian_s += time.perf_counter() - t0
+
+    def _linear_solve(self) -> int:
+        """dx = J^-1 b with the KSP (its preconditioner built or kept as set up); returns the KSP
+        reason."""
+        t0 = time.perf_counter()
+        self.ksp.solve(self.b, self.dx)
+        self.linear_iterations += self.ksp.getIterationNumber()
+        self._linear_solve_s += time.perf_counter() - t0
+        return self.ksp.getConvergedReason()
 
     def _fail(self, reason: str, where: str, it: int, norm: float):
         raise ConvergenceError("thermal Newton", reason, step=where, iteration=it, residual=norm)
@@ -299,9 +355,7 @@ class _ThermalSystem:
                 s.pc_builds += 1
                 self.rebuild = False
             s.ksp.setOperators(s.A)
-        s.ksp.solve(s.b, s.dx)
-        s.linear_iterations += s.ksp.getIterationNumber()
-        kr = s.ksp.getConvergedReason()
+        kr = s._linear_solve()
         if kr in INDEFINITE_REASONS and s.use_general_solver():
             # CG met a Jacobian that is not positive definite (a heat source rising with T): the
             # solver follows the physics, GMRES with an LU factorisation from now on
@@ -312,9 +366,7 @@ class _ThermalSystem:
             s.ksp.setOperators(s.A)
             s._alpha_pc = s.alpha
             s.pc_builds += 1
-            s.ksp.solve(s.b, s.dx)
-            s.linear_iterations += s.ksp.getIterationNumber()
-            kr = s.ksp.getConvergedReason()
+            kr = s._linear_solve()
         if kr < 0:
             if s.reuse and s._alpha_pc is not None:
                 s._alpha_pc = None  # a stale preconditioner may be the cause: rebuild next time

@@ -188,6 +188,10 @@ def summary(problem, records, extra: dict[str, Any] | None = None) -> dict[str, 
             problem.boundary.convection.as_dict() if problem.boundary.convection else None
         ),
     }
+    stats = problem.transient_statistics
+    if stats is not None:
+        # the transient Newton solver's counts and this rank's seconds (where the run's time went)
+        out["transient_solver"] = stats.as_dict()
     if extra:
         out.update(extra)
     return out

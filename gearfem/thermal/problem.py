@@ -35,7 +35,7 @@ from gearfem.core.materials import ZERO_CELSIUS_K, Material, STEFAN_BOLTZMANN_W_
 from gearfem.thermal.balance import HeatBalance
 from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.domain import ThermalDomain
-from gearfem.thermal.newton import NewtonSolver
+from gearfem.thermal.newton import NewtonSolver, SolverStatistics
 from gearfem.thermal.options import ThermalOptions
 from gearfem.thermal.properties import enthalpy_ufl, table_ufl
 from gearfem.thermal.source_terms import HeatSources, field_ufl
@@ -552,6 +552,12 @@ class ThermalProblem:
         M = assemble_matrix(self._capacity_form)
         M.assemble()
         return M
+
+    @property
+    def transient_statistics(self) -> SolverStatistics | None:
+        """The transient Newton solver's work so far (None before the first step)."""
+        s = self._transient_solver
+        return None if s is None else s.statistics()
 
     @property
     def petsc_prefix(self) -> str:
