@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import ufl
 from mpi4py import MPI
+from scipy.spatial import cKDTree
 
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
@@ -27,7 +28,13 @@ from gearfem.geometry.mesh import (
     cache_key,
     mesh_report,
 )
-from gearfem.geometry.options import ENTRY_MARGIN_MODULES, TOOTH_KINDS, MeshOptions
+from gearfem.geometry.options import (
+    ENTRY_MARGIN_MODULES,
+    TOOTH_KINDS,
+    MeshOptions,
+    check_options,
+)
+from gearfem.geometry.placement import placement
 
 THESIS = GearPairGeometry()
 COARSE = MeshOptions(
@@ -675,3 +682,54 @@ def test_entry_refinement_refines_the_flank_foot_only(cache):
     assert len(foot) >= 6 and np.max(foot) < 1.15 * 0.1e-3  # measured 0.1015 mm
     assert np.max(sizes["base"][0]) > 1.5 * np.max(foot)
     assert np.max(rest) == pytest.approx(np.max(sizes["base"][1]), rel=0.1)
+
+
+def _cut_nodes(gm, kind: str) -> np.ndarray:
+    """Geometry nodes (m) on the pinion's cut face ``kind`` (this rank's facets)."""
+    msh = gm.mesh
+    fdim = msh.topology.dim - 1
+    facets = gm.facet_tags.find(int(gm.physical_groups[f"pinion_{kind}"].tag))
+    nodes = dolfinx.mesh.entities_to_geometry(msh, fdim, facets, False)
+    return msh.geometry.x[np.unique(nodes.ravel())]
+
+
+@pytest.mark.parametrize("periodic", [True, None])
+def test_periodic_cuts_mesh_the_cut_faces_alike(cache, periodic):
+    """``periodic_cuts``: the nodes of the sector's cut_end face are those of cut_start turned
+    by the sector's angle about the gear's centre (to round-off). Without it the two faces are
+    meshed independently: alike where the size field is symmetric about the sector's middle
+    (the built-in meshes), not here, where one of the two teeth is refined (measured: 93 and 81
+    nodes)."""
+    opts = dataclasses.replace(
+        COARSE,
+        teeth_in_model=2,
+        refined_teeth=1,
+        size_flank_mm=0.21,
+        size_root_mm=0.28,
+        size_body_mm=1.0,
+        size_tooth_mm=0.6,
+        layers=1,
+        periodic_cuts=periodic,
+    )
+    gm = build_gear_mesh(
+        GearPairGeometry(), opts, MPI.COMM_SELF, cache_dir=cache, bodies=("pinion",)
+    )
+    place = placement(gm.pair, opts, "pinion")
+    t0, t1 = place.sector_rad
+    c, s = math.cos(t1 - t0), math.sin(t1 - t0)
+    start, end = _cut_nodes(gm, "cut_start"), _cut_nodes(gm, "cut_end")
+    rel = start - place.center_m
+    turned = np.column_stack(
+        [c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1], rel[:, 2]]
+    )
+    turned += place.center_m
+    dist, _ = cKDTree(end).query(turned)
+    matched = len(start) == len(end) and float(dist.max()) < 1e-12
+    assert matched == bool(periodic), (len(start), len(end), float(dist.max()))
+
+
+def test_periodic_cuts_need_a_sector():
+    """A whole gear has no cut faces to make periodic."""
+    g = GearPairGeometry()
+    with pytest.raises(ParameterError, match="periodic_cuts"):
+        check_options(g, MeshOptions(teeth_in_model=g.teeth_pinion, periodic_cuts=True))

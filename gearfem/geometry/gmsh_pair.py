@@ -335,6 +335,19 @@ def _entry_fields(
 # ------------------------------------------------------------------------------------------------
 
 
+def _periodic_cuts(gmsh, sec: _BodyCurves, place: BodyPlacement) -> None:
+    """Mesh the section's ``cut_end`` line as ``cut_start`` turned about the gear's centre by the
+    sector's angle (the extrusion then gives cut faces whose nodes match the same way)."""
+    t0, t1 = place.sector_rad
+    a = t1 - t0
+    c, s = math.cos(a), math.sin(a)
+    cx, cy = sec.center_mm
+    # x' = R (x - centre) + centre, row-major 4 x 4 (millimetres, the model's unit)
+    affine = [c, -s, 0.0, cx - c * cx + s * cy, s, c, 0.0, cy - s * cx - c * cy]
+    affine += [0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    gmsh.model.mesh.setPeriodic(1, sec.cut_end, sec.cut_start, affine)
+
+
 def _curve_groups(body: str, sec: _BodyCurves) -> dict[str, list[int]]:
     out: dict[str, list[int]] = {}
     for (kind, k), curves in sec.tooth.items():
@@ -391,6 +404,9 @@ def mesh_sections(
     opt("Mesh.ElementOrder", 1)
     refined = refined_tooth_indices(options, options.teeth_in_model)
     _size_field(gmsh, sections, options, refined, scale=2.0 if hex_ else 1.0)
+    if options.periodic_cuts:
+        for body, sec in sections.items():
+            _periodic_cuts(gmsh, sec, places[body])
     gmsh.model.mesh.generate(2)
     if options.order > 1:
         gmsh.model.mesh.setOrder(options.order)

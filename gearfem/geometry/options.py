@@ -61,6 +61,11 @@ class MeshOptions:
             (the loaded teeth; thesis: at most 4 loaded).
         pinion_angle_deg: Pinion rotation from the reference position (counter-clockwise); the
             wheel is placed at the rigid conjugate angle. Tooth numbering is unchanged.
+        periodic_cuts: True meshes the two cut faces of a sector alike: the nodes of
+            ``cut_end`` are those of ``cut_start`` turned by the sector's angle (gmsh's periodic
+            meshes), so that a rotationally periodic condition can tie them (a sector standing
+            for the whole gear). None (off; False is stored as None, so that other meshes keep
+            their cache keys). Only for a sector (``teeth_in_model`` below the gear's teeth).
     """
 
     teeth_in_model: int = 8
@@ -77,10 +82,16 @@ class MeshOptions:
     refined_teeth: int = 4
     size_entry_mm: float | None = None
     pinion_angle_deg: float = 0.0
+    periodic_cuts: bool | None = None
 
     def __post_init__(self) -> None:
         p = "mesh."
         set_ = lambda k, v: object.__setattr__(self, k, v)
+        if self.periodic_cuts not in (None, True, False):
+            raise ParameterError(
+                p + "periodic_cuts", self.periodic_cuts, "true or false (a TOML boolean)"
+            )
+        set_("periodic_cuts", True if self.periodic_cuts else None)
         set_("teeth_in_model", require_int(p + "teeth_in_model", self.teeth_in_model, lo=1))
         set_("element", require_choice(p + "element", self.element, ("tet", "hex")))
         set_("order", require_int(p + "order", self.order, lo=1, hi=2))
@@ -167,4 +178,11 @@ def check_options(
                 options.teeth_in_model,
                 f"integer in [1, {z}]",
                 f"the {body} has only {z} teeth",
+            )
+        if options.periodic_cuts and options.teeth_in_model == z:
+            raise ParameterError(
+                "mesh.periodic_cuts",
+                True,
+                f"only with teeth_in_model below the {body}'s {z} teeth",
+                "a whole gear has no cut faces",
             )
