@@ -13,7 +13,6 @@ gear. One rank (the tie is serial here):
 """
 
 import dataclasses
-import math
 import tempfile
 import time
 
@@ -30,6 +29,7 @@ from scipy.spatial import cKDTree
 from gearfem.core.materials import Material
 from gearfem.geometry import GearPairGeometry, MeshOptions, build_gear_mesh
 from gearfem.geometry.placement import placement
+from gearfem.instruments.scene import rotate_xy
 from gearfem.thermal import (
     PrescribedSources,
     ThermalBoundary,
@@ -93,16 +93,9 @@ def main() -> None:
 
         place = placement(sec.pair, opts1, "pinion")
         t0, t1 = place.sector_rad
-        c, s = math.cos(t1 - t0), math.sin(t1 - t0)
         X = V.tabulate_dof_coordinates()
         ds_, de = dofs("cut_start"), dofs("cut_end")
-        rel = X[ds_] - place.center_m
-        turned = (
-            np.column_stack(
-                [c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1], rel[:, 2]]
-            )
-            + place.center_m
-        )
+        turned = rotate_xy(X[ds_], place.center_m, t1 - t0)
         dist, idx = cKDTree(X[de]).query(turned)
         assert dist.max() < 1e-10, dist.max()
         master, slave = ds_, de[idx]

@@ -35,6 +35,7 @@ from gearfem.geometry.options import (
     check_options,
 )
 from gearfem.geometry.placement import placement
+from gearfem.instruments.scene import rotate_xy
 
 THESIS = GearPairGeometry()
 COARSE = MeshOptions(
@@ -716,14 +717,8 @@ def test_periodic_cuts_mesh_the_cut_faces_alike(cache, periodic):
     )
     place = placement(gm.pair, opts, "pinion")
     t0, t1 = place.sector_rad
-    c, s = math.cos(t1 - t0), math.sin(t1 - t0)
     start, end = _cut_nodes(gm, "cut_start"), _cut_nodes(gm, "cut_end")
-    rel = start - place.center_m
-    turned = np.column_stack(
-        [c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1], rel[:, 2]]
-    )
-    turned += place.center_m
-    dist, _ = cKDTree(end).query(turned)
+    dist, _ = cKDTree(end).query(rotate_xy(start, place.center_m, t1 - t0))
     matched = len(start) == len(end) and float(dist.max()) < 1e-12
     assert matched == bool(periodic), (len(start), len(end), float(dist.max()))
 
