@@ -118,6 +118,9 @@ def test_study_runs_collects_and_resumes(parallel, tmp_out, comm):
         assert [r["label"] for r in csv.DictReader(fh)] == labels
     # faster at 2000 rpm: more convection, same heat -> cooler
     assert rows[labels[1]].max_surface_end_C < rows[labels[0]].max_surface_end_C
+    # every rank has read the files before the resume below rewrites study.json (rank 0 removes
+    # it first: without this, a slower rank can look for it in between)
+    comm.barrier()
 
     # resume: nothing to do
     again = run_study(study, out, comm)
