@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
 from gearfem.core.params import to_dict
+from gearfem.core.rotation import rotate_xy
 from gearfem.geometry.extrude import GMSH_REF, layer_planes
 from gearfem.geometry.gmsh_pair import gmsh_session
 from gearfem.geometry.involute import GearPair, GearPairGeometry
@@ -35,7 +36,6 @@ from gearfem.geometry.options import (
     check_options,
 )
 from gearfem.geometry.placement import placement
-from gearfem.instruments.scene import rotate_xy
 
 THESIS = GearPairGeometry()
 COARSE = MeshOptions(

@@ -46,10 +46,11 @@ from scipy import ndimage
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.core.results import JsonRecord
+from gearfem.core.rotation import rotate_xy
 from gearfem.instruments.options import CameraOptions
 from gearfem.instruments.radiometry import Band, camera_temperature, directional_emissivity
 from gearfem.instruments.raster import rasterize
-from gearfem.instruments.scene import Surface, rotate_xy
+from gearfem.instruments.scene import Surface
 from gearfem.instruments.snapshot import KINDS
 
 

@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from gearfem.core.rotation import rotate_xy
 from gearfem.instruments.snapshot import KINDS, BodyField
 
 # linear sub-triangles of a 6-node triangle (v0, v1, v2, e(1,2), e(0,2), e(0,1)), same orientation
@@ -125,20 +126,6 @@ def clip_half_space(
         out_v.append(np.stack([voa, v[..., 2], vbo], axis=2))
         out_k += [kind[two], kind[two]]
     return np.concatenate(out_p), np.concatenate(out_v, axis=1), np.concatenate(out_k)
-
-
-def rotate_xy(points: np.ndarray, center: np.ndarray, angle: float) -> np.ndarray:
-    """Points turned by ``angle`` (rad, counter-clockwise about +z) about the axis through
-    ``center``."""
-    if angle == 0.0:
-        return points
-    c, s = math.cos(angle), math.sin(angle)
-    p = points - center
-    out = np.empty_like(p)
-    out[..., 0] = c * p[..., 0] - s * p[..., 1]
-    out[..., 1] = s * p[..., 0] + c * p[..., 1]
-    out[..., 2] = p[..., 2]
-    return out + center
 
 
 def gear_surface(field: BodyField, emissivity: float | None = None) -> Surface:

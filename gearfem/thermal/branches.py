@@ -160,12 +160,13 @@ def steady_states(
 def _crossing(problem, T_prev, lam_prev: float, lam: float, target: float, k: int) -> SteadyState:
     """Newton at the scale ``target`` from the field interpolated between the last two points of
     the curve (the current T at ``lam``, ``T_prev`` at ``lam_prev``); T is restored after."""
-    T = problem.T.x.petsc_vec
-    keep = T.copy()
+    keep = problem.state_vector()
+    T = keep.copy()
     s = (target - lam_prev) / (lam - lam_prev) if lam != lam_prev else 1.0
     T.scale(s)
     T.axpy(1.0 - s, T_prev)
-    problem.T.x.scatter_forward()
+    problem.set_state(T)
+    T.destroy()
     problem.set_friction_scale(target)
     name = f"continuation {k + 1} at scale {target:g}"
     try:
@@ -173,9 +174,8 @@ def _crossing(problem, T_prev, lam_prev: float, lam: float, target: float, k: in
         out = _record(problem, name, rec.newton_iterations)
     except ConvergenceError as err:
         out = SteadyState(name, False, {}, None, None, 0, None, None, message=str(err))
-    keep.copy(T)
+    problem.set_state(keep)
     keep.destroy()
-    problem.T.x.scatter_forward()
     return out
 
 
@@ -235,13 +235,13 @@ def continuation(
     if not lo <= scale_start <= hi:
         raise ParameterError("scale_start", scale_start, f"[{lo:g}, {hi:g}]")
     comm = problem.comm
-    n = problem.num_dofs
+    n = problem.num_unknowns
     w = 1.0 / (n * temperature_unit_K**2)
     scale_before = problem.friction_scale
     problem.set_friction_scale(scale_start)
     problem.solve_steady()
     ksp = _ksp(comm, problem.petsc_prefix + "continuation_")
-    T = problem.T.x.petsc_vec
+    T = problem.state_vector()  # the unknowns (reduced with periodic cut faces)
     a, b, z = T.duplicate(), T.duplicate(), T.duplicate()
     problem.steady_system()
     Fl0 = problem.friction_scale_derivative()
@@ -294,7 +294,7 @@ def continuation(
             for _ in range(12):  # corrector, halving ds on failure
                 T0.copy(T)
                 T.axpy(ds, tT)
-                problem.T.x.scatter_forward()
+                problem.set_state(T)
                 lam = lam0 + ds * tl
                 for its in range(25):  # noqa: B007 - the count sets the next step
                     problem.set_friction_scale(lam)
@@ -318,7 +318,7 @@ def continuation(
                     dl = (w * tT.dot(a) - N) / denom
                     T.axpy(-1.0, a)
                     T.axpy(-dl, b)
-                    problem.T.x.scatter_forward()
+                    problem.set_state(T)
                     lam += dl
                 if ok:
                     break
@@ -332,14 +332,14 @@ def continuation(
             if cos < math.cos(MAX_TURN_RAD) and ds > refine_turning_points:
                 # the curve turns too much over this step: retake it shorter
                 T0.copy(T)
-                problem.T.x.scatter_forward()
+                problem.set_state(T)
                 problem.set_friction_scale(lam0)
                 ds *= 0.5
                 continue
             if t_new[1] * t_prev[1] < 0.0 and ds > refine_turning_points:
                 # a turning point between the last two points: go back and take a smaller step
                 T0.copy(T)
-                problem.T.x.scatter_forward()
+                problem.set_state(T)
                 problem.set_friction_scale(lam0)
                 ds *= 0.25
                 continue
@@ -359,7 +359,7 @@ def continuation(
                 break
             smooth = its <= 3 and cos > math.cos(0.25 * MAX_TURN_RAD)
             ds = min(ds_max, ds * (1.5 if smooth else 1.0))
-        for v in (a, b, z, T0, t_prev[0]):
+        for v in (a, b, z, T0, t_prev[0], T):
             v.destroy()
         return Continuation(tuple(pts), tuple(turning), stopped, tuple(crossings))
     finally:

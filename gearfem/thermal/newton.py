@@ -18,6 +18,10 @@ heat flow per test function) or when the update is below 1e-14 ||x||. Failures r
 :class:`~gearfem.core.errors.ConvergenceError` named like PETSc's SNES reasons (DIVERGED_MAX_IT,
 DIVERGED_LINE_SEARCH, DIVERGED_FNORM_NAN, DIVERGED_LINEAR_SOLVE with the KSP reason).
 
+Periodic cut faces (:mod:`gearfem.thermal.periodic`): with a tie P the Newton iteration is the
+Galerkin one on the periodic space: the KSP solves (P^T J P) y = P^T F and the update is
+dx = P y; the convergence test measures ||P^T F||.
+
 Linear solver: a KSP with the options of ``ThermalOptions.linear_solver``. With
 ``reuse_preconditioner`` (the MUMPS factorisation of the ``direct`` choice) the preconditioner
 is rebuilt only when alpha has changed by more than the factor ``REBUILD_RATIO`` since it was
@@ -90,6 +94,8 @@ class NewtonSolver:
             that are functions of the current T outside UFL (a surface flux model).
         extra_jacobian: Called with the assembled Jacobian to add terms UFL cannot express (the
             surface flux model's dependence on cell-mean temperatures; collective).
+        tie: A :class:`~gearfem.thermal.periodic.PeriodicTie` when the cut faces are periodic:
+            the linear systems are reduced with it (module docstring).
     """
 
     def __init__(
@@ -108,6 +114,7 @@ class NewtonSolver:
         reuse_preconditioner: bool,
         pre_residual=None,
         extra_jacobian=None,
+        tie=None,
     ) -> None:
         from dolfinx.fem.petsc import assemble_matrix, create_matrix, create_vector
         from petsc4py import PETSc
@@ -133,6 +140,12 @@ class NewtonSolver:
             self.K.assemble()
         self.b = create_vector(V)
         self.dx = create_vector(V)
+        self.tie = tie
+        # the KSP's operator and vectors: the sector's, or the reduced ones of a periodic tie
+        self._rb = self._ry = self._Ahat = None
+        if tie is not None:
+            self._rb, self._ry = tie.create_vector(), tie.create_vector()
+            self._Ahat = tie.reduce_matrix(self.A)  # the reduced operator's pattern
         self._x0 = create_vector(V)
         self._c = create_vector(V)
         self._tmp = create_vector(V)
@@ -153,10 +166,21 @@ class NewtonSolver:
         # preconditioner is first set up (e.g. the sub-PC of block Jacobi).
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(prefix)
-        ksp.setOperators(self.A)
+        ksp.setOperators(self.operator)
         self._options = set_options(prefix, {}, options)
         ksp.setFromOptions()
         self.ksp = ksp
+
+    @property
+    def operator(self):
+        """The matrix the KSP solves with: J, or P^T J P with a periodic tie."""
+        return self.A if self.tie is None else self._Ahat
+
+    @property
+    def residual_vector(self):
+        """The residual the Newton iteration drives to zero: F, or P^T F with a periodic tie (as
+        last evaluated)."""
+        return self.b if self.tie is None else self._rb
 
     def statistics(self) -> SolverStatistics:
         """Counts and times of the work done so far (see :class:`SolverStatistics`)."""
@@ -188,10 +212,13 @@ class NewtonSolver:
             self._x0,
             self._c,
             self._tmp,
+            self._rb,
+            self._ry,
+            self._Ahat,
         ):
             if obj is not None:
                 obj.destroy()
-        self.ksp = self.A = self.M = self.K = None
+        self.ksp = self.A = self.M = self.K = self._rb = self._ry = self._Ahat = None
 
     def __del__(self) -> None:
         try:
@@ -227,7 +254,7 @@ class NewtonSolver:
         scope = set_options(self.prefix, {}, new)
         self._options.keys.extend(k for k in scope.keys if k not in self._options.keys)
         ksp.reset()
-        ksp.setOperators(self.A)
+        ksp.setOperators(self.operator)
         ksp.setFromOptions()
         self._alpha_pc = None
         self.switched_to_general = True
@@ -253,7 +280,9 @@ class NewtonSolver:
             self.b.axpy(self.alpha, self._tmp)
         if self._have_c:
             self.b.axpy(1.0, self._c)
-        norm = self.b.norm()
+        if self.tie is not None:
+            self.tie.restrict(self.b, self._rb)
+        norm = self.residual_vector.norm()
         self._residuals += 1
         self._residual_s += time.perf_counter() - t0
         return norm
@@ -275,6 +304,8 @@ class NewtonSolver:
         J.assemble()
         if self.extra_jacobian is not None:
             self.extra_jacobian(J)
+        if self.tie is not None:
+            self.tie.reduce_matrix(J, self._Ahat)  # P^T J P into the KSP's operator
         self._jacobians += 1
         self._jacobian_s += time.perf_counter() - t0
 
@@ -282,7 +313,11 @@ class NewtonSolver:
         """dx = J^-1 b with the KSP (its preconditioner built or kept as set up); returns the KSP
         reason."""
         t0 = time.perf_counter()
-        self.ksp.solve(self.b, self.dx)
+        if self.tie is None:
+            self.ksp.solve(self.b, self.dx)
+        else:
+            self.ksp.solve(self._rb, self._ry)
+            self.tie.prolong(self._ry, self.dx)
         self.linear_iterations += self.ksp.getIterationNumber()
         self._linear_solve_s += time.perf_counter() - t0
         return self.ksp.getConvergedReason()
@@ -354,7 +389,7 @@ class _ThermalSystem:
                 s._alpha_pc = s.alpha
                 s.pc_builds += 1
                 self.rebuild = False
-            s.ksp.setOperators(s.A)
+            s.ksp.setOperators(s.operator)
         kr = s._linear_solve()
         if kr in INDEFINITE_REASONS and s.use_general_solver():
             # CG met a Jacobian that is not positive definite (a heat source rising with T): the
@@ -363,7 +398,7 @@ class _ThermalSystem:
                 "thermal Newton at %s: KSP %s, switching to GMRES/LU", self.where, ksp_reason(kr)
             )
             s._jacobian()
-            s.ksp.setOperators(s.A)
+            s.ksp.setOperators(s.operator)
             s._alpha_pc = s.alpha
             s.pc_builds += 1
             kr = s._linear_solve()

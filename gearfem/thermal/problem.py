@@ -37,6 +37,7 @@ from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.domain import ThermalDomain
 from gearfem.thermal.newton import NewtonSolver, SolverStatistics
 from gearfem.thermal.options import ThermalOptions
+from gearfem.thermal.periodic import PeriodicTie
 from gearfem.thermal.properties import enthalpy_ufl, table_ufl
 from gearfem.thermal.source_terms import HeatSources, field_ufl
 from gearfem.thermal.timestepping import (
@@ -125,6 +126,8 @@ class ThermalProblem:
         self.comm = mesh.comm
         p = options.degree
         self.V = fem.functionspace(mesh, ("Lagrange", p))
+        # periodic cut faces: the unknowns are reduced by the tie (gearfem.thermal.periodic)
+        self._tie = PeriodicTie(self.V, domain) if domain.periodic is not None else None
         self.T = fem.Function(self.V, name="temperature_K")
         self._T_n = fem.Function(self.V)
         self._T_nm1 = fem.Function(self.V)
@@ -404,6 +407,9 @@ class ThermalProblem:
             self._tbar_vec.destroy()
             self._flux_B.destroy()
             self._tbar_vec = self._flux_B = None
+        if getattr(self, "_tie", None) is not None:
+            self._tie.destroy()
+            self._tie = None
 
     def __enter__(self) -> ThermalProblem:
         return self
@@ -508,6 +514,7 @@ class ThermalProblem:
             reuse_preconditioner=transient and o.linear_solver == "direct",
             pre_residual=self._update_flux_model if self._flux_model is not None else None,
             extra_jacobian=self._flux_jacobian if self._flux_model is not None else None,
+            tie=self._tie,
         )
 
     # ------------------------------------------------------------------------------------------
@@ -526,8 +533,9 @@ class ThermalProblem:
         return self._dF_dscale is not None
 
     def steady_system(self):
-        """(J, F) of the steady residual at the current T (PETSc Mat and Vec owned by the problem's
-        steady solver; collective)."""
+        """(J, F) of the steady residual at the current T in the unknowns of :meth:`state_vector`
+        (with periodic cut faces the reduced P^T J P and P^T F; PETSc Mat and Vec owned by the
+        problem's steady solver; collective)."""
         if self._steady_solver is None:
             self._steady_solver = self._make_solver(transient=False)
         s = self._steady_solver
@@ -535,23 +543,55 @@ class ThermalProblem:
         self._t.value = self.time_s
         s._residual()
         s._jacobian()
-        return s.A, s.b
+        return s.operator, s.residual_vector
 
     def friction_scale_derivative(self):
         """dF/d(friction scale) at the current T: minus the friction heat per test function
-        (a new PETSc Vec; collective). The flux model must be current (call after
-        :meth:`steady_system`)."""
+        (a new PETSc Vec of the unknowns of :meth:`state_vector`; collective). The flux model
+        must be current (call after :meth:`steady_system`)."""
 
         b = assemble_vector(self._dF_dscale)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return b
+        if self._tie is None:
+            return b
+        r = self._tie.create_vector()
+        self._tie.restrict(b, r)
+        b.destroy()
+        return r
 
     def heat_capacity_matrix(self):
-        """M = rho c_p(T) (mass matrix at the current T), a new PETSc Mat (collective)."""
+        """M = rho c_p(T) (mass matrix at the current T) in the unknowns of :meth:`state_vector`,
+        a new PETSc Mat (collective)."""
 
         M = assemble_matrix(self._capacity_form)
         M.assemble()
-        return M
+        if self._tie is None:
+            return M
+        Mr = self._tie.reduce_matrix(M)
+        M.destroy()
+        return Mr
+
+    def state_vector(self):
+        """The unknowns of the current T as a new PETSc Vec: T's DOFs, or with periodic cut faces
+        the reduced unknowns (every DOF but the end face's). :meth:`set_state` writes it back."""
+        if self._tie is None:
+            return self.T.x.petsc_vec.copy()
+        y = self._tie.create_vector()
+        self._tie.inject(self.T.x.petsc_vec, y)
+        return y
+
+    def set_state(self, x) -> None:
+        """T from a vector of the unknowns of :meth:`state_vector` (collective)."""
+        if self._tie is None:
+            x.copy(self.T.x.petsc_vec)
+        else:
+            self._tie.prolong(x, self.T.x.petsc_vec)
+        self.T.x.scatter_forward()
+
+    @property
+    def num_unknowns(self) -> int:
+        """Size of the solved systems: :attr:`num_dofs` less the tied end face's DOFs."""
+        return self.num_dofs if self._tie is None else self._tie.num_reduced
 
     @property
     def transient_statistics(self) -> SolverStatistics | None:
@@ -624,6 +664,8 @@ class ThermalProblem:
         else:
             self.T.interpolate(T_K)
         self.T.x.scatter_forward()
+        if self._tie is not None:  # a start that is not periodic is made so (end face <- start)
+            self._tie.make_periodic(self.T)
         for f in (self._T_n, self._T_nm1, self._T_nm2):
             f.x.array[:] = self.T.x.array
         self.time_s = 0.0
