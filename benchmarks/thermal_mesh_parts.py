@@ -9,6 +9,8 @@ across the face width" (stop 35), were assembled by hand from these lines:
     mpirun -n 2 python benchmarks/thermal_mesh_parts.py \
         --case benchmarks/studies/3802072c5835f948/case.toml --set layers=8 --out OUT
     mpirun -n 2 python benchmarks/thermal_mesh_parts.py --set layers=6 --out OUT
+    mpirun -n 2 python benchmarks/thermal_mesh_parts.py \
+        --set teeth_in_model=1 refined_teeth=1 periodic_cuts=true --out OUT
 
 (``--case`` omitted: the built-in case.) The case's cycle must be in the cache or is solved
 first. About 100 s (106k DOFs) to 1200 s (786k DOFs) on 2 ranks.
@@ -31,6 +33,8 @@ from gearfem.config import load_case
 
 #: the ``[thermal_mesh]`` options that are whole numbers
 INTEGER_OPTIONS = ("layers", "teeth_in_model", "refined_teeth")
+#: the ``[thermal_mesh]`` options that are true or false
+BOOLEAN_OPTIONS = ("periodic_cuts",)
 
 
 def main() -> None:
@@ -44,7 +48,10 @@ def main() -> None:
     changes = {}
     for item in args.set:
         key, _, value = item.partition("=")
-        changes[key] = int(value) if key in INTEGER_OPTIONS else float(value)
+        if key in BOOLEAN_OPTIONS:
+            changes[key] = {"true": True, "false": False}[value.lower()]
+        else:
+            changes[key] = int(value) if key in INTEGER_OPTIONS else float(value)
     case = dataclasses.replace(
         case, thermal_mesh=dataclasses.replace(case.thermal_mesh_options, **changes)
     )

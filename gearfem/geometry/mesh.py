@@ -31,7 +31,6 @@ import numpy as np
 
 from gearfem.core.params import to_dict
 from gearfem.core.provenance import source_hash
-from gearfem.core.rotation import RotationalPeriodicity
 from gearfem.geometry.extrude import GMSH_REF
 from gearfem.geometry.gmsh_pair import gmsh_session, placement, write_model
 from gearfem.geometry.involute import GearPair, GearPairGeometry
@@ -215,15 +214,6 @@ class GearMesh:
     def center(self, body: str) -> np.ndarray:
         """Point of the body's axis at z = 0 [m], ``(3,)``."""
         return placement(self.pair, self.options, body).center_m.copy()
-
-    def periodicity(self, body: str) -> RotationalPeriodicity | None:
-        """The map of the body's ``cut_start`` face onto its ``cut_end`` face when the mesh was
-        built with ``periodic_cuts`` (the two faces' nodes then correspond), else None."""
-        if not self.options.periodic_cuts:
-            return None
-        place = placement(self.pair, self.options, body)
-        t0, t1 = place.sector_rad
-        return RotationalPeriodicity(tuple(float(c) for c in place.center_m), t1 - t0)
 
     def reference_tooth(self, body: str) -> int:
         """Index of the tooth that touches at the pitch point in the reference position."""

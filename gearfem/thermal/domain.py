@@ -24,6 +24,7 @@ for the thesis's fractional model) so that per-gear heat is scaled to the modell
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Mapping
 
@@ -173,8 +174,10 @@ class ThermalDomain:
         """The domain of one body of a :class:`gearfem.geometry.mesh.GearMesh`.
 
         Uses ``gear_mesh.mesh``, ``facet_tags``, ``cell_tags``, ``physical_groups`` (name ->
-        (dim, tag)) and ``geometry.teeth_<body>``. When the mesh holds both bodies, the body's
-        cells are extracted as a submesh (its facet tags transferred); a single-body mesh
+        (dim, tag)), ``geometry.teeth_<body>``, and with ``options.periodic_cuts`` the body's
+        axis ``center(body)`` for the periodic tie of the cut faces. When the mesh holds both
+        bodies, the body's cells are extracted as a submesh (its facet tags transferred); a
+        single-body mesh
         (``build_gear_mesh(..., bodies=("pinion",))``) is used as it is and is better balanced in
         parallel.
         """
@@ -215,8 +218,15 @@ class ThermalDomain:
         dom = cls.from_gear_groups(
             msh, ft, groups, body=body, total_teeth=total, flux_flanks=flux_flanks
         )
-        # a mesh built with periodic cut faces ties them (the rotation is the geometry's)
-        return dataclasses.replace(dom, parent_cells=parent, periodic=gear_mesh.periodicity(body))
+        # a mesh built with periodic cut faces ties them: the end face is the start face turned
+        # about the body's axis by the sector's angle
+        periodic = None
+        if getattr(gear_mesh.options, "periodic_cuts", None) and total is not None:
+            periodic = RotationalPeriodicity(
+                tuple(float(c) for c in gear_mesh.center(body)),
+                2.0 * math.pi * dom.teeth_modelled / total,
+            )
+        return dataclasses.replace(dom, parent_cells=parent, periodic=periodic)
 
     def cell_field_from_parent(self, field):
         """A DG0 Function on this mesh from a DG0 Function on the parent (pair) mesh, cell by cell
