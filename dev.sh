@@ -110,13 +110,14 @@ case "$cmd" in
     # 2, the CI machine's), one BLAS thread each, distributed by file (--dist loadfile: a module's
     # fixtures are built once; loadgroup silently stopped grouping with pytest 9.2,
     # pytest-dev/pytest-xdist#1386), in collection order (--no-loadscope-reorder: the longest
-    # modules first, tests/conftest.py LONGEST_MODULES). GEARFEM_TEST_WORKERS=0: in-process.
+    # modules first, tests/conftest.py LONGEST_MODULES); the 20 longest tests are listed at the end
+    # (where a faster tier would come from). GEARFEM_TEST_WORKERS=0: in-process.
     workers="${GEARFEM_TEST_WORKERS:-$(( $(nproc 2>/dev/null || echo 1) >= 2 ? 2 : 1 ))}"
     [[ "$workers" =~ ^[0-9]+$ ]] || die "GEARFEM_TEST_WORKERS=$workers is not a whole number >= 0"
     t0=$SECONDS
     say "serial ($tier tier, $workers pytest-xdist workers): pytest ${serial_mark[*]} $*"
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 run_pytest "$VENV/bin/python" -m pytest \
-      -n "$workers" --dist loadfile --no-loadscope-reorder "${serial_mark[@]}" "$@"
+      -n "$workers" --dist loadfile --no-loadscope-reorder --durations=20 "${serial_mark[@]}" "$@"
     say "serial tests passed in $((SECONDS - t0)) s; now the mpi-marked tests under mpirun -n $MPI_NP"
     t1=$SECONDS
     # 2.5-4 min here; a rank that failed a test can leave the others waiting in a collective
