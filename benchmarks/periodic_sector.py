@@ -10,8 +10,10 @@ DOFs, unknowns, wall times and the largest difference to the whole gear (the tes
 
     python benchmarks/periodic_sector.py
     mpirun -n 2 python benchmarks/periodic_sector.py
+    python benchmarks/periodic_sector.py --element hex   # the all-hexahedral meshes
 """
 
+import argparse
 import dataclasses
 import tempfile
 import time
@@ -74,10 +76,13 @@ KEYS = (
 
 
 def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--element", choices=("tet", "hex"), default="tet")
+    coarse = dataclasses.replace(COARSE, element=p.parse_args().element)
     full = build_gear_mesh(
-        g, dataclasses.replace(COARSE, teeth_in_model=16), comm, cache_dir=CACHE, bodies=("pinion",)
+        g, dataclasses.replace(coarse, teeth_in_model=16), comm, cache_dir=CACHE, bodies=("pinion",)
     )
-    opts1 = dataclasses.replace(COARSE, teeth_in_model=1, periodic_cuts=True)
+    opts1 = dataclasses.replace(coarse, teeth_in_model=1, periodic_cuts=True)
     sec = build_gear_mesh(g, opts1, comm, cache_dir=CACHE, bodies=("pinion",))
     for mode in ("steady", "transient"):
         out = {}
