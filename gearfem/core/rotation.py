@@ -52,3 +52,7 @@ class RotationalPeriodicity:
     def image(self, points: np.ndarray) -> np.ndarray:
         """Points of the start face turned onto the end face, (n, 3) -> (n, 3)."""
         return rotate_xy(points, np.asarray(self.center_m, dtype=float), self.angle_rad)
+
+    def preimage(self, points: np.ndarray) -> np.ndarray:
+        """Points of the end face turned back onto the start face (the inverse of :meth:`image`)."""
+        return rotate_xy(points, np.asarray(self.center_m, dtype=float), -self.angle_rad)

@@ -30,7 +30,6 @@ from petsc4py import PETSc
 from scipy.spatial import cKDTree
 
 from gearfem.core.errors import ParameterError
-from gearfem.core.rotation import rotate_xy
 
 #: Largest distance between an end-face DOF and the image of its master, relative to the
 #: sector's size: the meshes of the two faces must correspond (``periodic_cuts``), not nearly.
@@ -54,7 +53,6 @@ class PeriodicTie:
         if rot is None:
             raise ParameterError("domain.periodic", None, "a rotation for a periodic tie")
         comm = V.mesh.comm
-        self.comm = comm
         im = V.dofmap.index_map
         n_owned = im.size_local
         start_g = im.local_range[0]
@@ -95,8 +93,7 @@ class PeriodicTie:
         mismatch = 0.0
         if slaves.size:
             # an end-face DOF's master: the start-face DOF whose image it is
-            back = rotate_xy(X[slaves], np.asarray(rot.center_m), -rot.angle_rad)
-            dist, idx = cKDTree(all_x).query(back)
+            dist, idx = cKDTree(all_x).query(rot.preimage(X[slaves]))
             mismatch = float(dist.max())
             col[slaves] = all_red[idx]
             used = np.bincount(idx, minlength=all_red.size)
@@ -134,7 +131,6 @@ class PeriodicTie:
             comm=comm,
         )
         self.R.assemble()
-        self.num_slaves = n_slaves
         self.num_reduced = N_red
 
     def create_vector(self) -> PETSc.Vec:
