@@ -61,22 +61,22 @@ KINDS = ("thermal_mesh", "structural_mesh", "structural_layers", "positions", "t
 
 #: Where the built-in case sits in each kind's study (the shipped studies,
 #: benchmarks/uncertainty_builtin.py): in the middle of the
-#: thermal-mesh study (the coarsest convention's finest level would have about 800k DOFs per
-#: gear) and of the positions study (12 / 18 / 27 positions per pitch: the middle-grid GCI, from
-#: one coarser and one finer cycle), the coarsest of the others (a contact zone 1.5x coarser than
-#: the case's is outside the range where the pitch-point pressure has converged, docs/cycle.md;
-#: 2 layers coarsened by 1.5 round back up to 2).
+#: thermal-mesh study (4 / 6 / 9 thermal layers, the case 6), of the positions study (12 / 18 / 27
+#: positions per pitch: the middle-grid GCI, from one coarser and one finer cycle) and, second of
+#: four, of the layers study (3 / 4 / 6 / 9 graded layers, the case 4: a 13-layer level would need
+#: some 24 GB); the coarsest of the others (a contact zone 1.5x coarser than the case's is outside
+#: the range where the pitch-point pressure has converged, docs/cycle.md).
 BUILTIN_CASE_LEVEL = {
     "thermal_mesh": "middle",
     "structural_mesh": "coarsest",
-    "structural_layers": "coarsest",
+    "structural_layers": "middle",
     "positions": "middle",
     "tip": "coarsest",
 }
-#: How many levels each kind's study has: four across the face width, where the three of stop 29
-#: (2 / 3 / 5 layers) moved the camera reading by 0.2 and 0.1 K, too little above the readings'
-#: scatter for three solutions to tell a slow trend (their order 0.38: Fs = 3, 2.2 K) from
-#: settling; a fourth level (7 layers) and the least-squares fit through all four do.
+#: How many levels each kind's study has: four across the face width, where three levels (stop 29:
+#: 2 / 3 / 5 equal layers) moved the camera reading by 0.2 and 0.1 K, too little above the
+#: readings' scatter for three solutions to tell a slow trend (their order 0.38: Fs = 3, 2.2 K)
+#: from settling; a fourth level and the least-squares fit through all four do.
 BUILTIN_LEVELS = {
     "thermal_mesh": 3,
     "structural_mesh": 3,

@@ -89,7 +89,10 @@ def test_levels_that_round_to_the_same_discretisation_are_refused(tmp_path, comm
     """Counts are rounded: 2 layers coarsened by 1.5 round back up to 2, and a study whose levels
     are not three different discretisations has no order to observe. Refused before anything
     runs or is written."""
-    case = load_case(None)  # 2 structural layers
+    case = load_case(None)
+    case = dataclasses.replace(
+        case, mesh=dataclasses.replace(case.mesh, layers=2, layer_grading=None)
+    )
     out = tmp_path / "degenerate"
     with pytest.raises(ParameterError, match="refinement factor.*structural_layers"):
         refinement_study(case, out, comm, "structural_layers", 1.5, case_level="middle")

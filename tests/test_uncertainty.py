@@ -105,17 +105,21 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
     facets = dataclasses.replace(
         case, sources=dataclasses.replace(src, flux_evaluation="reference_facets")
     )
-    lay = level_case(facets, "structural_layers", 1.5)  # 2 -> 3 layers
-    assert lay.mesh == dataclasses.replace(case.mesh, layers=3)
+    assert case.mesh.layers == 4
+    lay = level_case(facets, "structural_layers", 1.5)  # 4 -> 6 layers
+    assert lay.mesh == dataclasses.replace(case.mesh, layers=6)
     assert lay.thermal_mesh_options == case.thermal_mesh
-    assert lay.sources.flux_smoothing_axial_mm == pytest.approx(src.flux_smoothing_axial_mm * 2 / 3)
+    assert lay.sources.flux_smoothing_axial_mm == pytest.approx(src.flux_smoothing_axial_mm * 4 / 6)
     assert lay.sources.flux_smoothing_profile_mm == src.flux_smoothing_profile_mm
-    assert level_case(lay, "structural_layers", 1.5).mesh.layers == 5  # 4.5 rounded up
+    assert level_case(lay, "structural_layers", 1.5).mesh.layers == 9
+    # counts are rounded up: 3 layers refined by 1.5 are 5, not 4
+    three = dataclasses.replace(facets, mesh=dataclasses.replace(case.mesh, layers=3))
+    assert level_case(three, "structural_layers", 1.5).mesh.layers == 5
     # evaluated continuously (the built-in case) the reconstruction is a smooth flux of its own
     # width: kept
     assert src.flux_evaluation == "continuous"
     lay_c = level_case(case, "structural_layers", 1.5)
-    assert lay_c.mesh.layers == 3 and lay_c.sources == src
+    assert lay_c.mesh.layers == 6 and lay_c.sources == src
     t = level_case(case, "tip", 2.0)
     assert t.mesh.size_tip_mm == pytest.approx(case.mesh.size_tip_mm / 2)
     assert t.mesh.size_flank_mm == case.mesh.size_flank_mm
@@ -127,7 +131,7 @@ def test_level_case_refines_one_direction_and_pins_the_thermal_mesh():
         src.flux_smoothing_profile_mm * n / round(1.5 * n)
     )
     th = level_case(case, "thermal_mesh", 1.5)
-    assert th.mesh == case.mesh and th.thermal_mesh.layers == 6
+    assert th.mesh == case.mesh and th.thermal_mesh.layers == 9
     # coarser levels (a case in the middle of a study), and back
     assert level_case(case, "positions", 1 / 1.5).cycle.positions_per_pitch == round(n / 1.5)
     coarse = level_case(case, "structural_mesh", 1 / 1.5)
