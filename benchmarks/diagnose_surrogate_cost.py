@@ -29,16 +29,15 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 
 from gearfem.cycle.cache import ENV_CACHE
 from gearfem.diagnose import forward
-from gearfem.diagnose.candidates import CLASSIC_LIBRARY, by_name
+from gearfem.diagnose.candidates import CLASSIC_LIBRARY
 
 # the fixtures are the tests' own (tests/ is not a package)
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 # isort: split
 
-import diagnose_generator as G
-from test_diagnose import forward_models
-from test_diagnose_friction import FRICTION_LAWS, FRICTION_POINTS, FRICTION_RIVALS
+from test_diagnose import CLASSIC_POINTS, forward_models
+from test_diagnose_friction import FRICTION_LIBRARY, FRICTION_POINTS
 
 
 def main() -> None:
@@ -46,7 +45,6 @@ def main() -> None:
     p.add_argument("--fixture", choices=("classic", "friction"), default="friction")
     p.add_argument("--top", type=int, default=12, help="(candidate, point) rows to print")
     args = p.parse_args()
-    os.environ[ENV_CACHE] = tempfile.mkdtemp(prefix="gearfem-surrogate-cost-")
 
     spent: dict[tuple, list] = collections.defaultdict(lambda: [0, 0.0])
     evaluate, cycle = forward.FullModel._evaluate, forward.FullModel.cycle
@@ -69,14 +67,15 @@ def main() -> None:
 
     forward.FullModel._evaluate = timed_evaluate
     forward.FullModel.cycle = timed_cycle
-    if args.fixture == "friction":
-        library = FRICTION_LAWS + tuple(by_name(n) for n in FRICTION_RIVALS)
-        points = FRICTION_POINTS
-    else:
-        library, points = CLASSIC_LIBRARY, [(s, G.TORQUE_NM) for s in G.SPEEDS_RPM]
-    t0 = time.perf_counter()
-    _, surrogate = forward_models(library, points)
-    total = time.perf_counter() - t0
+    library, points = {
+        "friction": (FRICTION_LIBRARY, FRICTION_POINTS),
+        "classic": (CLASSIC_LIBRARY, CLASSIC_POINTS),
+    }[args.fixture]
+    with tempfile.TemporaryDirectory(prefix="gearfem-surrogate-cost-") as cache:
+        os.environ[ENV_CACHE] = cache  # built from scratch, the tests' cache left alone
+        t0 = time.perf_counter()
+        _, surrogate = forward_models(library, points)
+        total = time.perf_counter() - t0
     print(f"{args.fixture} surrogate: {total:.1f} s, {surrogate.solves} full-model evaluations")
     per_candidate: dict[str, list] = collections.defaultdict(lambda: [0, 0.0])
     for (name, _, _), (n, s) in spent.items():

@@ -156,11 +156,15 @@ def forward_models(library, points):
     return full, Surrogate(full, points, candidates=library, cache_dir=cache_root())
 
 
+#: The classic surrogate's operating points: the generator's speeds at its torque.
+CLASSIC_POINTS = tuple((s, G.TORQUE_NM) for s in G.SPEEDS_RPM)
+
+
 @pytest.fixture(scope="session")
 def models():
     # one torque: the classic library (the friction laws' pressure law would act like
     # friction_scale there; they have their own two-torque design, friction_models)
-    return forward_models(CLASSIC_LIBRARY, [(s, G.TORQUE_NM) for s in G.SPEEDS_RPM])
+    return forward_models(CLASSIC_LIBRARY, CLASSIC_POINTS)
 
 
 def diagnose_with(sur, data, full=None, final_check=False):
