@@ -18,6 +18,7 @@ from typing import Any
 
 from mpi4py import MPI
 
+
 def run_split[K: Hashable](
     comm: MPI.Comm, keys: Sequence[K], task: Callable[[K, MPI.Comm], Any]
 ) -> dict[K, Any]:
