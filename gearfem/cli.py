@@ -14,7 +14,7 @@ import os
 import sys
 from collections.abc import Sequence
 
-from gearfem import pipeline
+from gearfem import claims, pipeline
 from gearfem.config import load_case
 from gearfem.core.errors import GearfemError, ParameterError
 from gearfem.core.io import write_json
@@ -43,6 +43,22 @@ def _cmd_info(args: argparse.Namespace) -> int:
     if MPI.COMM_WORLD.rank == 0:
         print(json.dumps(info, indent=2) if args.json else format_versions(info))
     return 0
+
+
+def _cmd_claims(args: argparse.Namespace) -> int:
+    """List the quoted results of the README and docs that no longer belong to the shipped model
+    (gearfem.claims); exit 1 when there are any."""
+    from pathlib import Path
+
+    from mpi4py import MPI
+
+    found = claims.stale_claims(Path(args.root))
+    if MPI.COMM_WORLD.rank == 0:
+        for c in found:
+            cmd = claims.regenerate_command(c)
+            print(f"{c}" + (f"\n    regenerate: {cmd}" if cmd else ""))
+        print(f"{len(found)} stale quoted block(s) in {args.root}" if found else "no stale claims")
+    return 1 if found else 0
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
@@ -428,6 +444,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--json", action="store_true", help="print JSON instead of a table")
     s.set_defaults(func=_cmd_info)
+
+    s = sub.add_parser(
+        "claims",
+        help="list quoted results in README.md and docs/ computed with another resolution or code "
+        "than the shipped model's (stale claims), with the command that regenerates each",
+    )
+    s.add_argument("root", nargs="?", default=".", help="repository root (default: .)")
+    s.set_defaults(func=_cmd_claims)
 
     s = sub.add_parser(
         "mesh", help="mesh the gear pair of a case: mesh.msh, mesh.json, picture (cached)"

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
+from gearfem import claims
 from gearfem.baselines import baseline_summary, max_rack_fillet_coef
 from gearfem.config import Case, load_case, write_case
 from gearfem.core.errors import ConvergenceError, ParameterError
@@ -189,6 +190,9 @@ class RunSummary(JsonRecord):
     numerical_uncertainty: RunUncertainty | None = None
     instruments: InstrumentReadings | None = None
     thermal_other: dict[str, Any] | None = None
+    # what the run was computed with (gearfem.claims: a figure quoted from it carries this):
+    # resolution key, code hash of the run's modules, commit, date
+    provenance: dict[str, Any] | None = None
 
     @classmethod
     def read(cls, path: str | Path) -> RunSummary:
@@ -690,6 +694,7 @@ def friction_outputs(
         src.heat_fractions(case.materials)[body],
         case.friction.contact_temperature,
         src.flux_reconstruction,
+        case.friction.flash_width,
     )
     state = evaluate_at(problem, model)
     out = friction_summary(model, state)
@@ -866,6 +871,7 @@ def run(
         numerical_uncertainty=unc,
         instruments=readings,
         thermal_other=next(iter(others.values()), None),
+        provenance=dataclasses.asdict(claims.provenance(case)),
     )
     vers = versions(comm)
     if comm.rank == 0:

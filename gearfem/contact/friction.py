@@ -34,7 +34,14 @@ their ranges, so the bound is exact up to the sampling of a smooth mu_T(T)), w >
 increasing in their variable; a bad law raises :class:`~gearfem.core.errors.ParameterError` naming
 the key. ``contact_temperature`` says which temperature the law sees: ``"flash"`` (flank
 temperature + the Blok/Jaeger flash temperature of the contact, the default) or ``"flank"`` (the
-flank temperature alone).
+flank temperature alone). ``flash_width`` says which contact half-width the flash temperature of a
+band is computed with: ``"hertz"`` (default), the Hertz half-width of the band's load per unit
+length on the local radii of curvature of the two surfaces (a tip round's radius where the contact
+lies on the round), which converges with the mesh because the load is an integral; or
+``"profile"``, the half-width of the band's pressure profile, which resolves a smooth flank contact
+but shrinks with the mesh where a tip round enters (a corner, whose pressure peak does not
+converge), so that the flash there, growing as the inverse square root of the width, is set by
+the mesh.
 
 How the law is used: the structural cycle is solved with the constant
 ``contact.friction_coefficient`` and records its contact history (:mod:`gearfem.cycle.history`); the
@@ -65,6 +72,8 @@ from gearfem.core.params import require_choice, require_positive, require_range
 LAWS = ("constant", "table", "glass_transition")
 FACTOR_FORMS = ("none", "power", "table")
 CONTACT_TEMPERATURES = ("flash", "flank")
+#: Contact half-widths the flash temperature of a band can be computed with (``flash_width``).
+FLASH_WIDTHS = ("hertz", "profile")
 MU_MAX = 2.0
 #: Width of the glass-transition step used by default (K): the DMA loss peak of PEEK 450G rises
 #: from H = 0.014 at 129 C to 0.047 at 144 C (data/peek450g/hysteresis.csv), about 11 K for the
@@ -146,6 +155,7 @@ class FrictionOptions:
     speed_range_m_s: tuple[float, float] = (1e-3, 10.0)
     speed_table_m_s: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     contact_temperature: str = "flash"
+    flash_width: str = "hertz"
 
     def __post_init__(self) -> None:
         require_choice("friction.law", self.law, LAWS)
@@ -154,6 +164,7 @@ class FrictionOptions:
         require_choice(
             "friction.contact_temperature", self.contact_temperature, CONTACT_TEMPERATURES
         )
+        require_choice("friction.flash_width", self.flash_width, FLASH_WIDTHS)
         own = {
             "constant": ("mu",),
             "table": ("table_file", "table_C"),

@@ -11,10 +11,22 @@ in the diff. A block looks like this in the Markdown source::
 
 and :func:`replace_block` rewrites what lies between the two markers (the markers stay, so the
 page can be regenerated any number of times). :func:`markdown_table` formats rows.
+
+A block that quotes a result of a model (the built-in case's headline, the bench verdict) starts
+with a provenance line (:class:`Provenance`) naming what the result was computed with: the
+resolution key of the case and the code hash of the modules that compute it
+(:func:`gearfem.core.provenance.code_hash`), the commit and the date::
+
+    <!-- gearfem:provenance resolution=203abad67d018cb6 code=gearfem.pipeline@1f2e3d4c5b6a
+         commit=4a453cc date=2026-11-28 -->
+
+so that a check (:func:`gearfem.claims.stale_claims`, run by the test suite) can tell a figure
+that no longer belongs to the model the repository ships.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 from collections.abc import Iterable, Sequence
@@ -44,12 +56,74 @@ def markdown_table(headers: Sequence[str], rows: Iterable[Sequence[object]]) -> 
     return "\n".join([head, rule, *body])
 
 
-def replace_block(path: str | Path, name: str, text: str) -> Path:
-    """Replace the block ``name`` of the Markdown file ``path`` with ``text`` (atomic write).
+_PROVENANCE = re.compile(r"<!-- gearfem:provenance (?P<fields>[^>]*?) -->")
+_BLOCK = re.compile(
+    r"<!-- gearfem:begin (?P<name>[A-Za-z0-9_.-]+) -->\n"
+    r"(?P<text>.*?)<!-- gearfem:end (?P=name) -->",
+    re.DOTALL,
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Provenance:
+    """What a quoted result was computed with.
+
+    Attributes:
+        resolution: Resolution key of the case (:func:`gearfem.uncertainty.resolution_key`), or
+            None for a result that has no discretisation of the built-in case behind it.
+        code: Code hash per root module (``{"gearfem.pipeline": "1f2e..."}``,
+            :func:`gearfem.core.provenance.code_hash` of the module and what it imports).
+        commit: The commit the computation ran at (``git describe``), or None.
+        date: The date it ran (ISO).
+    """
+
+    resolution: str | None
+    code: dict[str, str]
+    commit: str | None = None
+    date: str | None = None
+
+    def line(self) -> str:
+        fields = []
+        if self.resolution is not None:
+            fields.append(f"resolution={self.resolution}")
+        if self.code:
+            fields.append("code=" + ",".join(f"{m}@{h}" for m, h in sorted(self.code.items())))
+        if self.commit:
+            fields.append(f"commit={self.commit}")
+        if self.date:
+            fields.append(f"date={self.date}")
+        return f"<!-- gearfem:provenance {' '.join(fields)} -->"
+
+    @classmethod
+    def parse(cls, text: str) -> Provenance | None:
+        """The provenance line of a block's text (None when it has none)."""
+        m = _PROVENANCE.search(text)
+        if m is None:
+            return None
+        fields = dict(f.split("=", 1) for f in m.group("fields").split() if "=" in f)
+        code = {}
+        for item in filter(None, fields.get("code", "").split(",")):
+            module, _, digest = item.partition("@")
+            code[module] = digest
+        return cls(fields.get("resolution"), code, fields.get("commit"), fields.get("date"))
+
+
+def blocks(path: str | Path) -> dict[str, str]:
+    """Every generated block of a Markdown page: name -> text (stripped)."""
+    return {m["name"]: m["text"].strip() for m in _BLOCK.finditer(Path(path).read_text())}
+
+
+def replace_block(
+    path: str | Path, name: str, text: str, provenance: Provenance | None = None
+) -> Path:
+    """Replace the block ``name`` of the Markdown file ``path`` with ``text`` (atomic write),
+    headed by the ``provenance`` line when given.
 
     Raises :class:`ParameterError` when the file lacks the block's begin/end markers (a script
     never appends a table to a page that does not ask for it) or has them more than once.
     """
+    if provenance is not None:
+        text = f"{provenance.line()}\n{text.strip()}"
     path = Path(path)
     begin, end = _markers(name)
     src = path.read_text()

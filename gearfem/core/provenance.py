@@ -130,3 +130,34 @@ def source_hash(*modules: str, length: int = 16) -> str:
         h.update(name.encode())
         h.update(seen[name].read_bytes())
     return h.hexdigest()[:length]
+
+
+def _code_of(path: Path) -> str:
+    """The module's code without its docstrings and comments (``ast.dump`` of its tree): what
+    the module computes, not how it is explained."""
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (
+            isinstance(body, list)
+            and body
+            and isinstance(body[0], ast.Expr)
+            and isinstance(body[0].value, ast.Constant)
+            and isinstance(body[0].value.value, str)
+        ):
+            body[0] = ast.Pass()
+    return ast.dump(tree, include_attributes=False)
+
+
+@functools.cache
+def code_hash(*modules: str, length: int = 12) -> str:
+    """Hash of the code of :func:`source_files` of ``modules`` with docstrings and comments left
+    out: what a published result depends on. A figure quoted in the documentation records it
+    (:class:`gearfem.core.doctables.Provenance`), so that a change of the code that computed the
+    figure shows as a stale claim, while a reworded docstring does not."""
+    seen = source_files(*modules)
+    h = hashlib.sha256()
+    for name in sorted(seen):
+        h.update(name.encode())
+        h.update(_code_of(seen[name]).encode())
+    return h.hexdigest()[:length]

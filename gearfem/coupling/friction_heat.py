@@ -65,7 +65,7 @@ import numpy as np
 from mpi4py import MPI
 
 from gearfem.baselines import band_source_rise, peclet_regime
-from gearfem.contact.friction import FrictionLaw
+from gearfem.contact.friction import FLASH_WIDTHS, FrictionLaw
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import Material
 from gearfem.geometry.options import BODIES
@@ -120,7 +120,7 @@ class ContactBands:
     tooth: np.ndarray
     dropped_heat_fraction: float
     low_peclet_bands: int
-    hertz_width_used: np.ndarray  # per band: no profile width measured, a = the Hertz width
+    hertz_width_used: np.ndarray  # per band: a is the Hertz width (asked for, or no profile width)
 
     @property
     def num_bands(self) -> int:
@@ -162,10 +162,16 @@ def contact_bands(
     partition: str = "fixed",
     fixed_fraction: float = 0.5,
     negligible: float = 0.0,
+    flash_width: str = "hertz",
 ) -> ContactBands:
     """The contact points of ``body``'s pass and its bands at pinion speed ``speed_rpm``; points
     carrying less than ``negligible`` of the gear's heat are left out (0: only those carrying
-    none)."""
+    none). ``flash_width``: the bands' half-width a (flux q̄ = heat / (2 a dz), flash ∝ q̄ a g(L)):
+    ``"hertz"``, the Hertz half-width of the band's load on the local radii (tip rounds
+    included), or ``"profile"``, the width of its pressure profile (the Hertz width where the
+    profile has none): see :class:`~gearfem.contact.friction.FrictionOptions`."""
+    if flash_width not in FLASH_WIDTHS:
+        raise ParameterError("friction.flash_width", flash_width, f"one of {FLASH_WIDTHS}")
     if partition not in PARTITIONS:
         raise ParameterError("sources.heat_partition", partition, f"one of {PARTITIONS}")
     h = cycle.history
@@ -191,7 +197,7 @@ def contact_bands(
     first[band[::-1]] = np.arange(len(band))[::-1]
     a_hertz = h.hertz_half_width_m[ev][first]
     a = h.half_width_m[ev][first]
-    unresolved = ~(a > 0.0)
+    unresolved = ~(a > 0.0) if flash_width == "profile" else np.ones(nb, dtype=bool)
     a = np.where(unresolved, a_hertz, a)
     q0 = hb / (2.0 * a * h.z_bin_m)
     mate = BODIES[1 - BODIES.index(body)]
@@ -513,13 +519,17 @@ def reference_flux(
     partition: str = "fixed",
     fixed_fraction: float = 1.0,
     contact_temperature: str = "flash",
+    flash_width: str = "hertz",
 ) -> tuple[np.ndarray, FluxState, ContactBands]:
     """Revolution-averaged friction flux (W/m²) into ``body`` on the sector facets of its reference
     tooth (``cycle.fields[body]``) at pinion speed ``speed_rpm`` for the law ``law``, with the flank
     temperature ``flank_K`` (one value, or one per sector facet) and the contact temperature
-    ``contact_temperature``. ``fixed_fraction = 1`` gives the heat generated (the cycle's
-    ``generated_flux_W_m2_per_rad_s`` times omega for its own constant mu)."""
-    bands = contact_bands(cycle, body, materials, speed_rpm, partition, fixed_fraction)
+    ``contact_temperature`` (flash on the bands' ``flash_width``). ``fixed_fraction = 1`` gives
+    the heat generated (the cycle's ``generated_flux_W_m2_per_rad_s`` times omega for its own
+    constant mu)."""
+    bands = contact_bands(
+        cycle, body, materials, speed_rpm, partition, fixed_fraction, flash_width=flash_width
+    )
     inst = reference_instances(cycle, bands)
     model = FrictionFlux(law, bands, inst, contact_temperature)
     T = np.broadcast_to(np.asarray(flank_K, dtype=float), (inst.num_targets,))
@@ -553,12 +563,20 @@ class ThermalFrictionFlux:
         partition: str,
         fixed_fraction: float,
         contact_temperature: str,
+        flash_width: str = "hertz",
     ) -> None:
         from dolfinx import fem
 
         self.transfer, self.law, self.body = transfer, law, body
         bands = contact_bands(
-            cycle, body, materials, speed_rpm, partition, fixed_fraction, NEGLIGIBLE_HEAT
+            cycle,
+            body,
+            materials,
+            speed_rpm,
+            partition,
+            fixed_fraction,
+            NEGLIGIBLE_HEAT,
+            flash_width,
         )
         self.bands = bands
         ref = reference_instances(cycle, bands)

@@ -35,7 +35,7 @@ from gearfem.coupling.transfer import FlankTransfer
 def friction_model(
     problem, gear_mesh, body: str, cycle, law: FrictionLaw, materials, speed_rpm: float,
     partition: str, fixed_fraction: float, contact_temperature: str,
-    reconstruction: FluxReconstruction | None = None,
+    reconstruction: FluxReconstruction | None = None, flash_width: str = "hertz",
 ) -> ThermalFrictionFlux:  # fmt: skip
     """The temperature-dependent friction flux of ``law`` on ``problem``'s mesh (the sources' own
     model when they have one; collective)."""
@@ -46,7 +46,16 @@ def friction_model(
         problem.domain, gear_mesh, body, cycle.fields[body], reconstruction=reconstruction
     )
     return ThermalFrictionFlux(
-        tr, cycle, body, law, materials, speed_rpm, partition, fixed_fraction, contact_temperature
+        tr,
+        cycle,
+        body,
+        law,
+        materials,
+        speed_rpm,
+        partition,
+        fixed_fraction,
+        contact_temperature,
+        flash_width,
     )
 
 

@@ -157,6 +157,7 @@ def cycle_heat_sources(
                 options.heat_partition,
                 fraction,
                 "flank",
+                friction.flash_width,  # the bands' widths set Blok's partition
             )
             flux, names = friction_flux_function(
                 domain,
@@ -180,6 +181,7 @@ def cycle_heat_sources(
                 options.heat_partition,
                 fraction,
                 friction.contact_temperature,
+                friction.flash_width,
             )
     return HeatSources(**kw)
 

@@ -15,8 +15,11 @@ unit length w = ∫ p ds and the contact half-width from the pressure profile,
 
 which is exact for the Hertz profile p = p0 sqrt(1 - s²/a²) (its second moment is a²/4) and, for
 other profiles, the half-width of the Hertz profile with the same spread; beside it the Hertz
-half-width of the same load on the local involute radii (a check of the mesh's resolution of the
-contact).
+half-width of the same load on the local radii of curvature of the two surfaces (the involute's,
+or a tip round's where the contact lies on it). The profile width resolves a smooth flank contact
+but not a corner: where a tip round enters, the pressure peaks over a few elements and the
+profile width shrinks with the mesh, while the Hertz width of the band's load (an integral,
+which converges) on the round's radius does not.
 
 The recorder is solver-independent: it reads the :class:`~gearfem.contact.interface.ContactPoints`
 that the contact problem leaves after each solve (``model.problem.last_points``) and the bodies'
@@ -271,7 +274,9 @@ def _bands(model, data: dict[str, np.ndarray], point: np.ndarray, dz: float):
     m2 = np.bincount(band, weights=pw * s * s, minlength=nb) / np.maximum(P, 1e-300)
     a = 2.0 * np.sqrt(m2)
     w = P / dz
-    # Hertz half-width of the same load per length on the local radii of curvature
+    # Hertz half-width of the same load per length on the local radii of curvature (the involute's,
+    # or the tip round's where the contact lies on it: a converged width for a corner contact,
+    # whose profile width shrinks with the mesh)
     mats = model.materials
     es = {b: mats[b].youngs_modulus_Pa / (1.0 - mats[b].poissons_ratio ** 2) for b in BODIES}
     e_star = 1.0 / (1.0 / es["pinion"] + 1.0 / es["wheel"])
@@ -281,6 +286,10 @@ def _bands(model, data: dict[str, np.ndarray], point: np.ndarray, dz: float):
         r = np.linalg.norm((x - c)[:, :2], axis=1)
         rb = model.base_radius_m[b]
         rho[b] = np.sqrt(np.maximum(r * r - rb * rb, 0.0))
+        # beyond the tip form circle the surface is the tip round, not the involute
+        prof = model.pair.profile(b)
+        if prof.tip_round_radius_m > 0.0:
+            rho[b] = np.where(r > prof.tip_form_radius_m, prof.tip_round_radius_m, rho[b])
     inv_r = 1.0 / np.maximum(rho["pinion"], 1e-9) + 1.0 / np.maximum(rho["wheel"], 1e-9)
     inv_rb = np.bincount(band, weights=pw * inv_r, minlength=nb) / np.maximum(P, 1e-300)
     a_h = np.sqrt(4.0 * w / (math.pi * e_star * np.maximum(inv_rb, 1e-300)))

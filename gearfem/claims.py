@@ -1,0 +1,142 @@
+"""Quoted results and the model they belong to: stale claims.
+
+The README and the pages in ``docs/`` quote results of the built-in case: the main job's headline,
+the bench readings, the bench verdict with its intervals and the confirmation table. Each is
+written between ``<!-- gearfem:begin NAME -->`` markers by the script that computes it
+(:mod:`gearfem.core.doctables`), headed by a provenance line: the resolution key of the case it
+was computed on and the code hash of the modules that computed it. A change of the model (a new
+resolution of the built-in case, an edit of the code) then leaves the quoted figure marked as
+stale instead of standing beside a model that no longer gives it:
+
+* :func:`stale_claims` lists every block whose provenance no longer matches: a resolution key that
+  is not the built-in case's, a code hash that is not the current code's (docstrings and comments
+  do not count, :func:`gearfem.core.provenance.code_hash`), and every block of
+  :data:`QUOTED_BLOCKS` that carries no provenance at all;
+* the test suite runs it (``tests/test_claims.py``), so a change of the model cannot leave the
+  headline behind; ``gearfem claims`` prints the list with the command that regenerates each.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+from pathlib import Path
+
+from gearfem.config import Case, load_case
+from gearfem.core.doctables import Provenance, blocks
+from gearfem.core.provenance import code_hash, git_hash
+from gearfem.uncertainty import resolution_key
+
+#: The modules whose code a quoted result of a run depends on (and what they import).
+RUN_CODE = ("gearfem.pipeline",)
+#: ... of a diagnosis (the forward model, the selection, the report).
+DIAGNOSIS_CODE = ("gearfem.diagnose.report",)
+
+#: Blocks that quote results of the built-in case and must carry a provenance line, by page
+#: (relative to the repository root), with the command that writes them.
+QUOTED_BLOCKS: dict[str, dict[str, str]] = {
+    "README.md": {
+        "readme_headline": "python benchmarks/headline.py results/thesis",
+        "readme_verdict": "mpirun -n 2 python demos/bench_camera.py --verdict",
+    },
+    "docs/diagnosis.md": {
+        "bench_verdict": "mpirun -n 2 python demos/bench_camera.py --verdict",
+        "bench_verdict_confirm": "mpirun -n 2 python demos/bench_camera.py --confirm ...",
+    },
+    "docs/reproduction.md": {
+        "bench_camera": "mpirun -n 2 python demos/bench_camera.py",
+    },
+}
+
+
+def provenance(case: Case | None, roots: tuple[str, ...] = RUN_CODE) -> Provenance:
+    """The provenance of a result computed now with the current code of ``roots`` on ``case``
+    (None: a result without a case resolution behind it)."""
+    return Provenance(
+        resolution=resolution_key(case) if case is not None else None,
+        code={m: code_hash(m) for m in roots},
+        commit=git_hash(),
+        date=datetime.date.today().isoformat(),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class StaleClaim:
+    """A quoted block that no longer belongs to the shipped model, and why."""
+
+    page: str
+    block: str
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.page}: block {self.block!r}: {self.reason}"
+
+
+def check_block(
+    page: str, name: str, text: str, builtin_key: str, required: bool
+) -> list[StaleClaim]:
+    """The reasons why block ``name`` of ``page`` is stale (empty: it is current)."""
+    prov = Provenance.parse(text)
+    if prov is None:
+        return [StaleClaim(page, name, "no provenance line")] if required else []
+    out = []
+    if prov.resolution is not None and prov.resolution != builtin_key:
+        out.append(
+            StaleClaim(
+                page,
+                name,
+                f"computed at resolution {prov.resolution}, the built-in case's is {builtin_key}",
+            )
+        )
+    for module, digest in prov.code.items():
+        try:
+            now = code_hash(module)
+        except (OSError, SyntaxError):
+            now = None
+        if now != digest:
+            out.append(
+                StaleClaim(
+                    page,
+                    name,
+                    f"computed with code {module}@{digest}, the current code is {module}@{now}",
+                )
+            )
+    return out
+
+
+def stale_claims(root: str | Path, builtin: Case | None = None) -> list[StaleClaim]:
+    """Every stale quoted block of the README and the docs pages under ``root`` (the repository),
+    against the built-in case (or ``builtin``)."""
+    root = Path(root)
+    key = resolution_key(builtin if builtin is not None else load_case(None))
+    pages = [root / "README.md", *sorted((root / "docs").rglob("*.md"))]
+    out: list[StaleClaim] = []
+    for path in pages:
+        if not path.is_file():
+            continue
+        page = path.relative_to(root).as_posix()
+        required = QUOTED_BLOCKS.get(page, {})
+        found = blocks(path)
+        for name in required:
+            if name not in found:
+                out.append(StaleClaim(page, name, "block missing from the page"))
+        for name, text in found.items():
+            out.extend(check_block(page, name, text, key, name in required))
+    return out
+
+
+def regenerate_command(claim: StaleClaim) -> str | None:
+    """The command that writes the block of ``claim`` (None: not one of :data:`QUOTED_BLOCKS`)."""
+    return QUOTED_BLOCKS.get(claim.page, {}).get(claim.block)
+
+
+__all__ = [
+    "DIAGNOSIS_CODE",
+    "QUOTED_BLOCKS",
+    "RUN_CODE",
+    "StaleClaim",
+    "check_block",
+    "provenance",
+    "regenerate_command",
+    "stale_claims",
+]

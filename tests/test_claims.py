@@ -1,0 +1,87 @@
+"""Quoted results belong to the shipped model (gearfem.claims): the README's headline, the bench
+readings and the verdict carry the resolution key and code hash they were computed with, and a
+change of either leaves them marked stale."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from gearfem import claims
+from gearfem.config import load_case
+from gearfem.core.doctables import Provenance, blocks, replace_block
+from gearfem.core.provenance import _code_of, code_hash
+from gearfem.uncertainty import resolution_key
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_quoted_results_belong_to_the_shipped_model():
+    """Every block of the README and docs that quotes a result of the built-in case was computed
+    at the built-in case's resolution with today's code (``gearfem claims`` lists the others and
+    the command that regenerates each)."""
+    stale = claims.stale_claims(ROOT)
+    assert not stale, "stale quoted results:\n" + "\n".join(
+        f"{c}  [{claims.regenerate_command(c)}]" for c in stale
+    )
+
+
+def _page(tmp_path: Path, prov: Provenance | None) -> Path:
+    (tmp_path / "docs").mkdir(exist_ok=True)
+    readme = tmp_path / "README.md"
+    readme.write_text(
+        "# x\n\n<!-- gearfem:begin readme_headline -->\n<!-- gearfem:end readme_headline -->\n"
+        "<!-- gearfem:begin readme_verdict -->\n<!-- gearfem:end readme_verdict -->\n"
+    )
+    for name in ("readme_headline", "readme_verdict"):
+        replace_block(readme, name, "| a |\n|---|\n| 1 |", provenance=prov)
+    return readme
+
+
+def test_a_changed_resolution_or_code_makes_a_quoted_block_stale(tmp_path):
+    builtin = load_case(None)
+    now = claims.provenance(builtin)
+    assert now.resolution == resolution_key(builtin)
+    readme = _page(tmp_path, now)
+    assert Provenance.parse(blocks(readme)["readme_headline"]) == now
+    # the other pages of QUOTED_BLOCKS are absent here: only the README is checked
+    assert claims.stale_claims(tmp_path) == []
+    # a deliberately edited resolution key
+    _page(tmp_path, dataclasses.replace(now, resolution="0123456789abcdef"))
+    stale = claims.stale_claims(tmp_path)
+    assert {c.block for c in stale} == {"readme_headline", "readme_verdict"}
+    assert all("resolution 0123456789abcdef" in c.reason for c in stale)
+    # the built-in case's resolution changed under the quoted block
+    _page(tmp_path, now)
+    finer = dataclasses.replace(
+        builtin, mesh=dataclasses.replace(builtin.mesh, layers=builtin.mesh.layers + 1)
+    )
+    assert len(claims.stale_claims(tmp_path, builtin=finer)) == 2
+    # code older than the modules
+    module = next(iter(now.code))
+    _page(tmp_path, dataclasses.replace(now, code={module: "000000000000"}))
+    stale = claims.stale_claims(tmp_path)
+    assert len(stale) == 2 and all(f"{module}@000000000000" in c.reason for c in stale)
+    # no provenance at all on a block that quotes the built-in case
+    _page(tmp_path, None)
+    assert {c.reason for c in claims.stale_claims(tmp_path)} == {"no provenance line"}
+    assert claims.regenerate_command(claims.stale_claims(tmp_path)[0])
+
+
+def test_code_hash_follows_the_code_not_its_docstrings(tmp_path):
+    a, b, c = (tmp_path / f"{n}.py" for n in "abc")
+    a.write_text('"""Doc."""\n\ndef f(x):\n    """Twice."""\n    return 2 * x  # comment\n')
+    b.write_text('"""Other doc."""\n\ndef f(x):\n    """Two times x."""\n    return 2 * x\n')
+    c.write_text('"""Doc."""\n\ndef f(x):\n    """Twice."""\n    return 3 * x\n')
+    assert _code_of(a) == _code_of(b)
+    assert _code_of(a) != _code_of(c)
+    assert code_hash("gearfem.pipeline") == code_hash("gearfem.pipeline")
+    assert code_hash("gearfem.pipeline") != code_hash("gearfem.core.doctables")
+
+
+@pytest.mark.parametrize("text", ["| a |", "<!-- gearfem:provenance -->\n| a |"])
+def test_a_block_without_fields_is_not_a_provenance(text):
+    prov = Provenance.parse(text)
+    assert prov is None or (prov.resolution is None and prov.code == {})
