@@ -545,26 +545,26 @@ class _Recording:
         self.recorder.record("end" if end else f"{t:g}", t, temps)
 
 
-def thermal_field(
-    case: Case,
-    out_dir: str | Path,
-    comm: MPI.Comm,
-    cycle_result=None,
-    mesh_cache: Path | None = None,
-    write_fields: bool = True,
-    extra: dict[str, Any] | None = None,
-    steady: bool = True,
-    write_plot: bool = True,
-    record: bool = False,
-    branch_search: bool = True,
-) -> tuple[dict[str, Any], BodyField | None]:
-    """:func:`thermal`, and with ``record`` the body's field at the reported times gathered for
-    the instruments (a :class:`~gearfem.instruments.snapshot.BodyField` on rank 0, None on the
-    other ranks and without ``record``). ``branch_search=False`` skips the search for other steady
-    states of a friction law whose heat may rise with temperature (:func:`friction_branches`;
-    the temperatures, taken before it, are the same): a caller that needs only the branch the
-    transient reached, such as the diagnosis surrogate, saves its three extra steady solves."""
+@dataclasses.dataclass(frozen=True)
+class ThermalSetup:
+    """One gear's thermal problem of a case, with what it was built from
+    (:func:`thermal_problem`)."""
 
+    problem: ThermalProblem
+    gear_mesh: Any
+    domain: ThermalDomain
+    boundary: ThermalBoundary
+    profile: Any
+    speed_rpm: float
+    title: str
+
+
+def thermal_problem(
+    case: Case, comm: MPI.Comm, cycle_result=None, mesh_cache: Path | None = None
+) -> ThermalSetup:
+    """The thermal problem of ``[thermal] body``: its mesh (that body only), boundary and heat
+    sources (from ``cycle_result``, or prescribed), ready to solve (collective; the caller frees
+    it, ``with setup.problem:``)."""
     body = case.thermal.body
     if body not in ("pinion", "wheel"):
         raise ParameterError("thermal.body", body, "'pinion' or 'wheel'")
@@ -602,6 +602,33 @@ def thermal_field(
     problem = ThermalProblem(
         domain, material, sources, boundary, case.thermal, petsc_options_prefix="gearfem_thermal_"
     )
+    return ThermalSetup(problem, gm, domain, boundary, profile, speed, title)
+
+
+def thermal_field(
+    case: Case,
+    out_dir: str | Path,
+    comm: MPI.Comm,
+    cycle_result=None,
+    mesh_cache: Path | None = None,
+    write_fields: bool = True,
+    extra: dict[str, Any] | None = None,
+    steady: bool = True,
+    write_plot: bool = True,
+    record: bool = False,
+    branch_search: bool = True,
+) -> tuple[dict[str, Any], BodyField | None]:
+    """:func:`thermal`, and with ``record`` the body's field at the reported times gathered for
+    the instruments (a :class:`~gearfem.instruments.snapshot.BodyField` on rank 0, None on the
+    other ranks and without ``record``). ``branch_search=False`` skips the search for other steady
+    states of a friction law whose heat may rise with temperature (:func:`friction_branches`;
+    the temperatures, taken before it, are the same): a caller that needs only the branch the
+    transient reached, such as the diagnosis surrogate, saves its three extra steady solves."""
+
+    setup = thermal_problem(case, comm, cycle_result, mesh_cache)
+    problem, gm, domain, boundary = setup.problem, setup.gear_mesh, setup.domain, setup.boundary
+    body, src, profile, speed = case.thermal.body, case.sources, setup.profile, setup.speed_rpm
+    title = setup.title
     info = {
         "title": title,
         "body": body,

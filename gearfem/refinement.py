@@ -56,7 +56,7 @@ from mpi4py import MPI
 from gearfem import pipeline
 from gearfem.config import Case
 from gearfem.core.errors import ParameterError
-from gearfem.core.gci import convergence, representative_size
+from gearfem.core.gci import branch_convergence, representative_size
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.params import require_choice, require_range
 from gearfem.core.results import JsonRecord
@@ -101,6 +101,9 @@ class RefinementRow(JsonRecord):
     u_num: float
     asymptotic: bool
     u_num_case: float
+    # the levels reached different steady states: u_num is the gap between the branches
+    # (gearfem.core.gci.branch_convergence)
+    branches_differ: bool = False
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,6 +127,8 @@ class RefinementStudy(JsonRecord):
     resolution_key: str
     levels: tuple[RefinementLevel, ...]
     rows: tuple[RefinementRow, ...]
+    # the steady-state branch each level reached (coarse to fine; None: one steady state)
+    branches: tuple[int | None, ...] = ()
 
     @property
     def dofs(self) -> tuple[int, ...]:
@@ -273,12 +278,86 @@ class LevelSolution:
     quantities: dict[str, tuple[float, str]]
 
 
+#: Steady states whose friction heats differ by less than this factor are one branch (the
+#: branches of a friction law that steps at the glass transition differ by its mu ratio, about 3;
+#: the levels of a study on one branch by a few per cent).
+BRANCH_HEAT_RATIO = 1.25
+
+
+@dataclasses.dataclass(frozen=True)
+class LevelBranch:
+    """The steady states a level found (distinct and stable): each one's friction heat (W) and
+    temperatures (C, by quantity), and which of them the transient from ambient reached."""
+
+    heats_W: tuple[float, ...]
+    temperatures_C: tuple[dict[str, float], ...]
+    reached: int
+
+
+def level_branch(thermal: dict[str, Any]) -> LevelBranch | None:
+    """The steady states of one level's thermal summary (None when its friction heat cannot rise
+    with temperature, or the branches were not searched)."""
+    fr = thermal.get("friction") or {}
+    states = [
+        b
+        for b in fr.get("branches", ())
+        if b.get("converged") and b.get("same_as") is None and b.get("stable") is not False
+    ]
+    picked = fr.get("transient_branch")
+    names = [b["start"] for b in states]
+    if not states or picked not in names or any(b.get("friction_W") is None for b in states):
+        return None
+    return LevelBranch(
+        tuple(float(b["friction_W"]) for b in states),
+        tuple(dict(b["temperatures_C"]) for b in states),
+        names.index(picked),
+    )
+
+
+def branch_labels(
+    levels: list[LevelBranch | None],
+) -> tuple[list[int | None], dict[str, float]]:
+    """The branch each level reached, labelled alike across the levels, and per quantity the gap
+    between the branches (the largest over the levels that found more than one).
+
+    The distinct stable states of all levels are grouped by their friction heat (single linkage:
+    heats within :data:`BRANCH_HEAT_RATIO` of each other are one branch, labelled 0, 1, ... from
+    the coolest); a level's label is the group of the state its transient reached. A level
+    without several steady states (None) is labelled None, and so is every level when none
+    found any."""
+    heats = sorted({h for lv in levels if lv is not None for h in lv.heats_W})
+    if not heats:
+        return [None] * len(levels), {}
+    group, g = {}, 0
+    for i, h in enumerate(heats):
+        if i and not h <= BRANCH_HEAT_RATIO * max(heats[i - 1], 1e-300):
+            g += 1
+        group[h] = g
+    labels = [None if lv is None else group[lv.heats_W[lv.reached]] for lv in levels]
+    gaps: dict[str, float] = {}
+    for lv in levels:
+        if lv is None or len({group[h] for h in lv.heats_W}) < 2:
+            continue
+        mine = lv.temperatures_C[lv.reached]
+        for k, h in enumerate(lv.heats_W):
+            if group[h] == group[lv.heats_W[lv.reached]]:
+                continue
+            for q, v in lv.temperatures_C[k].items():
+                if q in mine and math.isfinite(v) and math.isfinite(mine[q]):
+                    gaps[q] = max(gaps.get(q, 0.0), abs(v - mine[q]))
+    return labels, gaps
+
+
 def solve_level(case: Case, out_dir: Path, comm: MPI.Comm, cycle) -> LevelSolution:
     """The thermal models the instruments read (both gears with the camera) on ``cycle`` (the
     case's cycle result, None for prescribed sources), their readings and every reported
     quantity, as each level of :func:`refinement_study` is measured (collective)."""
+    # a friction heat that may rise with temperature can have several steady states: each level
+    # then finds them (the steady states from a cold, the transient's and a hot start), so that
+    # the levels are compared branch by branch (level_branch)
+    rising = case.friction_law().may_rise_with_temperature
     th, _, snapshot = pipeline.observed_thermal(
-        case, out_dir, comm, cycle, write_fields=False, steady=False, write_plot=False
+        case, out_dir, comm, cycle, write_fields=False, steady=rising, write_plot=False
     )
     readings = None
     if comm.bcast(snapshot is not None, root=0):
@@ -322,7 +401,7 @@ def refinement_study(
             f"(case_level {case_level!r})",
         )
     out = prepare_output(out_dir, "refinement.json", comm)
-    done, quantities = [], []
+    done, quantities, thermals = [], [], []
     cyc_fixed = None
     if kind == "thermal_mesh" and case.sources.mode == "cycle":
         cyc_fixed, _, _ = pipeline.cycle(case, comm)
@@ -334,14 +413,16 @@ def refinement_study(
         size, dofs, setting = _size_and_setting(c, kind, solved.thermal, cyc)
         done.append(RefinementLevel(level, size, dofs, setting))
         quantities.append(solved.quantities)
+        thermals.append(solved.thermal)
     formal = case.thermal.degree + 1.0 if kind == "thermal_mesh" else None
+    labels, gaps = branch_labels([level_branch(th) for th in thermals])
     rows = []
     for q, (_, unit) in quantities[0].items():
         values = [lq[q][0] for lq in quantities]
         sizes = [lv.size for lv in done]
         if not all(math.isfinite(v) for v in values):
             continue
-        conv = convergence(values, sizes, formal_order=formal)
+        conv = branch_convergence(values, sizes, labels, gaps.get(q), formal_order=formal)
         rows.append(
             RefinementRow(
                 q,
@@ -354,10 +435,13 @@ def refinement_study(
                 conv.u_num,
                 conv.asymptotic,
                 conv.u_num_at(_value_index(at, levels)),  # the case's level
+                conv.branches_differ,
             )
         )
     key = resolution_key(case)
-    study = RefinementStudy(case.name, kind, factor, at, key, tuple(done), tuple(rows))
+    study = RefinementStudy(
+        case.name, kind, factor, at, key, tuple(done), tuple(rows), branches=tuple(labels)
+    )
     if comm.rank == 0:
         _write_table(study, out)
         plot(study, out / "refinement.png")
@@ -486,8 +570,15 @@ def markdown(study: RefinementStudy) -> str:
         "u_num fine | u_num case |",
         "|---|---|" + "---|" * len(head) + "---|---|---|---|",
     ]
+    if len(set(study.branches)) > 1:
+        lines[0] += (
+            " **The levels reached different steady states** (branches, coarse to fine: "
+            + ", ".join("-" if b is None else str(b) for b in study.branches)
+            + "): the discretisation decides the branch, and u_num is the gap between the "
+            "branches (†)."
+        )
     for r in study.rows:
-        flag = "" if r.asymptotic else " *"
+        flag = " †" if r.branches_differ else ("" if r.asymptotic else " *")
         vals = " | ".join(f"{v:.4g}" for v in r.values)
         lines.append(
             f"| {r.quantity} | {r.unit} | {vals} | {r.observed_order:.2f}{flag} | "

@@ -467,6 +467,41 @@ def test_partial_verdict_scales_intervals_and_refine_quotes_full_values():
     assert all(e.checked for e in rr.refined.edges)
 
 
+def test_the_winner_is_written_as_case_files_a_user_runs(tmp_path):
+    """The chosen extension at its fitted value becomes ``winner.toml`` and one case file per
+    data point (its speed, torque, recorded ambient, and the diagnosis's transient then steady
+    run), which ``gearfem run`` reads back with the extension applied."""
+    from diagnose_lumped import LumpedModel
+
+    from gearfem.config import load_case, write_case
+    from gearfem.diagnose.forward import BRANCH_TRANSIENT_S, Surrogate
+    from gearfem.diagnose.report import winner_cases, winner_params
+    from gearfem.diagnose.select import diagnose
+
+    lm = LumpedModel(times_s=())
+    pts = COVERAGE_DESIGNS[1]
+    lib = tuple(by_name(n) for n in ("convection_scale", "bore_heat_path"))
+    sur = Surrogate(lm, pts, lib)
+    d = _lumped_data(lm, pts, {"convection_scale": 1.8}, np.random.default_rng(5), ("mean_bulk",))
+    r = diagnose(sur.predict, d, library=lib, max_size=1, u_model_K=0.0, model_error=sur.error)
+    assert r.chosen == ("convection_scale",), r.verdict.text
+    k = winner_params(r)["convection_scale"]
+    case = Case()
+    cases = winner_cases(case, d, r)
+    assert set(cases) == {"winner.toml"} | {f"winner_{s:g}rpm_{t:g}Nm.toml" for s, t in pts}
+    for name, c in cases.items():
+        back = load_case(write_case(c, tmp_path / name))
+        assert back.thermal.h_teeth_factor == pytest.approx(case.thermal.h_teeth_factor * k)
+    first = next(m for m in d.measurements if (m.speed_rpm, m.torque_Nm) == pts[0])
+    run = load_case(tmp_path / f"winner_{pts[0][0]:g}rpm_{pts[0][1]:g}Nm.toml")
+    assert (run.operating.speed_rpm, run.operating.torque_Nm) == pts[0]
+    assert run.thermal.ambient_C == first.ambient_C
+    assert run.thermal.mode == "transient" and run.thermal.duration_s == BRANCH_TRANSIENT_S
+    # nothing chosen, nothing written
+    null = dataclasses.replace(r, chosen=())
+    assert winner_cases(case, d, null) == {}
+
+
 # ---------------------------------------------------------------- experiment design (issue 16)
 # the design logic on the lumped forward model; the full model checks the top proposals there too
 

@@ -402,3 +402,46 @@ def test_flash_table_matches_the_volterra_solution():
     m, t = _profile(const, np.full(3, 350.0), np.array([0.0, 50.0, 300.0]))
     np.testing.assert_allclose(m, 0.4, rtol=1e-14)
     np.testing.assert_allclose(t, 0.4 * np.array([0.0, 50.0, 300.0]), rtol=1e-12)
+
+
+def test_cool_branch_fold_brackets_the_turning_point():
+    """The fold margins' search (gearfem.diagnose.margins.cool_branch_fold) on the 0-D glass
+    model: traced from a fifth of the heat, the cool branch ends at the analytic turning point
+    (scale 1.3089 at 130.2 C), which its bracket holds; in the ambient (the law's temperatures
+    shifted) the cool branch at full heat ends where the shifted law's turning point reaches
+    scale 1."""
+    from gearfem.diagnose.margins import TOLERANCE, _shifted, cool_branch_fold
+
+    prob, law, _ = _lumped(prefix="zd_fold_")
+    folds, _ = _analytic(law)
+    s_fold = max(s for s, _ in folds)  # the cool branch's end
+    with prob:
+        fold, x = cool_branch_fold(prob, prob.set_friction_scale, 0.2, 3.0, 1.0)
+        x.destroy()
+        assert fold.cool < s_fold < fold.gone
+        assert fold.gone - fold.cool <= 2 * TOLERANCE
+        assert fold.fold == pytest.approx(s_fold, abs=TOLERANCE)
+        # every temperature shifted by d: the law sees T + d, i.e. its transition moved down
+        opts = FrictionOptions(
+            law="glass_transition", mu_glassy=0.1, mu_rubbery=0.5, transition_width_K=5.0
+        )
+        model = prob.sources.flank_flux_model
+
+        def shift(d):
+            model.law = _shifted(opts, d).law_for(0.5)
+
+        def cool_end_scale(d):
+            sl = _shifted(opts, d).law_for(0.5)
+            g = lambda T: float(sl.mu_of_T(T)) - (T - TA) * float(sl.dmu_of_T_dT(T))
+            Ts = np.linspace(sl.tg_K - 60, sl.tg_K + 20, 4001)
+            gs = [g(t) for t in Ts]
+            T_f = next(brentq(g, Ts[i], Ts[i + 1]) for i in range(4000) if gs[i] * gs[i + 1] < 0)
+            return H * AREA * (T_f - TA) / (float(sl.mu_of_T(T_f)) * Q0 * AREA_F)
+
+        d_ref = brentq(lambda d: cool_end_scale(d) - 1.0, -20.0, 40.0, xtol=1e-9)
+        shift(-20.0)
+        prob.set_friction_scale(1.0)
+        fold, x = cool_branch_fold(prob, shift, -20.0, 60.0, 60.0)
+        x.destroy()
+        assert fold.cool < d_ref < fold.gone
+        assert fold.fold == pytest.approx(d_ref, abs=TOLERANCE * 60.0)

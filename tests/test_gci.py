@@ -8,6 +8,7 @@ import pytest
 
 from gearfem.core.errors import ParameterError
 from gearfem.core.gci import (
+    branch_convergence,
     convergence,
     grid_convergence,
     least_squares_convergence,
@@ -135,3 +136,24 @@ def test_convergence_takes_the_procedure_of_the_number_of_solutions():
         least_squares_convergence([1.0, 2.0, 3.0, 4.0], [0.1, 0.2, 0.2, 0.4])
     flat = least_squares_convergence([2.0] * 4, [0.1, 0.2, 0.3, 0.4])
     assert flat.gci == 0.0 and flat.gci_at(3) == 0.0
+
+
+def test_levels_on_different_branches_get_the_branch_gap():
+    """Three solutions of a bistable model: on one branch the usual GCI; when the middle level
+    landed on the other branch (a jump of 60 K), u_num is the gap between the branches, at every
+    level, and the estimate says the branches differ."""
+    h = (0.1, 0.15, 0.225)
+    same = (100.0, 100.4, 101.3)
+    usual = grid_convergence(same, h)
+    on_one = branch_convergence(same, h, [0, 0, 0], gap=60.0)
+    assert on_one == usual and not on_one.branches_differ
+    assert branch_convergence(same, h, [None, None, None]) == usual
+    jumped = (100.0, 160.4, 101.3)
+    c = branch_convergence(jumped, h, [0, 1, 0], gap=61.0)
+    assert c.branches_differ and not c.asymptotic and math.isnan(c.observed_order)
+    assert c.u_num == pytest.approx(61.0)
+    assert c.u_num_at(0) == c.u_num_at(2) == pytest.approx(61.0)
+    # without a measured gap the spread of the values, which holds the jump
+    assert branch_convergence(jumped, h, [0, 1, 0]).u_num == pytest.approx(60.4)
+    with pytest.raises(ParameterError, match="branches"):
+        branch_convergence(jumped, h, [0, 1])

@@ -11,12 +11,14 @@ import pytest
 
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
-from gearfem.core.gci import grid_convergence, least_squares_convergence
+from gearfem.core.gci import branch_convergence, grid_convergence, least_squares_convergence
 from gearfem.geometry.options import MeshOptions
 from gearfem.refinement import (
     RefinementLevel,
     RefinementStudy,
+    branch_labels,
     layer_similarity,
+    level_branch,
     markdown,
     refined_mesh,
     refinement_study,
@@ -149,3 +151,47 @@ def test_a_four_level_study_fits_all_levels(tmp_out, comm):
     assert header.startswith("quantity,unit,fine,level_2,level_1,coarse,order")
     with pytest.raises(ParameterError, match="refinement levels"):
         refinement_study(case, tmp_out / "converge_six", comm, "thermal_mesh", levels=6)
+
+
+def _thermal_with_branches(states, picked):
+    """A thermal summary's friction part as gearfem.pipeline.friction_branches writes it."""
+    return {
+        "friction": {
+            "branches": [
+                {
+                    "start": name,
+                    "converged": True,
+                    "temperatures_C": {"max_surface": t, "mean_bulk": t / 3.0},
+                    "friction_W": q,
+                    "stable": True,
+                    "same_as": None,
+                }
+                for name, (q, t) in states.items()
+            ],
+            "transient_branch": picked,
+        }
+    }
+
+
+def test_levels_are_labelled_by_the_steady_state_they_reached():
+    """Three levels of a bistable gear: the coarse one found both branches (cool 2 W / 60 C, hot
+    6.5 W / 240 C) and reached the cool one, the medium one found only the hot one, the fine one
+    reached the cool one: labels 0, 1, 0 by friction heat, and the gap of each quantity is the
+    distance between the branches where both were found; a law with one steady state gives no
+    labels."""
+    coarse = level_branch(
+        _thermal_with_branches({"cold": (2.0, 60.0), "hot": (6.5, 240.0)}, "cold")
+    )
+    medium = level_branch(_thermal_with_branches({"transient": (6.2, 236.0)}, "transient"))
+    fine = level_branch(_thermal_with_branches({"transient": (2.1, 61.0)}, "transient"))
+    labels, gaps = branch_labels([coarse, medium, fine])
+    assert labels == [0, 1, 0]
+    assert gaps == {"max_surface": pytest.approx(180.0), "mean_bulk": pytest.approx(60.0)}
+    # on one branch the levels share a label (heats within BRANCH_HEAT_RATIO)
+    assert branch_labels([coarse, fine, fine])[0] == [0, 0, 0]
+    assert level_branch({"friction": {"branch_search": "not needed"}}) is None
+    assert branch_labels([None, None, None]) == ([None, None, None], {})
+    # a study whose levels differ by branch: the table says so and u_num is the gap
+    values, sizes = (61.0, 236.0, 60.0), (0.1, 0.15, 0.225)  # fine to coarse
+    conv = branch_convergence(values, sizes, labels[::-1], gaps["max_surface"])
+    assert conv.branches_differ and conv.u_num == pytest.approx(180.0)

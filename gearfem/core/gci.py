@@ -41,6 +41,16 @@ U_i = 3 σ (n − 1)/Δ_M (|φ_fit,i − φ0| + σ + |φ_i − φ_fit,i|); gearf
 Fs = 3. ``benchmarks/uncertainty_method.py`` compares the two on a study. Neither bounds U by
 the data range (the largest difference Δ_M belongs to the 2008 procedure, J. Mar. Sci. Technol.
 13 (2008)).
+
+**Several steady states** (:func:`branch_convergence`). A model with several steady states (a
+friction law that steps up at the glass transition) can land on different branches on different
+levels: the level's solution jumps, and no power law of h describes the jump. The levels are then
+compared branch by branch: when every level reached the same branch the usual estimate holds;
+when they did not, the discretisation decides the branch, and the numerical uncertainty of the
+reading is the gap between the branches (the larger of the gap at the levels where both were found
+and the spread of the levels' values, which holds the jump), reported with ``branches_differ`` and
+``asymptotic = False``. A study that stayed on one branch cannot show this: that is why the
+branch is compared, not assumed.
 """
 
 from __future__ import annotations
@@ -75,6 +85,8 @@ class Convergence:
     safety_factor: float = SAFETY_FACTOR  # Fs used (1.25 in the asymptotic range, else 3)
     scatter: float = 0.0  # σ, standard deviation of the least-squares fit (0 for 3 solutions)
     fitted: tuple[float, ...] = ()  # the fit at each size (4+ solutions; empty for 3)
+    # the levels reached different steady states (branch_convergence): u_num is the branch gap
+    branches_differ: bool = False
 
     def gci_at(self, level: int) -> float:
         """GCI of the solution on ``level`` (0: finest, ..., len(values) − 1: coarsest): Fs
@@ -85,6 +97,8 @@ class Convergence:
         n = len(self.values)
         if not (isinstance(level, int) and 0 <= level < n):
             raise ParameterError("refinement level", level, f"0 (finest) ... {n - 1} (coarsest)")
+        if self.branches_differ:  # every level: the branch it lands on is not settled
+            return self.gci
         if self.fitted:
             return (
                 self.safety_factor * abs(self.values[level] - self.extrapolated)
@@ -189,6 +203,48 @@ def convergence(
     if len(values) == 3:
         return grid_convergence(values, sizes, formal_order)
     return least_squares_convergence(values, sizes, formal_order)
+
+
+def branch_convergence(
+    values: Sequence[float],
+    sizes: Sequence[float],
+    branches: Sequence[int | None],
+    gap: float | None = None,
+    formal_order: float | None = None,
+) -> Convergence:
+    """:func:`convergence` of solutions that may lie on different steady states.
+
+    Args:
+        values, sizes, formal_order: As for :func:`convergence` (any order of the levels).
+        branches: The branch each level's solution is on (same order as ``values``; None: the
+            model has one steady state there). Equal labels: the usual estimate.
+        gap: The distance between the branches for this quantity (the largest over the levels
+            where both were found), or None when no level found both.
+
+    Returns the usual :class:`Convergence` when every level is on one branch; otherwise the
+    values with u_num = the gap between the branches or the spread of the values (which holds
+    the jump), whichever is larger, observed order NaN, ``asymptotic = False`` and
+    ``branches_differ = True``.
+    """
+    if len(branches) != len(values):
+        raise ParameterError("branches", len(branches), f"one label per solution ({len(values)})")
+    if len(set(branches)) <= 1:
+        return convergence(values, sizes, formal_order)
+    h, f = _sorted_levels(values, sizes)
+    spread = max(f) - min(f)
+    u = max(spread, gap if gap is not None and math.isfinite(gap) else 0.0)
+    return Convergence(
+        f,
+        h,
+        math.nan,
+        math.nan,
+        math.nan,
+        u * GCI_TO_STANDARD,
+        u,
+        False,
+        safety_factor=1.0,
+        branches_differ=True,
+    )
 
 
 #: the orders the least-squares fit searches (a wider range than any order it would trust); an

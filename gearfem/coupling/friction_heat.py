@@ -603,6 +603,7 @@ class ThermalFrictionFlux:
             group_band=np.repeat(np.arange(bands.num_bands), nt),
             num_targets=transfer.num_cells,
         )
+        self._inst, self._contact_temperature = inst, contact_temperature
         self.flux = FrictionFlux(
             law, bands, inst, contact_temperature, transfer.comm, bands.num_bands * nt
         )
@@ -612,6 +613,28 @@ class ThermalFrictionFlux:
         self.may_rise_with_temperature = law.may_rise_with_temperature
         self.state: FluxState | None = None
         self.evaluations = 0
+
+    def set_law(self, law: FrictionLaw) -> None:
+        """Evaluate another friction law on the same contact points from now on (its flash table
+        and pressure/speed factors built anew; collective): a parameter of the law can be varied
+        on one thermal problem, as the fold margins of :mod:`gearfem.diagnose.margins` do."""
+        if law.may_rise_with_temperature != self.may_rise_with_temperature:
+            raise ParameterError(
+                "friction law",
+                "a law whose heat "
+                + ("may" if law.may_rise_with_temperature else "cannot")
+                + " rise with temperature",
+                "one like the model's (the thermal solver was chosen for it)",
+            )
+        self.law = law
+        self.flux = FrictionFlux(
+            law,
+            self.bands,
+            self._inst,
+            self._contact_temperature,
+            self.transfer.comm,
+            self.flux.num_groups,
+        )
 
     def update(self, surface_mean_K: np.ndarray) -> None:
         tr = self.transfer

@@ -11,11 +11,11 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
-from gearfem.config import Case
+from gearfem.config import Case, write_case
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
-from gearfem.diagnose.candidates import LIBRARY, by_name
+from gearfem.diagnose.candidates import LIBRARY, apply_all, by_name
 from gearfem.diagnose.data import Dataset, Measurement, unit_of
 from gearfem.diagnose.design import (
     STANDING_DELTA,
@@ -25,7 +25,7 @@ from gearfem.diagnose.design import (
     standing_explanations,
     suggest,
 )
-from gearfem.diagnose.forward import FullModel, Surrogate
+from gearfem.diagnose.forward import BRANCH_TRANSIENT_S, FullModel, Surrogate
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
 from gearfem.instruments.options import ProbeOptions
@@ -201,10 +201,55 @@ def run_diagnosis(
         _plots(result, data, out, suggestion)
         if suggestion is not None:
             write_json(out / "suggestion.json", suggestion)
+        for name, c in winner_cases(case, data, result).items():
+            write_case(c, out / name)
         (out / "report.md").write_text(markdown(report, data))
         write_json(out / "diagnosis.json", report)  # last: marks a complete diagnosis
     comm.barrier()
     return report
+
+
+def winner_params(result: Diagnosis) -> dict[str, float]:
+    """The chosen model's parameters: refined on the full model where that was done."""
+    if not result.chosen:
+        return {}
+    if result.refined is not None:
+        return dict(result.refined.params)
+    return dict(result.chosen_fit.params)
+
+
+def winner_cases(case: Case, data: Dataset, result: Diagnosis) -> dict[str, Case]:
+    """The chosen extension at its fitted value, as case files a user runs with ``gearfem run``:
+    ``winner.toml`` (the case with the extension applied) and, per operating point of the data,
+    ``winner_<speed>rpm_<torque>Nm.toml`` with that point's speed, torque and recorded ambient and
+    the diagnosis's run (a transient from ambient of :data:`BRANCH_TRANSIENT_S`, then the steady
+    state from its end: an end value of the data is that steady state, ``camera_max_steady_C`` in
+    the run's summary, on the branch the transient reached). Empty when no extension was chosen."""
+    params = winner_params(result)
+    if not params:
+        return {}
+    label = ", ".join(f"{k} = {v:.4g}" for k, v in params.items())
+    base = apply_all(case, params)
+    out = {"winner.toml": dataclasses.replace(base, name=f"{case.name} + {label}")}
+    for m in data.measurements:
+        name = f"winner_{m.speed_rpm:g}rpm_{m.torque_Nm:g}Nm.toml"
+        if name in out:
+            continue
+        c = base.with_operating(speed_rpm=m.speed_rpm, torque_Nm=m.torque_Nm)
+        times = tuple(t for t in c.thermal.output_times_s if t < BRANCH_TRANSIENT_S)
+        th = dataclasses.replace(
+            c.thermal,
+            mode="transient",
+            ambient_C=m.ambient_C,
+            duration_s=BRANCH_TRANSIENT_S,
+            output_times_s=times,
+        )
+        out[name] = dataclasses.replace(
+            c,
+            name=f"{case.name} + {label}, {m.speed_rpm:g} rpm / {m.torque_Nm:g} N m",
+            thermal=th,
+        )
+    return out
 
 
 def design_case(case: Case) -> Case:
