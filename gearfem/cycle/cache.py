@@ -26,7 +26,7 @@ import numpy as np
 from gearfem.contact.compliance import ComplianceStore
 from gearfem.core.io import jsonable
 from gearfem.core.params import to_dict
-from gearfem.core.provenance import source_hash
+from gearfem.core.provenance import code_hash
 from gearfem.cycle.history import ContactHistory
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
@@ -62,12 +62,12 @@ def cache_root() -> Path:
 
 
 def _code_hash() -> str:
-    """Hash of the source of every gearfem module the cycle solve imports, transitively (the
-    mesh, contact, materials, facet geometry, Newton driver, ...): an edit there invalidates stored
-    cycles, an edit elsewhere (the thermal model, the diagnosis) does not."""
-    return source_hash(
-        "gearfem.cycle.solve", "gearfem.cycle.model", "gearfem.cycle.cache", length=12
-    )
+    """Hash of the code of every gearfem module the cycle solve imports, transitively (the mesh,
+    contact, materials, facet geometry, Newton driver, ...; docstrings and comments aside,
+    :func:`gearfem.core.provenance.code_hash`): an edit of the code there invalidates stored
+    cycles, an edit elsewhere (the thermal model, the diagnosis) or of the explanations does
+    not."""
+    return code_hash("gearfem.cycle.solve", "gearfem.cycle.model", "gearfem.cycle.cache")
 
 
 def cycle_key(
@@ -101,7 +101,7 @@ def compliance_context(geometry, mesh_options, materials: dict) -> str:
             b: [float(m.youngs_modulus_Pa), float(m.poissons_ratio)]
             for b, m in sorted(materials.items())
         },
-        "code": source_hash("gearfem.contact.compliance", "gearfem.contact.elasticity", length=12),
+        "code": code_hash("gearfem.contact.compliance", "gearfem.contact.elasticity"),
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 

@@ -47,7 +47,7 @@ from gearfem import pipeline
 from gearfem.config import Case, case_to_dict
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.params import require_positive
-from gearfem.core.provenance import source_hash
+from gearfem.core.provenance import code_hash
 from gearfem.diagnose.candidates import LIBRARY, AmbientOffset, Candidate, apply_all, by_name
 from gearfem.diagnose.data import FIELD_QUANTITIES, Dataset, unit_of
 from gearfem.instruments.evaluate import TORQUE_QUANTITIES, evaluate
@@ -479,7 +479,7 @@ class Surrogate:
         module a table value is computed by (this module and what it imports, transitively:
         pipeline, instruments, thermal, coupling, cycle, contact, geometry, core)."""
         h = hashlib.sha256()
-        h.update(source_hash("gearfem.diagnose.forward", "gearfem.diagnose.candidates").encode())
+        h.update(code_hash("gearfem.diagnose.forward", "gearfem.diagnose.candidates").encode())
         meta = {
             "model": self.full.surrogate_meta(),
             "points": points,

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
+from gearfem import claims
 from gearfem.config import Case, write_case
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.results import JsonRecord
@@ -26,6 +27,8 @@ from gearfem.diagnose.design import (
     suggest,
 )
 from gearfem.diagnose.forward import BRANCH_TRANSIENT_S, FullModel, Surrogate
+from gearfem.diagnose.margins import FoldMargin, fold_margins
+from gearfem.diagnose.margins import markdown as margins_markdown
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
 from gearfem.instruments.options import ProbeOptions
@@ -160,6 +163,7 @@ def run_diagnosis(
         model_error=sur.error,
     )
     base_sur = sur.predict(data, {})
+    margins = verdict_margins(case, data, result, comm, full)
     suggestion = None
     if suggest_next:
         suggestion = suggest_measurements(data, case, result, comm, grid, cache_dir)
@@ -196,6 +200,8 @@ def run_diagnosis(
             for c in LIBRARY
         },
         suggestion=suggestion,
+        fold_margins=tuple(margins),
+        provenance=dataclasses.asdict(claims.provenance(case, claims.DIAGNOSIS_CODE)),
     )
     if comm.rank == 0:
         _plots(result, data, out, suggestion)
@@ -207,6 +213,41 @@ def run_diagnosis(
         write_json(out / "diagnosis.json", report)  # last: marks a complete diagnosis
     comm.barrier()
     return report
+
+
+#: The uncertainty of the bench's ambient (K): what the fold margins in the ambient are compared
+#: with (the recorded air temperature near two gears running at up to 150 C).
+AMBIENT_U_K = 2.0
+
+
+def verdict_margins(
+    case: Case, data: Dataset, result: Diagnosis, comm: MPI.Comm, full: FullModel
+) -> list[FoldMargin]:
+    """The fold margins of every data point for the chosen model when its friction law may have
+    several steady states (:func:`gearfem.diagnose.margins.fold_margins`; empty otherwise): in
+    the fitted parameters (compared with their interval), the torque (with the torque meter's
+    uncertainty) and the ambient (with :data:`AMBIENT_U_K`)."""
+    params = winner_params(result)
+    if not params or not apply_all(case, params).friction_law().may_rise_with_temperature:
+        return []
+    intervals = (
+        result.refined.intervals if result.refined is not None else result.chosen_fit.intervals
+    )
+    half = {
+        n: max(abs(params[n] - iv[0]), abs(iv[1] - params[n]))
+        for n, iv in intervals.items()
+        if n in params
+    }
+    return fold_margins(
+        case,
+        data.points,
+        params,
+        comm,
+        interval_half_width=half,
+        torque_u_Nm=case.instruments.torque.uncertainty_Nm,
+        temperature_u_K=AMBIENT_U_K,
+        cycle=full.cycle,
+    )
 
 
 def winner_params(result: Diagnosis) -> dict[str, float]:
@@ -470,6 +511,15 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "",
         f"**Verdict: {v.text}**",
         "",
+        *(
+            [
+                "**The verdict is fragile**: a data point lies within its parameter's "
+                "uncertainty of the fold that decides its branch (Fold margins, below).",
+                "",
+            ]
+            if report.fragile
+            else []
+        ),
         f"{result.n_measurements} measurements, {result.n_effective} independent "
         f"(a curve counts as at most two), ranked by {result.criterion}.",
         "",
@@ -549,6 +599,17 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
                 "Interval edges not re-checked on the full model: the surrogate's error estimate "
                 "cannot move chi2 there by more than 0.5.",
             ]
+    if report.fold_margins:
+        lines += [
+            "",
+            "## Fold margins (the branch each point lands on)",
+            "",
+            "A run from ambient ends on the cool steady state wherever it exists; each point's "
+            "margin is the distance to the fold where its gear's cool branch ends "
+            "(gearfem.diagnose.margins), in the fitted parameter, the torque and the ambient.",
+            "",
+            margins_markdown(report.fold_margins),
+        ]
     if v.separate_by:
         lines += ["", "## Measurements that would separate the rivals (predicted differences)", ""]
         lines += [
@@ -609,6 +670,16 @@ class DiagnosisReport(JsonRecord):
     surrogate: dict[str, Any]
     candidates: dict[str, Any]
     suggestion: Suggestion | None = None
+    # the winner's law may be bistable: each data point's distance to the folds that decide its
+    # branch (gearfem.diagnose.margins)
+    fold_margins: tuple[FoldMargin, ...] = ()
+    # what the diagnosis was computed with (gearfem.claims)
+    provenance: dict[str, Any] | None = None
+
+    @property
+    def fragile(self) -> bool:
+        """Whether a fold of the verdict lies within its parameter's uncertainty."""
+        return any(m.fragile for m in self.fold_margins)
 
     def to_json(self) -> dict[str, Any]:
         out = self.diagnosis.to_json()
@@ -618,12 +689,15 @@ class DiagnosisReport(JsonRecord):
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> DiagnosisReport:
         own = ("data", "case", "vv20", "surrogate", "candidates")
-        rest = {k: v for k, v in data.items() if k not in (*own, "suggestion")}
+        extra = ("suggestion", "fold_margins", "provenance")
+        rest = {k: v for k, v in data.items() if k not in (*own, *extra)}
         sug = data.get("suggestion")
         return cls(
             Diagnosis.from_json(rest),
             *(data[k] for k in own),
             suggestion=None if sug is None else Suggestion.from_json(sug),
+            fold_margins=tuple(FoldMargin.from_json(m) for m in data.get("fold_margins", ())),
+            provenance=data.get("provenance"),
         )
 
 

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from gearfem.core.params import to_dict
-from gearfem.core.provenance import source_hash
+from gearfem.core.provenance import code_hash
 from gearfem.geometry.extrude import GMSH_REF
 from gearfem.geometry.gmsh_pair import gmsh_session, placement, write_model
 from gearfem.geometry.involute import GearPair, GearPairGeometry
@@ -61,9 +61,10 @@ def default_cache_dir() -> Path:
 
 
 def _source_hash() -> str:
-    """Hash of the source of the modules that generate meshes (gmsh_pair and what it imports,
-    transitively): an edit there invalidates the cache."""
-    return source_hash("gearfem.geometry.gmsh_pair")
+    """Hash of the code of the modules that generate meshes (gmsh_pair and what it imports,
+    transitively; docstrings and comments aside): an edit of the code there invalidates the
+    cache."""
+    return code_hash("gearfem.geometry.gmsh_pair", length=16)
 
 
 def cache_key(
