@@ -655,7 +655,10 @@ def thermal_field(
             for r in records
             if any(abs(r.time_s - t) <= 1e-6 * max(1.0, t) for t in wanted)
         }
-        end = problem.T.x.array.copy() if case.thermal.mode == "transient" else None
+        # the state a run from ambient reaches: the transient's end, or in steady mode with a law
+        # whose heat may rise the lowest steady state (gearfem.thermal.branches)
+        reached = case.thermal.mode == "transient" or problem.sources.flank_flux_may_rise
+        end = problem.T.x.array.copy() if reached else None
         friction = None
         # the friction report (maps, contact temperatures) of gearfem run, or of any other law
         if (

@@ -405,18 +405,19 @@ def test_flash_table_matches_the_volterra_solution():
 
 
 def test_cool_branch_fold_brackets_the_turning_point():
-    """The fold margins' search (gearfem.diagnose.margins.cool_branch_fold) on the 0-D glass
-    model: traced from a fifth of the heat, the cool branch ends at the analytic turning point
-    (scale 1.3089 at 130.2 C), which its bracket holds; in the ambient (the law's temperatures
-    shifted) the cool branch at full heat ends where the shifted law's turning point reaches
-    scale 1."""
-    from gearfem.diagnose.margins import TOLERANCE, _shifted, cool_branch_fold
+    """The fold search (gearfem.thermal.branches.trace_lowest_branch) on the 0-D glass model:
+    traced from a fifth of the heat, the cool branch ends at the analytic turning point (scale
+    1.3089 at 130.2 C), which its bracket holds; in the ambient (the law's temperatures shifted,
+    gearfem.diagnose.margins) the cool branch at full heat ends where the shifted law's turning
+    point reaches scale 1."""
+    from gearfem.diagnose.margins import _shifted
+    from gearfem.thermal.branches import TOLERANCE, trace_lowest_branch
 
     prob, law, _ = _lumped(prefix="zd_fold_")
     folds, _ = _analytic(law)
     s_fold = max(s for s, _ in folds)  # the cool branch's end
     with prob:
-        fold, x = cool_branch_fold(prob, prob.set_friction_scale, 0.2, 3.0, 1.0)
+        fold, x = trace_lowest_branch(prob, prob.set_friction_scale, 0.2, 3.0, 1.0)
         x.destroy()
         assert fold.cool < s_fold < fold.gone
         assert fold.gone - fold.cool <= 2 * TOLERANCE
@@ -441,7 +442,35 @@ def test_cool_branch_fold_brackets_the_turning_point():
         d_ref = brentq(lambda d: cool_end_scale(d) - 1.0, -20.0, 40.0, xtol=1e-9)
         shift(-20.0)
         prob.set_friction_scale(1.0)
-        fold, x = cool_branch_fold(prob, shift, -20.0, 60.0, 60.0)
+        fold, x = trace_lowest_branch(prob, shift, -20.0, 60.0, 60.0)
         x.destroy()
         assert fold.cool < d_ref < fold.gone
         assert fold.fold == pytest.approx(d_ref, abs=TOLERANCE * 60.0)
+
+
+def test_lowest_steady_state_is_where_the_transient_from_ambient_ends():
+    """Without the transient (gearfem.thermal.branches.lowest_steady_state): on the 0-D glass
+    model the lowest branch at the full heat is the cool state (103.0 C); with 1.5 times the heat,
+    past the cool branch's fold at 1.3089, it is the hot one, which the transient from ambient
+    reaches too."""
+    from gearfem.thermal.branches import lowest_steady_state
+
+    prob, law, _ = _lumped(prefix="zd_low_")
+    folds, branches = _analytic(law)
+    s_fold = max(s for s, _ in folds)
+    model = prob.sources.flank_flux_model
+    with prob:
+        rec, how = lowest_steady_state(prob)
+        assert how.branch == "lowest" and how.fold_scale is None
+        assert rec.temperatures_K["mean_bulk"] == pytest.approx(branches[0], abs=2e-3)
+        assert prob.friction_scale == 1.0
+        model.q0 = 1.5 * Q0
+        rec, how = lowest_steady_state(prob)
+        assert how.branch == "above the fold"
+        assert how.fold_scale * 1.5 == pytest.approx(s_fold, abs=3e-3 * 1.5)
+        s_of = lambda T: H * AREA * (T - TA) / (float(law.mu_of_T(T)) * 1.5 * Q0 * AREA_F)
+        hot = brentq(lambda T: s_of(T) - 1.0, branches[2] - 300.0, 3000.0)
+        assert rec.temperatures_K["mean_bulk"] == pytest.approx(hot, abs=2e-3)
+        prob.set_initial(TA)
+        prob.integrate(duration_s=20000.0)
+        assert prob.temperatures_K()["mean_bulk"] == pytest.approx(hot, abs=0.5)

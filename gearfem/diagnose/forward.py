@@ -74,10 +74,12 @@ class ForwardState:
     aim_std_K: dict[Request, float] = dataclasses.field(default_factory=dict)
 
 
-#: Length of the transient from ambient (s) before the steady solve of an end value when the
-#: friction heat may rise with temperature (:meth:`FullModel.point_case`): twice the bench's
-#: 15 min run (thesis 6.1.1); the steady solve from its end picks the branch it is heading for,
-#: and the transient is continued while that solve fails.
+#: Length of the transient from ambient (s) of the case files the diagnosis writes for its winner
+#: (:func:`gearfem.diagnose.report.winner_cases`): twice the bench's 15 min run (thesis 6.1.1),
+#: after which ``gearfem run`` solves the steady state from its end. The diagnosis itself finds
+#: that steady state without the transient (the lowest steady state,
+#: :func:`gearfem.thermal.branches.lowest_steady_state`); the two agree because a transient from
+#: ambient ends on the lowest steady state above it.
 BRANCH_TRANSIENT_S = 1800.0
 
 
@@ -149,8 +151,7 @@ class FullModel:
     ) -> Case:
         """The case of one run: operating point, ambient, candidates applied, transient to the last
         sample time (or steady when only end values are wanted; with a friction law whose heat may
-        rise with temperature, a transient of :data:`BRANCH_TRANSIENT_S` and the steady state from
-        its end)."""
+        rise with temperature, the steady state a run from ambient reaches)."""
         case = self.case.with_operating(speed_rpm=speed_rpm, torque_Nm=torque_Nm)
         th = case.thermal
         if self.times_s:
@@ -167,22 +168,10 @@ class FullModel:
             th = dataclasses.replace(
                 th, mode="steady", output_times_s=(), ambient_C=ambient_C, initial_C=None
             )
+        # with a friction law whose heat may rise with temperature, a steady end value is the
+        # state a run from ambient reaches: the lowest steady state, found by continuation in the
+        # heat (gearfem.thermal.branches.lowest_steady_state), not whichever one Newton finds
         case = apply_all(dataclasses.replace(case, thermal=th), model, self.library)
-        if case.thermal.mode == "steady" and case.friction_law().may_rise_with_temperature:
-            # a friction heat that may rise with temperature can have several steady states (a
-            # glass step is bistable): the end value is the one the transient from ambient
-            # reaches (BRANCH_TRANSIENT_S or the case's shorter duration, then the steady solve
-            # from its end, continued as pipeline.steady_after_transient does while it fails),
-            # not whichever one Newton finds from ambient
-            th = case.thermal
-            th = dataclasses.replace(
-                th,
-                mode="transient",
-                output_times_s=(),
-                duration_s=min(th.duration_s, BRANCH_TRANSIENT_S),
-                dt_initial_s=min(th.dt_initial_s, th.dt_max_s, BRANCH_TRANSIENT_S),
-            )
-            case = dataclasses.replace(case, thermal=th)
         return case
 
     def evaluate(

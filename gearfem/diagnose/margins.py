@@ -25,18 +25,16 @@ lands on the hot branch and would come down only if p fell by that much. Paramet
 * the camera's view, aim and blur change what the camera reads, not the heat balance: they move no
   fold.
 
-Method (:func:`cool_branch_fold`): natural-parameter continuation of the cool branch from a value
-where it exists (Newton from ambient), stepping towards the fold; a step whose Newton fails, or
-whose friction heat leaves the cool branch (grows by more than :data:`JUMP_RATIO` in one step),
-is halved, until the step is below the tolerance: the fold lies between the last cool solution
-and the first failure. A few tens of steady solves per gear and parameter, no transient.
+Method (:func:`gearfem.thermal.branches.trace_lowest_branch`): natural-parameter continuation of
+the cool branch from a value where it exists, stepping towards the fold with step halving. A few
+tens of steady solves per gear and parameter, no transient.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 from mpi4py import MPI
@@ -44,120 +42,18 @@ from mpi4py import MPI
 from gearfem import pipeline
 from gearfem.config import Case
 from gearfem.contact.friction import dma_glass_transition_C
-from gearfem.core.errors import ConvergenceError
 from gearfem.core.results import JsonRecord
 from gearfem.core.tasks import run_split
 from gearfem.diagnose.candidates import LIBRARY, Candidate, apply_all, by_name
 from gearfem.geometry.options import BODIES
+from gearfem.thermal.branches import (
+    SAFE_SCALE,
+    Fold,
+    cool_at_full_heat,
+    trace_lowest_branch,
+)
 
 log = logging.getLogger(__name__)
-
-#: A continuation step whose friction heat grows by more than this factor has left the cool
-#: branch (the branches of the glass step differ by the ratio of the two mu, about 3; a step on
-#: one branch changes the heat by a few per cent).
-JUMP_RATIO = 1.25
-#: Steps of the continuation: the first, and the smallest (the fold's bracket), as fractions of
-#: the parameter's scale.
-FIRST_STEP = 0.1
-TOLERANCE = 2e-3
-
-
-@dataclasses.dataclass(frozen=True)
-class Fold(JsonRecord):
-    """Where the cool branch of one gear ends in one parameter.
-
-    ``fold``: the middle of the bracket [``cool``, ``gone``] (the last parameter value with a cool
-    steady state, the first without); ``None`` when the cool branch did not end within the
-    searched range (``limit``). ``solves``: steady solves spent."""
-
-    cool: float | None
-    gone: float | None
-    limit: float
-    solves: int
-
-    @property
-    def fold(self) -> float | None:
-        if self.cool is None or self.gone is None:
-            return None
-        return 0.5 * (self.cool + self.gone)
-
-
-def cool_branch_fold(
-    problem,
-    set_parameter: Callable[[float], None],
-    start: float,
-    limit: float,
-    scale: float,
-    x0=None,
-    tolerance: float = TOLERANCE,
-) -> tuple[Fold, object]:
-    """Trace the cool branch of ``problem`` in a parameter from ``start`` towards ``limit`` and
-    bracket its fold (collective). Returns the fold and the last cool state (a PETSc Vec of the
-    problem's unknowns, the caller's to destroy; None when there was none).
-
-    ``set_parameter(p)`` sets the parameter on the problem. The trace starts from the state
-    ``x0`` (a cool steady state at ``start``), or, without one, from Newton from ambient at
-    ``start``, which must then be a value where the cool branch surely exists (a start from
-    which Newton fails gives ``Fold(None, start, ...)``). Steps start at :data:`FIRST_STEP` ×
-    ``scale`` and are halved at a failure down to ``tolerance`` × ``scale``.
-    """
-    direction = 1.0 if limit >= start else -1.0
-    solves = 0
-
-    def solve(p: float, x) -> float | None:
-        """The friction heat of the steady state at p from the state x (None: ambient), or None
-        when Newton fails."""
-        nonlocal solves
-        set_parameter(p)
-        if x is None:
-            problem.set_initial(problem.initial_K)
-        else:
-            problem.set_state(x)
-        solves += 1
-        try:
-            rec = problem.solve_steady()
-        except ConvergenceError:
-            return None
-        return float(rec.balance.friction_W)
-
-    heat = solve(start, x0)
-    if heat is None:
-        return Fold(None, start, limit, solves), None
-    x = problem.state_vector()
-    p, step = start, FIRST_STEP * scale
-    while step >= tolerance * scale:
-        q = p + direction * step
-        if (q - limit) * direction > 0.0:
-            q = limit
-        h = solve(q, x)
-        if h is not None and h <= JUMP_RATIO * max(heat, 1e-300):
-            p, heat = q, h
-            x.destroy()
-            x = problem.state_vector()
-            if p == limit:
-                return Fold(p, None, limit, solves), x
-        else:
-            step *= 0.5
-    set_parameter(p)
-    problem.set_state(x)
-    return Fold(p, p + direction * 2.0 * step, limit, solves), x
-
-
-#: Friction-heat scale at which every trace starts (Newton from ambient): a fifth of the heat,
-#: far below any fold of the cool branch.
-SAFE_SCALE = 0.2
-
-
-def _cool_at_full_heat(problem, start_state=None) -> tuple[bool, object, int]:
-    """From the cool state at the friction-heat scale :data:`SAFE_SCALE` (Newton from ambient),
-    the cool branch traced to the full heat (scale 1): (whether it reaches it, its state there or
-    None, solves)."""
-    fold, x = cool_branch_fold(problem, problem.set_friction_scale, SAFE_SCALE, 1.0, 1.0)
-    reached = fold.gone is None and fold.cool == 1.0
-    if not reached and x is not None:
-        x.destroy()
-        x = None
-    return reached, x, fold.solves
 
 
 @dataclasses.dataclass(frozen=True)
@@ -264,7 +160,7 @@ def fold_margins(
             with problem:
                 # the torque, to first order the friction-heat scale: the cool branch from a fifth
                 # of the heat upwards
-                fold, x = cool_branch_fold(
+                fold, x = trace_lowest_branch(
                     problem, problem.set_friction_scale, SAFE_SCALE, 3.0, 1.0
                 )
                 _destroy(x)
@@ -293,9 +189,10 @@ def fold_margins(
 
                     set_value(prm.lo)
                     fold = Fold(None, prm.lo, prm.hi, 0)
-                    cool, x, n = _cool_at_full_heat(problem)
-                    if cool:
-                        fold, y = cool_branch_fold(
+                    full, x = cool_at_full_heat(problem)
+                    n = full.solves
+                    if full.gone is None:
+                        fold, y = trace_lowest_branch(
                             problem, set_value, prm.lo, prm.hi, prm.hi - prm.lo, x0=x
                         )
                         _destroy(y)
@@ -312,9 +209,10 @@ def fold_margins(
 
                 set_shift(-SHIFT_RANGE_K)
                 fold = Fold(None, -SHIFT_RANGE_K, SHIFT_RANGE_K, 0)
-                cool, x, n = _cool_at_full_heat(problem)
-                if cool:
-                    fold, y = cool_branch_fold(
+                full, x = cool_at_full_heat(problem)
+                n = full.solves
+                if full.gone is None:
+                    fold, y = trace_lowest_branch(
                         problem, set_shift, -SHIFT_RANGE_K, SHIFT_RANGE_K, SHIFT_RANGE_K, x0=x
                     )
                     _destroy(y)
@@ -394,12 +292,7 @@ def markdown(margins: Sequence[FoldMargin]) -> str:
 
 
 __all__ = [
-    "FIRST_STEP",
-    "JUMP_RATIO",
-    "TOLERANCE",
-    "Fold",
     "FoldMargin",
-    "cool_branch_fold",
     "fold_margins",
     "fragile",
     "markdown",

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -183,6 +184,175 @@ def _max():
     from mpi4py import MPI
 
     return MPI.MAX
+
+
+#: A continuation step whose friction heat grows by more than this factor has left the cool
+#: branch (the branches of the glass step differ by the ratio of the two mu, about 3; a step on
+#: one branch changes the heat by a few per cent).
+JUMP_RATIO = 1.25
+#: Steps of the continuation: the first, and the smallest (the fold's bracket), as fractions of
+#: the parameter's scale.
+FIRST_STEP = 0.1
+TOLERANCE = 2e-3
+
+
+@dataclasses.dataclass(frozen=True)
+class Fold(JsonRecord):
+    """Where the lowest (cool) branch ends in a parameter, traced from ``start`` towards
+    ``limit`` (:func:`trace_lowest_branch`).
+
+    ``cool``: the last parameter value with a state on the branch; ``gone``: the first without
+    (the fold lies between them); ``cool = None``: none at the start; ``gone = None``: the branch
+    reached ``limit``. ``solves``: steady solves spent."""
+
+    cool: float | None
+    gone: float | None
+    limit: float
+    solves: int
+
+    @property
+    def fold(self) -> float | None:
+        """The middle of the bracket (None: no fold within the range)."""
+        if self.cool is None or self.gone is None:
+            return None
+        return 0.5 * (self.cool + self.gone)
+
+
+def trace_lowest_branch(
+    problem,
+    set_parameter: Callable[[float], None],
+    start: float,
+    limit: float,
+    scale: float,
+    x0=None,
+    tolerance: float = TOLERANCE,
+) -> tuple[Fold, object]:
+    """Trace the cool branch of ``problem`` in a parameter from ``start`` towards ``limit`` and
+    bracket its fold (collective). Returns the fold and the last cool state (a PETSc Vec of the
+    problem's unknowns, the caller's to destroy; None when there was none).
+
+    ``set_parameter(p)`` sets the parameter on the problem. The trace starts from the state
+    ``x0`` (a cool steady state at ``start``), or, without one, from Newton from ambient at
+    ``start``, which must then be a value where the cool branch surely exists (a start from
+    which Newton fails gives ``Fold(None, start, ...)``). Steps start at :data:`FIRST_STEP` ×
+    ``scale`` and are halved at a failure down to ``tolerance`` × ``scale``.
+    """
+    direction = 1.0 if limit >= start else -1.0
+    solves = 0
+
+    def solve(p: float, x) -> float | None:
+        """The friction heat of the steady state at p from the state x (None: ambient), or None
+        when Newton fails."""
+        nonlocal solves
+        set_parameter(p)
+        if x is None:
+            problem.set_initial(problem.initial_K)
+        else:
+            problem.set_state(x)
+        solves += 1
+        try:
+            rec = problem.solve_steady()
+        except ConvergenceError:
+            return None
+        return float(rec.balance.friction_W)
+
+    heat = solve(start, x0)
+    if heat is None:
+        return Fold(None, start, limit, solves), None
+    x = problem.state_vector()
+    p, step = start, FIRST_STEP * scale
+    while step >= tolerance * scale:
+        q = p + direction * step
+        if (q - limit) * direction > 0.0:
+            q = limit
+        h = solve(q, x)
+        if h is not None and h <= JUMP_RATIO * max(heat, 1e-300):
+            p, heat = q, h
+            x.destroy()
+            x = problem.state_vector()
+            if p == limit:
+                return Fold(p, None, limit, solves), x
+        else:
+            step *= 0.5
+    set_parameter(p)
+    problem.set_state(x)
+    return Fold(p, p + direction * 2.0 * step, limit, solves), x
+
+
+#: Friction-heat scale at which every trace starts (Newton from ambient): a fifth of the heat,
+#: far below any fold of the cool branch.
+SAFE_SCALE = 0.2
+
+
+def cool_at_full_heat(problem) -> tuple[Fold, Any]:
+    """The lowest branch from its state at the friction-heat scale :data:`SAFE_SCALE` (Newton
+    from ambient) traced to the full heat (scale 1): the fold (``gone`` None: it reached the
+    full heat) and its last state (a PETSc Vec, the caller's to destroy; None when Newton failed
+    at the start)."""
+    return trace_lowest_branch(problem, problem.set_friction_scale, SAFE_SCALE, 1.0, 1.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class LowestState(JsonRecord):
+    """The steady state a run from ambient ends on, found by continuation
+    (:func:`lowest_steady_state`): ``branch`` is ``"lowest"`` when the lowest branch reaches
+    the full heat, ``"above the fold"`` when it ends before (``fold_scale``: where) and the state
+    is the one the transient from the fold reaches at the full heat."""
+
+    branch: str
+    fold_scale: float | None
+    solves: int
+
+
+def lowest_steady_state(
+    problem, settle_s: float = 1800.0, max_settles: int = 4
+) -> tuple[Any, LowestState]:
+    """The steady state a transient from ambient reaches, mostly without the transient
+    (collective).
+
+    With a heat source that does not fall with temperature, a transient that starts below every
+    steady state rises monotonically and ends on the lowest steady state above its start
+    (comparison principle): the lowest branch, continued in the friction-heat scale from
+    :data:`SAFE_SCALE` (where it is the only state near ambient), if it reaches the full heat.
+    If the lowest branch ends at a fold before the full heat, the transient runs away from it to
+    the next stable state up: that part is integrated, from the state at the fold with the full
+    heat (``settle_s`` of transient, then the steady solve from its end, the span doubled while
+    that fails, at most ``max_settles`` times). Returns the steady record (as
+    :meth:`ThermalProblem.solve_steady`) and how it was found; the friction scale is restored
+    to 1."""
+    fold, x = cool_at_full_heat(problem)
+    solves = fold.solves
+    try:
+        if fold.gone is None:
+            problem.set_friction_scale(1.0)
+            problem.set_state(x)
+            rec = problem.solve_steady()
+            return rec, LowestState("lowest", None, solves + 1)
+        if x is None:  # no state near ambient even at SAFE_SCALE: from ambient
+            problem.set_initial(problem.initial_K)
+        else:
+            problem.set_state(x)
+            problem.set_initial(problem.T.copy())
+        problem.set_friction_scale(1.0)
+        last: ConvergenceError | None = None
+        for k in range(max_settles):
+            problem.integrate(duration_s=problem.time_s + settle_s * 2**k)
+            try:
+                rec = problem.solve_steady()
+                return rec, LowestState("above the fold", fold.fold, solves + k + 1)
+            except ConvergenceError as err:
+                last = err
+        raise ConvergenceError(
+            "thermal Newton",
+            "no steady state after the lowest branch's fold "
+            f"(scale {fold.fold}): the transient from there had not settled after "
+            f"{problem.time_s:g} s ({last.reason if last else ''})",
+            step="lowest steady state",
+        )
+    finally:
+        if x is not None:
+            x.destroy()
+        problem.set_friction_scale(1.0)
 
 
 @dataclasses.dataclass(frozen=True)

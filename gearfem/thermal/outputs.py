@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from gearfem.core.materials import ZERO_CELSIUS_K
+from gearfem.thermal.branches import lowest_steady_state
 from gearfem.thermal.problem import StepRecord, ThermalProblem
 
 CSV_NAME = "thermal_history.csv"
@@ -233,13 +234,20 @@ def solve_and_write(
         out_dir, problem, write_fields=write_fields, write_plot=write_plot
     ) as writer:
         observer = _Observers(writer, *observers)
+        lowest = None
         if problem.options.mode == "steady":
-            rec = problem.solve_steady()
+            if problem.sources.flank_flux_may_rise:
+                # several steady states may exist: the one a run from ambient reaches
+                rec, lowest = lowest_steady_state(problem)
+            else:
+                rec = problem.solve_steady()
             observer.on_step(problem, rec, write_field=True)
             records = [rec]
         else:
             records = problem.integrate(observer=observer)
         info = {"wall_time_s": time.perf_counter() - t0, "mode": problem.options.mode}
+        if lowest is not None:
+            info["steady_state_search"] = lowest.to_json()
         info.update(extra or {})
         if more is not None:
             info.update(more(records))
