@@ -28,7 +28,6 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (orders dolfinx_solver first)
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED = ROOT.parent / "shared"
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -85,14 +84,6 @@ def comm() -> MPI.Comm:
 def comms() -> tuple[MPI.Comm, MPI.Comm]:
     """(serial, world): compute with both and compare to check 1 vs N ranks in one run."""
     return MPI.COMM_SELF, MPI.COMM_WORLD
-
-
-@pytest.fixture
-def shared_data() -> Path:
-    path = SHARED / "data"
-    if not path.is_dir():
-        pytest.skip(f"{path} not present")
-    return path
 
 
 @pytest.fixture
