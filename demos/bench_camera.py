@@ -1,4 +1,4 @@
-"""The thesis bench points as the bench measured them: the IR camera's reading (issue 13).
+"""The thesis bench points as the bench measured them: the IR camera's reading.
 
 Runs the built-in case (or ``--case``) at the two bench points of
 ``gearfem/data/testbench/thesis_testbench.csv`` (shipped with gearfem; 1000 rpm / 8 N m and

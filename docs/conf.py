@@ -47,8 +47,6 @@ source_suffix = {".md": "markdown", ".rst": "restructuredtext"}  # .rst: autosum
 root_doc = "index"
 exclude_patterns = ["_build", "**/.*"]
 myst_heading_anchors = 3
-# README-style links to files of the repository (``../gearfem/config.py``) are not pages
-suppress_warnings = ["myst.xref_missing"]
 
 autosummary_generate = True
 # every module's own members, whether or not its __all__ names them (the tables and the pages agree)
