@@ -6,6 +6,7 @@
 #   ./dev.sh test [pytest options]                   set up .venv, run the tests on 1 rank (2 pytest-xdist
 #                                                    workers), then the mpi-marked ones under mpirun -n 2
 #   ./dev.sh test --quick [pytest options]           the quick tier (tests not marked slow; a few minutes)
+#   ./dev.sh docs [sphinx options]                   build the documentation site into docs/_build/html
 #   ./dev.sh setup                                   only set up .venv
 #   ./dev.sh gearfem ARGS...                         any gearfem command inside the environment
 #
@@ -13,8 +14,10 @@
 # versions), creates the virtual environment GEARFEM_VENV (default .venv) and installs gearfem with
 # its dependencies from pyproject.toml. Where that Python already imports DOLFINx >= 0.10 (conda,
 # container), the venv sees it (--system-site-packages) and the PyPI wheel is not installed;
-# otherwise DOLFINx 0.11 comes from the wheel dolfinx-solver-real (extra "fenics").
-# Re-running is cheap: the install is redone only when pyproject.toml changes.
+# otherwise DOLFINx 0.11 comes from the wheel dolfinx-solver-real (extra "fenics"). The extra "test"
+# is always installed, "docs" (Sphinx) by `./dev.sh docs` and the full test tier, which builds the
+# site. Re-running is cheap: the install is redone only when pyproject.toml changes or an extra is
+# asked for that the venv lacks (the stamp holds pyproject.toml's hash and the extras installed).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 cd "$ROOT"
@@ -52,16 +55,27 @@ find_python() {
   die "no Python >= 3.12 found. Install one (e.g. 'pyenv install 3.12', 'apt install python3.12 python3.12-venv', or conda), or point GEARFEM_PYTHON at it."
 }
 
-setup() {
-  local stamp="$VENV/.gearfem-install-stamp" want
+setup() {  # $@: extras wanted beyond "test" (e.g. docs)
+  local stamp="$VENV/.gearfem-install-stamp" want hash="" have="" e
   want="$(cat pyproject.toml | sha256sum | cut -c1-16)"
-  if [[ -x "$VENV/bin/python" && -f "$stamp" && "$(cat "$stamp")" == "$want" ]]; then return; fi
+  # the stamp: pyproject.toml's hash, then the extras installed (a stamp of the hash alone: "test")
+  if [[ -x "$VENV/bin/python" && -f "$stamp" ]]; then
+    read -r hash have < "$stamp" || true
+    have="${have:-test}"
+  fi
+  local wanted="test"  # the extras to install: "test", those asked for, and those the venv has
+  for e in "$@" ${have//,/ }; do [[ ",$wanted," == *",$e,"* ]] || wanted="$wanted,$e"; done
+  if [[ -x "$VENV/bin/python" && "$hash" == "$want" && ",$have," == *",test,"* ]]; then
+    local missing=0
+    for e in "$@"; do [[ ",$have," == *",$e,"* ]] || missing=1; done
+    [[ $missing -eq 1 ]] || return 0
+  fi
   local py; py="$(find_python)"
-  local extras="test" sys_site=""
+  local extras="$wanted" sys_site=""
   if "$py" -c 'import dolfinx, sys; v = tuple(int(x) for x in dolfinx.__version__.split(".")[:2]); sys.exit(0 if v >= (0, 10) else 1)' >/dev/null 2>&1; then
     say "DOLFINx found in $py: using it (no PyPI wheel)"; sys_site="--system-site-packages"
   else
-    extras="fenics,test"
+    extras="fenics,$wanted"
   fi
   if [[ ! -x "$VENV/bin/python" ]]; then
     say "creating $VENV with $py ($("$py" --version 2>&1))"
@@ -72,7 +86,7 @@ setup() {
   "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e ".[$extras]" \
     || die "pip install of gearfem[$extras] failed (see above)"
   "$VENV/bin/python" -c 'import gearfem' || die "gearfem does not import after installation"
-  echo "$want" > "$stamp"
+  echo "$want $wanted" > "$stamp"
 }
 
 mpirun_cmd() {
@@ -101,11 +115,12 @@ case "$cmd" in
     exec "$(mpirun_cmd)" -n "$np" "$VENV/bin/gearfem" run "${args[@]}"
     ;;
   test)
-    setup
     serial_mark=(); mpi_mark=(-m mpi); tier="full"
     if [[ "${1:-}" == "--quick" ]]; then
       shift; serial_mark=(-m "not slow"); mpi_mark=(-m "mpi and not slow"); tier="quick"
     fi
+    # the full tier builds the documentation site (tests/test_docs.py): it needs the docs extra
+    if [[ "$tier" == "full" ]]; then setup docs; else setup; fi
     # Single-rank tests on GEARFEM_TEST_WORKERS pytest-xdist workers (default: the cores, at most
     # 2, the CI machine's), one BLAS thread each, distributed by file (--dist loadfile: a module's
     # fixtures are built once; loadgroup silently stopped grouping with pytest 9.2,
@@ -132,6 +147,11 @@ case "$cmd" in
     [[ $rc -eq 0 ]] || exit $rc
     say "mpirun -n $MPI_NP tests passed in $((SECONDS - t1)) s; all tests passed in $((SECONDS - t0)) s"
     ;;
+  docs)
+    setup docs
+    say "building the documentation site into docs/_build/html (warnings are errors)"
+    exec "$VENV/bin/python" -m sphinx -b html -W --keep-going -n docs docs/_build/html "$@"
+    ;;
   gearfem) setup; exec "$VENV/bin/gearfem" "$@" ;;
-  *) sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; exit 2 ;;
+  *) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 2 ;;
 esac

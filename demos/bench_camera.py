@@ -1,7 +1,8 @@
-"""The thesis bench points as the bench measured them: the IR camera's reading (issue 13).
+"""The thesis bench points as the bench measured them: the IR camera's reading.
 
 Runs the built-in case (or ``--case``) at the two bench points of
-``shared/data/testbench/thesis_testbench.csv`` (1000 rpm / 8 N m and 2000 rpm / 4 N m) with
+``gearfem/data/testbench/thesis_testbench.csv`` (shipped with gearfem; 1000 rpm / 8 N m and
+2000 rpm / 4 N m) with
 ``gearfem run`` (both gears' thermal models, the FLIR E40 of ``[instruments.camera]``, the torque
 meters), or reuses a finished run of the same case in ``OUT/<label>``, and reports the predicted
 ``camera_max`` at 900 s (when the bench was read) and at the steady state next to the bench's
@@ -30,6 +31,7 @@ import argparse
 import dataclasses
 import os
 import shutil
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -54,7 +56,8 @@ from gearfem.diagnose.report import (
 from gearfem.pipeline import RunSummary
 
 ROOT = Path(__file__).resolve().parent.parent
-BENCH = ROOT.parent / "shared" / "data" / "testbench" / "thesis_testbench.csv"
+#: The bench measurements gearfem ships (package data; no file outside the clone is read).
+BENCH = Path(str(resources.files("gearfem") / "data" / "testbench" / "thesis_testbench.csv"))
 
 
 def _run(case, out: Path, comm) -> RunSummary:

@@ -1,9 +1,9 @@
 """Reproduce the thesis's simulations and bench points (Doll 2015, 5.3.3 and 6.2) with gearfem.
 
-The operating points of ``shared/data/testbench/thesis_simulation_results.csv`` and of the bench
-(``thesis_testbench.csv``), all with the thesis's model choices (PEEK 450G, μ = 0.5 constant,
-thesis convection correlations, radiation ε = 0.9, adiabatic bore and cut faces, hysteresis with
-f = rotational frequency):
+The operating points of ``gearfem/data/testbench/thesis_simulation_results.csv`` and of the bench
+(``thesis_testbench.csv`` beside it), all with the thesis's model choices (PEEK 450G, μ = 0.5
+constant, thesis convection correlations, radiation ε = 0.9, adiabatic bore and cut faces,
+hysteresis with f = rotational frequency):
 
     label              speed   torque  duration  hysteresis  thesis (ANSYS)            bench
     20Nm               1000    20      6000 s    on          about 137 C               -

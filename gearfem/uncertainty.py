@@ -50,8 +50,8 @@ from gearfem.cycle.cache import cache_root
 log = logging.getLogger(__name__)
 
 #: Bump when a change of gearfem.refinement changes what a study measures (the levels it runs);
-#: part of every stored study. 1: until stop 29; 2: the contact-zone study keeps the flux
-#: reconstruction's widths (they shrink with the positions and the layers only).
+#: part of every stored study. 1: until 6499368 (2026-11-26); 2: the contact-zone study keeps
+#: the flux reconstruction's widths (they shrink with the positions and the layers only).
 STUDY_DESIGN_VERSION = 2
 
 #: Relative difference within which a run's value is the study's own (not scaled by the rise).
@@ -60,7 +60,7 @@ SAME_VALUE_RTOL = 1e-6
 KINDS = ("thermal_mesh", "structural_mesh", "structural_layers", "positions", "tip")
 
 #: Where the built-in case sits in each kind's study (the shipped studies,
-#: benchmarks/uncertainty_builtin.py): in the middle of the
+#: benchmarks/verification/uncertainty_builtin.py): in the middle of the
 #: thermal-mesh study (4 / 6 / 9 thermal layers, the case 6), of the positions study (12 / 18 / 27
 #: positions per pitch: the middle-grid GCI, from one coarser and one finer cycle) and, second of
 #: four, of the layers study (3 / 4 / 6 / 9 graded layers, the case 4: a 13-layer level would need
@@ -73,8 +73,8 @@ BUILTIN_CASE_LEVEL = {
     "positions": "middle",
     "tip": "coarsest",
 }
-#: How many levels each kind's study has: four across the face width, where three levels (stop 29:
-#: 2 / 3 / 5 equal layers) moved the camera reading by 0.2 and 0.1 K, too little above the
+#: How many levels each kind's study has: four across the face width, where three levels (2/3/5
+#: equal layers, on 2026-11-26) moved the camera reading by 0.2 and 0.1 K, too little above the
 #: readings' scatter for three solutions to tell a slow trend (their order 0.38: Fs = 3, 2.2 K)
 #: from settling; a fourth level and the least-squares fit through all four do.
 BUILTIN_LEVELS = {

@@ -28,7 +28,6 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (orders dolfinx_solver first)
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED = ROOT.parent / "shared"
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -42,12 +41,12 @@ def pytest_configure(config: pytest.Config) -> None:
             reporter._tw = type(reporter._tw)(stream)  # type: ignore[attr-defined]
 
 
-#: Test modules by their serial time, longest first (seconds on one core of the CI machine,
-#: ``pytest --durations`` summed per module at stop 36: 749, 591, 353, 155, 148). The rest follow in
-#: their usual order. Longest first, the per-module sums split into 1129 / 1127 s over the two
+#: Test modules by their serial time, longest first (seconds on one core of the CI machine, ``pytest
+#: --durations`` summed per module at 18e31d2, 2026-11-27: 749, 591, 353, 155, 148). The rest follow
+#: in their usual order. Longest first, the per-module sums split into 1129 / 1127 s over the two
 #: workers (measured on a fresh clone: 1290 s wall for the 1-rank tier, against 1450 s in xdist's
-#: own order, most tests first, which started the 749 s module late). Only the order depends on
-#: this list.
+#: own order, most tests first, which started the 749 s module late). Only the order depends on this
+#: list.
 LONGEST_MODULES = (
     "test_diagnose_friction.py",
     "test_diagnose.py",
@@ -85,14 +84,6 @@ def comm() -> MPI.Comm:
 def comms() -> tuple[MPI.Comm, MPI.Comm]:
     """(serial, world): compute with both and compare to check 1 vs N ranks in one run."""
     return MPI.COMM_SELF, MPI.COMM_WORLD
-
-
-@pytest.fixture
-def shared_data() -> Path:
-    path = SHARED / "data"
-    if not path.is_dir():
-        pytest.skip(f"{path} not present")
-    return path
 
 
 @pytest.fixture

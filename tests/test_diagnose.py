@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -68,8 +69,9 @@ def test_curve_weights_count_at_most_two():
     assert d.n_effective() == 2 and np.allclose(d.series_weights(), 0.5)
 
 
-def test_thesis_bench_conversion(shared_data):
-    d = ddata.read_csv(shared_data / "testbench" / "thesis_testbench.csv")
+def test_thesis_bench_conversion():
+    bench = resources.files("gearfem") / "data" / "testbench" / "thesis_testbench.csv"
+    d = ddata.read_csv(str(bench))
     assert [
         (m.speed_rpm, m.torque_Nm, m.quantity, m.value, m.ambient_C, m.time_s)
         for m in d.measurements

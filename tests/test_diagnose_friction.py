@@ -25,7 +25,8 @@ from test_diagnose import assert_hidden_effect_found, forward_models
 #: at the lower one (the sliding-speed law from convection), the bench points among them.
 FRICTION_POINTS = ((600.0, 8.0), (1000.0, 8.0), (1000.0, 4.0), (2000.0, 4.0))
 FRICTION_RIVALS = ("friction_scale", "friction_temperature", "convection_scale", "ambient_offset")
-#: The candidates of the friction surrogate (benchmarks/diagnose_surrogate_cost.py times it).
+#: The candidates of the friction surrogate (timed by
+#: benchmarks/performance/diagnose_surrogate_cost.py).
 FRICTION_LIBRARY = FRICTION_LAWS + tuple(by_name(n) for n in FRICTION_RIVALS)
 
 

@@ -25,7 +25,7 @@ def pair() -> GearPair:
 def test_defaults_are_the_thesis_pair():
     from gearfem.core.materials import read_toml
 
-    ref = read_toml("thesis_gear_reference.toml")  # shipped copy of shared/data/thesis_gear.toml
+    ref = read_toml("thesis_gear_reference.toml")  # the thesis gear data as shipped
     known, assumed = ref["known"]["geometry"], ref["assumed"]["geometry"]
     g = THESIS
     assert g.teeth_pinion == g.teeth_wheel == known["teeth"]

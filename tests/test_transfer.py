@@ -31,8 +31,9 @@ def _flank(n_p=60, n_z=12, h_p=0.2e-3, h_z=1.0e-3, seed=0):
 
 def test_reconstruction_keeps_every_facets_heat_and_a_uniform_flux():
     """Balanced: on a jittered flank with unequal areas, edges included, a uniform flux comes out
-    uniform and every facet's heat is kept, both to round-off (column normalisation alone, until
-    stop 30, kept the heat but let a uniform flux vary by up to 15 % inside and more at edges)."""
+    uniform and every facet's heat is kept, both to round-off (column normalisation alone, as
+    before ad5929c, kept the heat but let a uniform flux vary by up to 15 % inside and more at
+    edges)."""
     pts, area, _, _ = _flank()
     S = smoothing_operator(pts, area, (0.1e-3, 1.0e-3), None)
     rng = np.random.default_rng(1)

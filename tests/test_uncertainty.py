@@ -203,9 +203,10 @@ def test_another_resolution_finds_nothing(store):
 
 
 def test_the_built_in_case_ships_its_studies_at_its_own_resolution():
-    """benchmarks/uncertainty_builtin.py files the built-in case's studies as package data under
-    its resolution key: a change of the built-in resolution (or of what the key covers) without
-    re-running it leaves no study for the new key, and the main job would report no u_num."""
+    """benchmarks/verification/uncertainty_builtin.py files the built-in case's studies as package
+    data under its resolution key: a change of the built-in resolution (or of what the key
+    covers) without re-running it leaves no study for the new key, and the main job would report
+    no u_num."""
     root = Path(__file__).resolve().parent.parent / "gearfem" / "data" / "uncertainty"
     case = load_case(None)
     key = resolution_key(case)

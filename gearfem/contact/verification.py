@@ -239,7 +239,7 @@ def hertz_pressure(x_m: np.ndarray, a_m: float, p0_Pa: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------------
-# ready-made problems (tests, demos/hertz_contact.py and benchmarks/contact_hertz.py share them)
+# ready-made problems (shared by tests, demos/hertz_contact.py, benchmarks/verification/)
 # ------------------------------------------------------------------------------------------------
 
 

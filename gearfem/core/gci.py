@@ -38,7 +38,7 @@ as above. Where no order in range fits, gearfem departs from the 2014 procedure,
 fixed orders instead (1, 2 and α h + β h² below 0.5; 1 and 2 above 2; each also weighted by
 1/h), keeps the fit of least scatter, and when σ is not below Δ_M/(n − 1) takes
 U_i = 3 σ (n − 1)/Δ_M (|φ_fit,i − φ0| + σ + |φ_i − φ_fit,i|); gearfem clips the order and keeps
-Fs = 3. ``benchmarks/uncertainty_method.py`` compares the two on a study. Neither bounds U by
+Fs = 3. ``benchmarks/verification/uncertainty_method.py`` compares the two. Neither bounds U by
 the data range (the largest difference Δ_M belongs to the 2008 procedure, J. Mar. Sci. Technol.
 13 (2008)).
 

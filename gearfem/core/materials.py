@@ -1,7 +1,7 @@
 """Materials: PEEK 450G and friends — elastic, thermal, hysteresis H(T), time-temperature shift.
 
 SI units inside; temperatures in kelvin. The defaults are the values in the shipped
-``gearfem/data/peek450g/`` files (copies of ``shared/data/peek450g``), each with its source there.
+``gearfem/data/peek450g/`` files (from the project's reference data), each with its source there.
 Temperature-dependent quantities are :class:`TemperatureTable` objects: piecewise linear in T,
 constant beyond the table ends (documented, not silent: :meth:`TemperatureTable.covers` tells).
 They evaluate on numpy arrays and build the same function as a UFL expression for the solvers.
@@ -132,7 +132,7 @@ def peek450g_hysteresis() -> TemperatureTable:
 
 
 # ------------------------------------------------------------------------------------------------
-# time-temperature superposition (thesis 3.1.2, shared/data/peek450g/viscoelastic.toml)
+# time-temperature superposition (thesis 3.1.2, gearfem/data/peek450g/viscoelastic.toml)
 # ------------------------------------------------------------------------------------------------
 
 

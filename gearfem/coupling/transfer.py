@@ -16,11 +16,12 @@ two side planes z = 0 and z = b (method of images, a reflecting side face):
 
     K_ij = G(x_i - x_j) + G(x_i - M_0 x_j) + G(x_i - M_b x_j),
 
-M_0, M_b the reflections. Until stop 30 the kernel was only normalised per column
+M_0, M_b the reflections. Before ad5929c (2026-11-26) the kernel was only normalised per column
 (S_ij = A_j G_ij / Σ_k A_k G_kj): the heat was kept, but a facet near a side face or the tip or
 root end of the surface, having neighbours on one side only, sent its heat inwards, and a
 uniform flux came out 0.86 / 0.97 / 1.08 on the first rows of 14 with σ_z = 1.5 mm
-(benchmarks/reconstruction_side_faces.py). The images keep the spread next to a side face the
+(measured with a benchmark script removed after 4a453cc; tests/test_transfer.py checks the
+balance). The images keep the spread next to a side face the
 reflected Gaussian; the balancing removes what is left (discrete rows, edges in the profile).
 
 Each flank facet f of the thermal mesh (drive flanks, tips, roots) then takes the mean of the
@@ -90,7 +91,7 @@ BALANCE_MAX_ITERATIONS = 500
 #: Thermal facets per block of the continuous evaluation (bounds the memory of the kernel pairs).
 CONTINUOUS_BLOCK_FACETS = 4096
 #: What the reconstruction computes, for the keys of stored results made with it (the numerical
-#: uncertainty studies): 1 until stop 30 (normalised per column); 2: balanced, mirrored kernels.
+#: uncertainty studies): 1 before ad5929c (normalised per column); 2: balanced, mirrored kernels.
 RECONSTRUCTION_VERSION = 2
 
 

@@ -80,9 +80,7 @@ def cycle_key(
         "mesh_key": mesh_cache_key(geometry, mesh_options),
         "materials": {b: to_dict(m) for b, m in materials.items()},
         "contact": to_dict(contact),
-        # how the ranks share the work changes the result only within the solver's tolerance,
-        # like the number of ranks: not part of the key
-        "cycle": {k: v for k, v in to_dict(cycle_options).items() if k != "parallel"},
+        "cycle": to_dict(cycle_options),
         "torque_Nm": float(torque_Nm),
         "code": _code_hash(),
     }
@@ -221,7 +219,7 @@ def cached_cycle(
     if done and not rebuild:
         log.info("cycle %s from the cache (%s)", key, directory)
         return load(directory), directory, True
-    result = solve_cycle(model_factory(), **run_kwargs)  # collective on comm
+    result = solve_cycle(model_factory(), **run_kwargs)
     if comm.rank == 0:
         save(result, directory, replace=rebuild)
     comm.barrier()

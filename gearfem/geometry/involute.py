@@ -96,7 +96,7 @@ def _rot(theta: float) -> np.ndarray:
 class GearPairGeometry:
     """The ``[geometry]`` table of a case: a spur-gear pair (both gears share m, alpha, b, s_w).
 
-    Defaults: the thesis gear pair (``shared/data/thesis_gear.toml``: 30/30 teeth, pitch diameter
+    Defaults: the thesis gear pair (``data/thesis_gear_reference.toml``: 30/30 teeth, pitch diameter
     60 mm, 30 deg, face width 12.934 mm, operating tooth thickness 2.995 mm) with the assumed
     proportions addendum 1.0 m, dedendum 1.25 m, bore radius 15 mm.
 

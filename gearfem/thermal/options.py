@@ -92,7 +92,7 @@ class ThermalOptions:
         degree: Lagrange degree of the temperature, 1 or 2. Default 2: on the default gear mesh
             (3 element layers across the face width, like the thesis's quadratic model) P2 is within
             0.35 K of a P2 solution on a mesh with 10 layers and finer web/tooth sizes, while P1 is
-            off by up to 3 K (tip, coast flank) at 40 W per gear (benchmarks/thermal.py).
+            off by up to 3 K (tip, coast flank) at 40 W a gear (benchmarks/performance/thermal.py).
         newton_rtol, newton_atol_W: Newton tolerances on ||F||_2 (residual in W per test function).
         newton_max_it: Newton iterations per step.
         linear_solver: ``"direct"`` (CG, GMRES with k(T), preconditioned by a MUMPS Cholesky/LU

@@ -476,7 +476,7 @@ class ThermalProblem:
             )
         elif o.linear_solver == "iterative":
             # block Jacobi (one block per rank) with incomplete Cholesky / LU(0) blocks: cheapest on
-            # the thermal meshes measured (mass-dominated at small steps), see benchmarks/thermal.py
+            # the thermal meshes measured (mass-dominated at small steps): benchmarks/performance/
             opts.update(
                 krylov | {"pc_type": "bjacobi", "sub_pc_type": "icc" if self._symmetric else "ilu"}
             )

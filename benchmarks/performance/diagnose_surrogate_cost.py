@@ -10,7 +10,10 @@ evaluation and prints, per candidate and per (candidate, point), how many there 
 seconds they took, and the structural cycles' times. It builds in a fresh cache of its own (the
 tests' cache is left alone), on one rank, as the suite's pytest-xdist workers do:
 
-    python benchmarks/diagnose_surrogate_cost.py --fixture friction   # or classic
+    python benchmarks/performance/diagnose_surrogate_cost.py --fixture friction   # or classic
+
+Purpose: performance (where the test suite's two diagnosis surrogate fixtures spend their time).
+Writes: no documentation block (prints its table).
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from gearfem.diagnose import forward
 from gearfem.diagnose.candidates import CLASSIC_LIBRARY
 
 # the fixtures are the tests' own (tests/ is not a package)
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 
 # isort: split
 

@@ -10,17 +10,20 @@ takes the compliances from that store and pays only for the factorisations (for 
 and the cycle itself.
 
 Usage:
-    python benchmarks/gear_cycle.py                          # the case's cycle on 1 rank
-    mpirun -n 2 python benchmarks/gear_cycle.py --torques 8 4  # first torque, then a further one
-    python benchmarks/gear_cycle.py --ranks-both --torques 8 4  # 1 and 2 ranks (re-launches)
-    python benchmarks/gear_cycle.py --ranks-both --torques 8 4 --write-docs
+    python benchmarks/performance/gear_cycle.py  # the case's cycle on 1 rank
+    mpirun -n 2 python benchmarks/performance/gear_cycle.py --torques 8 4
+        # first torque, then a further one
+    python benchmarks/performance/gear_cycle.py --ranks-both --torques 8 4
+        # 1 and 2 ranks (re-launches)
+    python benchmarks/performance/gear_cycle.py --ranks-both --torques 8 4 --write-docs
                                                              # ... and the table in docs/cycle.md
-    mpirun -n 2 python benchmarks/gear_cycle.py --solver full --save DIR
+    mpirun -n 2 python benchmarks/performance/gear_cycle.py --solver full --save DIR
                                                              # the full solver's reference cycle
-    python benchmarks/gear_cycle.py --compare DIR_FULL DIR_CONDENSED [--write-docs]
+    python benchmarks/performance/gear_cycle.py --compare DIR_FULL DIR_CONDENSED [--write-docs]
                                                              # agreement of two stored cycles
-    python benchmarks/gear_cycle.py --refinement             # pitch-point pressure vs mesh size
-    mpirun -n 2 python benchmarks/gear_cycle.py --refinement --factors 1.5 1 0.7 0.5 --write-docs
+    python benchmarks/performance/gear_cycle.py --refinement  # pitch-point pressure vs mesh size
+    mpirun -n 2 python benchmarks/performance/gear_cycle.py --refinement --factors 1.5 1 0.7 0.5 \
+        --write-docs
                                                              # ... and its table in docs/cycle.md
 
 Columns: ranks; solver; torque; P2 DOFs; condensed DOFs (both gears); positions solved; Newton
@@ -36,6 +39,11 @@ compliances came from the store; the dense compliance blocks held on rank 0 (MB)
 memory (max over ranks, and summed); the mean transmission error and the effective contact ratio.
 The machine has 2 cores shared with other developers: the 1-minute load average before and after
 each run is printed beside the figures, which are only as good as the load allows.
+
+Purpose: performance (the meshing cycle's time and memory), with the cycle's solver agreement
+and the pitch-point pressure under contact-zone refinement as checks.
+Writes: blocks ``cycle_benchmark``, ``cycle_solver_agreement`` and ``cycle_refinement`` of
+docs/cycle.md (``--write-docs``).
 """
 
 from __future__ import annotations
@@ -62,7 +70,7 @@ from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.cycle import GearContactModel, solve_cycle
 from gearfem.cycle.cache import compliance_store, load, save
 
-DOCS = Path(__file__).resolve().parent.parent / "docs" / "cycle.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "cycle.md"
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -457,8 +465,8 @@ def refinement_markdown(args, base, rows: list[dict], ranks: int) -> str:
         "wall",
     )
     cmd = (
-        "mpirun -n 2 python benchmarks/gear_cycle.py --refinement --write-docs --factors "
-        + " ".join(f"{f:g}" for f in args.factors)
+        "mpirun -n 2 python benchmarks/performance/gear_cycle.py --refinement --write-docs "
+        "--factors " + " ".join(f"{f:g}" for f in args.factors)
     )
     return (
         f"Pitch-point position of case '{base.name}', {base.operating.torque_Nm:g} N m, μ = "

@@ -19,9 +19,13 @@ of three levels for the thermal mesh and the positions, the coarsest for the oth
 
 Usage (2 ranks; the cycles of the refined levels are cached under cache/cycles):
 
-    mpirun -n 2 python benchmarks/uncertainty_builtin.py [--kinds thermal_mesh positions ...]
+    mpirun -n 2 python benchmarks/verification/uncertainty_builtin.py \
+        [--kinds thermal_mesh positions ...]
         [--factor 1.5] [--case-level coarsest|middle|finest] [--levels N]
         [--out results/uncertainty]
+
+Purpose: verification (the built-in case's five refinement studies, filed as package data).
+Writes: blocks ``refinement_<kind>`` and ``refinement_summary`` of docs/refinement.md.
 """
 
 from __future__ import annotations
@@ -72,7 +76,7 @@ SUMMARY = (
     "max_surface",
     "friction_power_W",
 )
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "gearfem" / "data" / "uncertainty"
 DOC = ROOT / "docs" / "refinement.md"
 
@@ -141,7 +145,8 @@ def main() -> None:
         if comm.rank == 0:
             write_json(DATA / study.resolution_key / f"{kind}.json", study_uncertainty(case, study))
             caption = (
-                f"\n\n`mpirun -n {comm.size} python benchmarks/uncertainty_builtin.py --kinds "
+                f"\n\n`mpirun -n {comm.size} python benchmarks/verification/uncertainty_builtin.py "
+                f"--kinds "
                 f"{kind} --case-level {case_level} --levels {levels}`: {wall:.0f} s on "
                 f"{comm.size} ranks, "
                 f"load average {os.getloadavg()[0]:.1f}."

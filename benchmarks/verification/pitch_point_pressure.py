@@ -7,11 +7,15 @@ read from the cycle cache; a level whose cycle is not cached is solved only with
 (the 10-layer cycle takes 35 min and 15 GB), else skipped and said so. Beside the two measures:
 Hertz's peak of the band's load on the local involute radii and the band's load per length.
 
-    mpirun -n 2 python benchmarks/pitch_point_pressure.py [--kind structural_layers]
+    mpirun -n 2 python benchmarks/verification/pitch_point_pressure.py [--kind structural_layers]
         [--layers 2 3 5 7 10] [--factors 1 1.5 2.25] [--solve] [--docs]
 
-``--docs`` replaces the block ``pitch_point_pressure`` of docs/refinement.md. A few seconds a
+``--docs`` replaces the block ``pitch_point_pressure_<kind>`` of docs/reconstruction.md. A few
+seconds a
 cached level (the cycle's contact history is read from the cache).
+
+Purpose: verification (the two pressure measures under structural refinement).
+Writes: blocks ``pitch_point_pressure_<kind>`` of docs/reconstruction.md (``--docs``).
 """
 
 from __future__ import annotations
@@ -35,8 +39,8 @@ from gearfem.cycle.measures import (
 )
 from gearfem.refinement import level_case
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "refinement.md"
-#: the docs/refinement.md block of each kind
+DOC = Path(__file__).resolve().parents[2] / "docs" / "reconstruction.md"
+#: the docs/reconstruction.md block of each kind
 BLOCKS = {
     "structural_layers": "pitch_point_pressure_structural_layers",
     "structural_mesh": "pitch_point_pressure_structural_mesh",
@@ -133,7 +137,7 @@ def main() -> None:
     text += (
         f"\n\nThe built-in case's pitch point (first position; pinion's bands in the middle half "
         f"of the face width), {args.kind} levels; `mpirun -n {comm.size} python "
-        f"benchmarks/pitch_point_pressure.py --kind {args.kind}{levels} --docs`."
+        f"benchmarks/verification/pitch_point_pressure.py --kind {args.kind}{levels} --docs`."
     )
     print(text, flush=True)
     if args.docs:

@@ -28,7 +28,10 @@ the drive-side tip rounds and the mate's flank foot, where the round bears) at `
 With ``--docs`` it writes the table into docs/refinement.md (block ``tip_round``, or
 ``tip_round_entry``).
 
-Usage: ``mpirun -n 2 python benchmarks/tip_round.py [--entry] [--docs]``
+Usage: ``mpirun -n 2 python benchmarks/verification/tip_round.py [--entry] [--docs]``
+
+Purpose: verification (what the tip rounds carry, and the entry refinement).
+Writes: blocks ``tip_round`` and ``tip_round_entry`` of docs/refinement.md (``--docs``).
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ from gearfem.geometry.options import BODIES
 from gearfem.instruments.evaluate import evaluate
 from gearfem.refinement import level_case
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / "docs" / "refinement.md"
 FACTORS = (1.0, 1.5, 2.25)
 # refinement kind -> what its levels refine
@@ -250,7 +253,8 @@ def main() -> None:
         if args.docs:
             flags = " --entry" if args.entry else ""
             caption = (
-                f"\n\n`mpirun -n {comm.size} python benchmarks/tip_round.py{flags} --docs`: "
+                f"\n\n`mpirun -n {comm.size} python benchmarks/verification/tip_round.py"
+                f"{flags} --docs`: "
                 f"{wall:.0f} s (cycles cached or solved), load average "
                 f"{os.getloadavg()[0]:.1f}."
             )

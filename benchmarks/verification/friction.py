@@ -1,12 +1,19 @@
 """Measured figures of docs/friction.md (issue 15): writes the tables between the page's markers.
 
-    python benchmarks/friction.py --approximation   # TINY: recomputed flux vs a cycle at mu 0.3
-    python benchmarks/friction.py --verification    # flash limits, 0-D branches and turning points
-    python benchmarks/friction.py --hysteresis      # W / (H U_max) on the coarse cycle's cells
-    python benchmarks/friction.py --bench           # each law at the two bench points (coarse)
+    python benchmarks/verification/friction.py --approximation
+        # TINY: recomputed flux vs a cycle at mu 0.3
+    python benchmarks/verification/friction.py --verification
+        # flash limits, 0-D branches and turning points
+    python benchmarks/verification/friction.py --hysteresis
+        # W / (H U_max) on the coarse cycle's cells
+    python benchmarks/verification/friction.py --bench  # each law at the two bench points (coarse)
 
 Cycles come from the cycle cache ($GEARFEM_CACHE or ./cache; computed on first use: TINY about
 4 min each, coarse about 8 min each on this 2-core machine). Serial.
+
+Purpose: verification (friction laws: flux approximation, flash and branch limits, hysteresis
+check) and each law at the bench points.
+Writes: blocks ``friction_*`` of docs/friction.md.
 """
 
 from __future__ import annotations
@@ -35,7 +42,7 @@ from gearfem.cycle.options import CycleOptions
 from gearfem.geometry.options import BODIES, MeshOptions
 from gearfem.instruments.evaluate import evaluate
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "friction.md"
 IMAGES = ROOT / "docs" / "images" / "friction"
 COMM = MPI.COMM_SELF

@@ -3,7 +3,7 @@
 The built-in case reports the hottest *node* of the pinion's surface. On quadratic elements the
 field between the nodes can be hotter: at the flank foot the temperature across the face width
 has a peak about 2 mm wide (the cycle's flux alternates by 2-4 % between the two triangle rows of
-every structural layer, docs/refinement.md ``cycle_flux_rows``), which the case's thermal layers
+every structural layer on the resolution built in until c30c95c), which the case's thermal layers
 (3.2 mm) sample with nodes 1.6 mm apart. This runs the pinion's thermal model (the case's cycle,
 cached) on the three levels of the thermal-mesh study (factor 1.5, the case in the middle) for
 each setting of the flux reconstruction asked for (evaluation and axial width), and prints per
@@ -11,12 +11,16 @@ level the hottest node, the hottest point of the quadratic field
 (:meth:`gearfem.instruments.snapshot.BodyField.hottest_point`) and where it is, and the
 convergence of both (gearfem.core.gci, formal order 3).
 
-    mpirun -n 2 python benchmarks/hottest_point.py [--out results/hottest_point] [--docs]
+    mpirun -n 2 python benchmarks/verification/hottest_point.py \
+        [--out results/hottest_point] [--docs]
         [--settings reference_facets:1.5 continuous:3.234 ...]
 
 Settings by default: the case's, continuous, continuous with an axial width of one facet row's
 spacing (3.234 mm). Each about 8 min on 2 cores (the pinion's levels: 83k / 195k / 538k DOFs).
-``--docs`` replaces the block ``hottest_point`` of docs/refinement.md.
+``--docs`` replaces the block ``hottest_point`` of docs/reconstruction.md.
+
+Purpose: verification (the hottest node against the field's maximum under thermal refinement).
+Writes: block ``hottest_point`` of docs/reconstruction.md (``--docs``).
 """
 
 from __future__ import annotations
@@ -38,8 +42,8 @@ from gearfem.core.gci import convergence, representative_size
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.refinement import level_case
 
-ROOT = Path(__file__).resolve().parents[1]
-DOC = ROOT / "docs" / "refinement.md"
+ROOT = Path(__file__).resolve().parents[2]
+DOC = ROOT / "docs" / "reconstruction.md"
 FACTOR = 1.5
 LEVEL_FACTORS = (1.0 / FACTOR, 1.0, FACTOR)  # coarse, the case, fine
 
@@ -116,7 +120,7 @@ def main() -> None:
             f"The pinion's thermal model on the thermal-mesh study's levels (factor {FACTOR:g}, "
             "the case in the middle; the case's cycle), at the end of the run.\n\n"
             f"{table}\n\n\\* not in the asymptotic range: Fs = 3 and the order clipped.\n\n"
-            f"`mpirun -n {comm.size} python benchmarks/hottest_point.py --docs`: "
+            f"`mpirun -n {comm.size} python benchmarks/verification/hottest_point.py --docs`: "
             f"{time.perf_counter() - t0:.0f} s on {comm.size} ranks, load average "
             f"{os.getloadavg()[0]:.1f}."
         )

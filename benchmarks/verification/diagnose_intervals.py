@@ -9,7 +9,11 @@ surrogate with its error carried, the refinement with the interval edges checked
 Prints the surrogate's nodes and error estimate, the verdict, the surrogate and refined intervals,
 the edge checks and the full-model profile; timings with the load average.
 
-    PYTHONPATH=$PWD python benchmarks/diagnose_intervals.py [--library bore_heat_path,...]
+    PYTHONPATH=$PWD python benchmarks/verification/diagnose_intervals.py \
+        [--library bore_heat_path,...]
+
+Purpose: verification (coverage of the diagnosis' intervals on synthetic data).
+Writes: no documentation block (prints; docs/diagnosis.md quotes it).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from mpi4py import MPI
 
 import gearfem  # noqa: F401
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests"))
 import diagnose_generator as G  # noqa: E402
 

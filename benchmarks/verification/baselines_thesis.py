@@ -7,7 +7,10 @@ pitch circle gives the generating profile shift for the root stress; the root fi
 tool tip radius a 30-deg, 1.25 m rack admits (a full-round tip, 0.110 m; the 0.38 m of
 thesis_gear.toml does not fit such a rack).
 
-Usage:  python benchmarks/baselines_thesis.py
+Usage:  python benchmarks/verification/baselines_thesis.py
+
+Purpose: verification (the analytic baselines at the bench points).
+Writes: no documentation block (prints its table).
 """
 
 from __future__ import annotations

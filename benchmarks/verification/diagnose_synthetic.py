@@ -6,7 +6,10 @@ that effect hidden at a random size; the diagnosis (surrogate) must name it. Pri
 matrix (rows: hidden effect, columns: verdict), the recovery rate, the rate at which the truth lies
 in the 95 % profile interval, the null-case false-alarm rate and timings.
 
-    PYTHONPATH=$PWD python benchmarks/diagnose_synthetic.py --seeds 5
+    PYTHONPATH=$PWD python benchmarks/verification/diagnose_synthetic.py --seeds 5
+
+Purpose: verification (the diagnosis names the planted effect on synthetic data).
+Writes: no documentation block (prints; docs/diagnosis.md quotes it).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from mpi4py import MPI
 
 import gearfem  # noqa: F401
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests"))
 import diagnose_generator as G  # noqa: E402
 

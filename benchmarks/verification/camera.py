@@ -7,7 +7,10 @@ option changed at a time; prints camera_max (frame average), its pixel and surfa
 render time; with ``--doc`` writes the table into docs/instruments.md (block camera_sensitivity).
 
 Run:
-    python benchmarks/camera.py [RESULT_DIR] [--label end] [--doc]
+    python benchmarks/verification/camera.py [RESULT_DIR] [--label end] [--doc]
+
+Purpose: verification (the IR camera reading's sensitivity to numerics and view).
+Writes: block ``camera_sensitivity`` of docs/instruments.md (``--doc``).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from gearfem.instruments.evaluate import evaluate
 from gearfem.instruments.options import InstrumentOptions
 from gearfem.instruments.snapshot import FieldSnapshot
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 VARIANTS = [
     ("default (E40, axial, 24 phases, 8x8 subsamples)", {}),
@@ -92,7 +95,7 @@ def main() -> None:
         f"\n\n{case.name}, {snap.pinion_speed_rpm:g} rpm, label {a.label}; hottest model node "
         f"{c.hottest_node_C:.1f} C. Render times on rank 0 of a shared 2-core machine, 1-minute "
         f"load average {load:.1f} at the start (indicative only). Measured by "
-        "`python benchmarks/camera.py " + str(a.result) + f" --label {a.label} --doc`."
+        "`python benchmarks/verification/camera.py " + str(a.result) + f" --label {a.label} --doc`."
     )
     print(table + note)
     if a.doc:

@@ -10,13 +10,14 @@ Default:
 contact size 0.0115 m (a/2.7), 3 layers, 0.069 m thick: 101 808 P2 displacement DOFs.
 
 Usage:
-    python benchmarks/contact_hertz.py                   # the 3D case on 1 rank
-    mpirun -n 2 python benchmarks/contact_hertz.py       # ... on 2 ranks
-    python benchmarks/contact_hertz.py --ranks-both      # re-launch with mpirun -n 1 and -n 2,
+    python benchmarks/verification/contact_hertz.py                   # the 3D case on 1 rank
+    mpirun -n 2 python benchmarks/verification/contact_hertz.py       # ... on 2 ranks
+    python benchmarks/verification/contact_hertz.py --ranks-both
+        # re-launch with mpirun -n 1 and -n 2,
                                                          # both tables
-    python benchmarks/contact_hertz.py --refinement      # p0 and a errors vs contact size
-    python benchmarks/contact_hertz.py --refinement --docs docs/contact.md
-    python benchmarks/contact_hertz.py --ranks-both --docs docs/contact.md
+    python benchmarks/verification/contact_hertz.py --refinement  # p0 and a errors vs contact size
+    python benchmarks/verification/contact_hertz.py --refinement --docs docs/contact.md
+    python benchmarks/verification/contact_hertz.py --ranks-both --docs docs/contact.md
 
 With ``--docs PAGE`` the measured table replaces the page's block ``hertz_refinement``
 (``--refinement``) or ``hertz_timing`` (``--ranks-both``) between its ``<!-- gearfem:begin/end -->``
@@ -31,6 +32,10 @@ solve (process time of the busiest rank, all its threads; MPICH ranks poll while
 half-width a (pressure moments over the undeformed positions) against Hertz for the force the
 model carries. The machine's 1-minute load average before and after is printed: timings on a shared
 machine are only as good as the load allows.
+
+Purpose: verification (the contact solve against Hertz, under refinement) and its timing.
+Writes: blocks ``hertz_refinement`` and ``hertz_timing`` of docs/contact.md
+(``--docs docs/contact.md``).
 """
 
 from __future__ import annotations
@@ -255,7 +260,8 @@ def refinement_markdown(rows: list[dict], loads: list[float]) -> str:
     ]
     ranks = rows[0]["ranks"] if rows else 1
     return (
-        f"{markdown_table(head, body)}\n\n`python benchmarks/contact_hertz.py --refinement` "
+        f"{markdown_table(head, body)}\n\n"
+        "`python benchmarks/verification/contact_hertz.py --refinement` "
         f"({rows[0]['layers'] if rows else 1} layer, {ranks} rank{'s' if ranks > 1 else ''}, "
         f"load average {loads[0]:.1f} before, {loads[-1]:.1f} after)"
     )
@@ -302,7 +308,8 @@ def timing_markdown(rows: list[dict], loads: dict[int, list[float]]) -> str:
     ]
     r0 = rows[0] if rows else {"layers": 3, "contact_size_m": 0.0115}
     return (
-        f"{markdown_table(head, body)}\n\n`python benchmarks/contact_hertz.py --ranks-both` "
+        f"{markdown_table(head, body)}\n\n"
+        "`python benchmarks/verification/contact_hertz.py --ranks-both` "
         f"({r0['layers']} layers, h = {1e3 * r0['contact_size_m']:g} mm; load average before "
         "and after each run)"
     )

@@ -23,9 +23,13 @@ The cases (``gearfem.contact.verification``):
   scatter of the pointwise pressure about the ellipse inside |x| < 0.8a.
 
 Usage (2 ranks; started serially it re-launches itself with ``mpirun -n 2``):
-    python benchmarks/contact_verification.py                      # print the tables
-    python benchmarks/contact_verification.py --docs docs/contact.md
-    python benchmarks/contact_verification.py --only patch ranks   # a subset
+    python benchmarks/verification/contact_verification.py                      # print the tables
+    python benchmarks/verification/contact_verification.py --docs docs/contact.md
+    python benchmarks/verification/contact_verification.py --only patch ranks   # a subset
+
+Purpose: verification (patch test, sliding, augmented Lagrangian, ranks, friction on Hertz).
+Writes: blocks ``contact_patch``, ``contact_sliding``, ``contact_al``, ``contact_ranks`` and
+``hertz_friction`` of docs/contact.md (``--docs docs/contact.md``).
 """
 
 from __future__ import annotations
@@ -382,7 +386,7 @@ def main(argv: list[str] | None = None) -> int:
         table = TABLES[name]()
         load1 = os.getloadavg()[0]
         if comm.rank == 0:
-            cmd = f"python benchmarks/contact_verification.py --only {name}"
+            cmd = f"python benchmarks/verification/contact_verification.py --only {name}"
             text = f"{table}\n\n`{cmd}` (load average {load0:.1f} before, {load1:.1f} after)"
             print(f"\n{BLOCKS[name]}:\n{text}", flush=True)
             if args.docs is not None:

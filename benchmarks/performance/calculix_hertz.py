@@ -15,7 +15,8 @@ gearfem's from its contact force. p0 is the largest contact pressure: gearfem's 
 integration points, CalculiX's at the slave nodes (CPRESS of *CONTACT FILE, the .frd file).
 
 Wall times: gearfem's set-up (function space, elastic matrices, contact surfaces) plus contact
-solve, measured by ``benchmarks/contact_hertz.py --refinement`` on 1 and on 2 ranks (mpirun);
+solve, measured by ``benchmarks/verification/contact_hertz.py --refinement`` on 1 and on 2
+ranks (mpirun);
 CalculiX's the whole ``ccx`` run (reading the deck, assembly, contact iterations, output) with 1
 and with 2 threads (OMP_NUM_THREADS, CCX_NPROC_EQUATION_SOLVER). Meshing is left out of both (the
 mesh is given to CalculiX). The machine is shared: the 1-minute load average is printed and goes
@@ -26,9 +27,12 @@ Set-up: when ``ccx`` is not on the PATH the script installs the Debian package `
 saying what to do when that is impossible. CalculiX is not needed by the tests.
 
 Usage:
-    python benchmarks/calculix_hertz.py                          # h = 14, 10, 7, 5 mm
-    python benchmarks/calculix_hertz.py --sizes 0.014 0.01 --docs docs/contact.md
-    python benchmarks/calculix_hertz.py --keep work/ccx          # keep the decks and results
+    python benchmarks/performance/calculix_hertz.py                          # h = 14, 10, 7, 5 mm
+    python benchmarks/performance/calculix_hertz.py --sizes 0.014 0.01 --docs docs/contact.md
+    python benchmarks/performance/calculix_hertz.py --keep work/ccx  # keep the decks and results
+
+Purpose: performance (gearfem and CalculiX side by side on the same Hertz mesh).
+Writes: block ``calculix_hertz`` of docs/contact.md (``--docs docs/contact.md``).
 """
 
 from __future__ import annotations
@@ -218,7 +222,7 @@ def write_deck(case: ContactCase, contact_size_m: float, path: Path) -> Deck:
     K = PENALTY_FACTOR * E_PA / contact_size_m
     parts = [
         "*HEADING",
-        f"gearfem Hertz line contact, h = {contact_size_m} m (benchmarks/calculix_hertz.py)",
+        f"gearfem Hertz line contact, h = {contact_size_m} m (gearfem calculix_hertz benchmark)",
         "*NODE, NSET=NALL",
         # CalculiX reads at most 20 characters per number: 14 significant digits
         "\n".join(f"{i + 1}, {p[0]:.13e}, {p[1]:.13e}, {p[2]:.13e}" for i, p in enumerate(x)),
@@ -346,7 +350,7 @@ def run_ccx(ccx: str, deck: Deck, threads: int) -> CcxResult:
 
 
 # ------------------------------------------------------------------------------------------------
-# gearfem (benchmarks/contact_hertz.py on 1 and 2 ranks)
+# gearfem (benchmarks/verification/contact_hertz.py on 1 and 2 ranks)
 # ------------------------------------------------------------------------------------------------
 
 
@@ -354,7 +358,8 @@ def run_gearfem(sizes: list[float], ranks: int, tmp: Path) -> list[dict]:
     local = Path(sys.executable).with_name("mpirun")
     mpirun = str(local) if local.is_file() else shutil.which("mpirun")
     out = tmp / f"gearfem_np{ranks}.json"
-    cmd = [mpirun, "-n", str(ranks), sys.executable, str(HERE / "contact_hertz.py")]
+    hertz = HERE.parent / "verification" / "contact_hertz.py"
+    cmd = [mpirun, "-n", str(ranks), sys.executable, str(hertz)]
     cmd += ["--refinement", "--sizes", *map(str, sizes), "--json", str(out)]
     print(f"$ {' '.join(cmd)}", flush=True)
     subprocess.run(cmd, check=True)
@@ -402,7 +407,8 @@ def side_by_side_markdown(rows: list[dict], version: str, loads: list[float]) ->
             ]
         )
     return (
-        f"{markdown_table(head, body)}\n\n`python benchmarks/calculix_hertz.py` (CalculiX "
+        f"{markdown_table(head, body)}\n\n`python benchmarks/performance/calculix_hertz.py` "
+        f"(CalculiX "
         f"{version}, Debian package calculix-ccx; load average {loads[0]:.1f} before, "
         f"{loads[-1]:.1f} after)"
     )

@@ -7,11 +7,14 @@ difference over the run of T max surface, mean bulk, flank and root mean, the re
 interpolated monotonically at the default run's step times) and the plausibility numbers (lumped
 estimate, time constant, VDI 2736-2 temperatures for the same friction heat).
 
-    python benchmarks/thermal.py                    # 1 rank
-    mpirun -n 2 python benchmarks/thermal.py        # 2 ranks
-    python benchmarks/thermal.py --no-reference     # timing only
+    python benchmarks/performance/thermal.py                    # 1 rank
+    mpirun -n 2 python benchmarks/performance/thermal.py        # 2 ranks
+    python benchmarks/performance/thermal.py --no-reference     # timing only
 
 Target (issue 6): under 60 s on 2 cores for the default mesh, step-size error below 0.5 K.
+
+Purpose: performance (the thermal stage's time), with the time-step error as a check.
+Writes: no documentation block (prints; docs/thermal.md quotes it).
 """
 
 from __future__ import annotations

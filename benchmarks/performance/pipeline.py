@@ -7,13 +7,16 @@ cycle is now a cache hit: only the thermal stage and baselines run). Prints the 
 DOFs, and the peak resident memory (max over ranks and summed).
 
 Usage:
-    mpirun -n 2 python benchmarks/pipeline.py              # the target configuration (2 cores)
-    python benchmarks/pipeline.py tests/cases/coarse.toml  # any case
+    mpirun -n 2 python benchmarks/performance/pipeline.py  # the target configuration (2 cores)
+    python benchmarks/performance/pipeline.py tests/cases/coarse.toml  # any case
     options: --second-speed-rpm N (default 2000), --out DIR (default: a temporary directory)
 
 Targets (issue 7): one full operating point in under 15 minutes on 2 cores; each extra speed at a
 cached torque in under 2 minutes. The machine's load average is printed: on a shared machine the
 timings are only as good as the load allows.
+
+Purpose: performance (one operating point end to end, then a cached torque).
+Writes: no documentation block (prints its figures).
 """
 
 from __future__ import annotations

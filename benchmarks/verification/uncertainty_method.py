@@ -17,13 +17,16 @@ those formulas independently of gearfem (as reconstructed from two implementatio
 paper's equations; the paper's text was not at hand) and prints both u_num = U/1.15 of the case's
 level for the quantities of refinement studies' refinement.json:
 
-    python benchmarks/uncertainty_method.py STUDY/refinement.json [...]
+    python benchmarks/verification/uncertainty_method.py STUDY/refinement.json [...]
         [--quantities max_surface camera_max ...] [--add-level SIZE Q=VALUE ...]
 
 ``--add-level``: one more level (its representative size, as the study's ``sizes``) with the
-given quantities' values (e.g. the 10-layer solutions of ``structural_layers_beyond.py``);
+given quantities' values (e.g. solutions at further levels run by hand);
 quantities without a value there keep the study's levels. ``--docs``: replace the block
 ``uncertainty_method`` of docs/refinement.md with the table. No solves; milliseconds.
+
+Purpose: verification (the least-squares rule against Eça & Hoekstra's on filed studies).
+Writes: block ``uncertainty_method`` of docs/refinement.md (``--docs``).
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ from gearfem.core.gci import GCI_TO_STANDARD, convergence
 from gearfem.core.io import read_json
 from gearfem.refinement import RefinementStudy
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "refinement.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "refinement.md"
 P_LOW, P_HIGH = 0.5, 2.0  # the 2014 procedure's range of trusted orders (Fs 1.25 up to 2.1)
 
 
@@ -152,7 +155,8 @@ def main() -> None:
         + "\n\nu_num of the case's level by gearfem's rule (gearfem.core.gci) and by the 2014 "
         + "procedure's formulas (this script's own implementation, in its docstring)."
         + extra_note
-        + f"\n\n`python benchmarks/uncertainty_method.py {' '.join(args.studies)} --quantities "
+        + "\n\n`python benchmarks/verification/uncertainty_method.py "
+        + f"{' '.join(args.studies)} --quantities "
         + " ".join(args.quantities)
         + (f" --add-level {' '.join(args.add_level)}" if args.add_level else "")
         + " --docs`."

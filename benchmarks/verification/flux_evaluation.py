@@ -1,13 +1,13 @@
 """Does the continuous evaluation of the flux reconstruction make the hottest node converge?
 
-Since stop 34 the built-in case is evaluated continuously with an axial width of 3.234 mm (the
-studies this script staged with ``--axial-width-mm 3.234`` are its filed studies): run now, it
-compares that resolution with itself unless ``--axial-width-mm`` differs. What follows is the
-question as it stood before.
+Since ec2dbaf (2026-11-26) the built-in case is evaluated continuously with an axial width of
+3.234 mm: run now, it compares that resolution with itself unless ``--axial-width-mm`` differs.
+What follows is the question as it stood on the resolution built in before ec2dbaf.
 
 The built-in case's hottest node (a maximum over the drive flank's nodes, at the flank foot) had
 no converging order under thermal-mesh refinement (284.2 / 284.9 / 285.7 C on 83k / 195k / 538k
-DOFs per gear, stop 31: u_num 13.2 K) nor across the structural layers (9.3 K). The
+DOFs per gear, as of 3287272, 2026-11-26: u_num 13.2 K) nor across the structural layers
+(9.3 K). The
 reconstruction is evaluated per structural facet (``[sources] flux_evaluation =
 "reference_facets"``): piecewise constant on facets whose rows are 3.2 mm apart across the face
 width, steps that a finer thermal mesh resolves. This runs the built-in case's refinement studies
@@ -16,7 +16,8 @@ width, steps that a finer thermal mesh resolves. This runs the built-in case's r
 own sample points) and prints each beside the filed study of the default
 (gearfem/data/uncertainty/<key>/<kind>.json).
 
-    mpirun -n 2 python benchmarks/flux_evaluation.py [--kinds thermal_mesh structural_layers]
+    mpirun -n 2 python benchmarks/verification/flux_evaluation.py \
+        [--kinds thermal_mesh structural_layers]
         [--axial-width-mm W] [--out results/flux_evaluation] [--reuse] [--docs] [--stage]
 
 Any kind of :data:`gearfem.uncertainty.BUILTIN_LEVELS`. Thermal mesh about 25 min on 2 cores
@@ -26,13 +27,15 @@ each two more cycles and three thermal runs.
 The studies are not filed for the built-in case (the evaluation is part of the resolution key).
 ``--reuse``: read a complete study from OUT/<kind>/refinement.json instead of running it.
 ``--axial-width-mm``: the case's ``[sources] flux_smoothing_axial_mm`` for these studies (default
-the built-in case's; since stop 33 the layers study keeps it, as
-:func:`gearfem.refinement.level_case` does for the continuous evaluation; stop 32's block ran
-with it scaled with the layers).
-``--docs``: replace the kind's block of docs/refinement.md (:data:`BLOCKS`). ``--stage``: copy
+the built-in case's; the layers study keeps it, as :func:`gearfem.refinement.level_case` does
+for the continuous evaluation).
+``--docs``: replace the kind's block of docs/reconstruction.md (:data:`BLOCKS`). ``--stage``: copy
 each study's refinement.json and plot to benchmarks/studies/<resolution key>/<kind>/, from where
 ``uncertainty_builtin.py --file-only --out benchmarks/studies/<key> --kinds ...`` files them once
 the built-in case is that resolution (the script checks the key).
+
+Purpose: verification (refinement studies with the flux reconstruction evaluated either way).
+Writes: blocks ``flux_evaluation_<kind>`` of docs/reconstruction.md (``--docs``).
 """
 
 from __future__ import annotations
@@ -58,10 +61,10 @@ from gearfem.uncertainty import (
     stored_studies,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
-DOC = ROOT / "docs" / "refinement.md"
+ROOT = Path(__file__).resolve().parents[2]
+DOC = ROOT / "docs" / "reconstruction.md"
 STAGE = ROOT / "benchmarks" / "studies"
-#: The docs/refinement.md block of each kind (``--docs`` requires it to be in the page).
+#: The docs/reconstruction.md block of each kind (``--docs`` requires it to be in the page).
 BLOCKS = {
     "thermal_mesh": "flux_evaluation_thermal_mesh",
     "structural_mesh": "flux_evaluation_structural_mesh",
@@ -104,7 +107,7 @@ def comparison(
         body,
     )
     run = (
-        f"`mpirun -n {size} python benchmarks/flux_evaluation.py --kinds {study.kind} "
+        f"`mpirun -n {size} python benchmarks/verification/flux_evaluation.py --kinds {study.kind} "
         f"--axial-width-mm {width_mm:g} --docs`: "
         f"{wall:.0f} s on {size} ranks, load average {os.getloadavg()[0]:.1f}."
         if wall is not None
@@ -125,7 +128,7 @@ def main() -> None:
     p.add_argument("--kinds", nargs="+", default=["thermal_mesh"], choices=tuple(BLOCKS))
     p.add_argument("--out", default="results/flux_evaluation")
     p.add_argument("--reuse", action="store_true", help="read OUT/<kind>/refinement.json")
-    p.add_argument("--docs", action="store_true", help="write the docs/refinement.md blocks")
+    p.add_argument("--docs", action="store_true", help="write the docs/reconstruction.md blocks")
     p.add_argument("--stage", action="store_true", help="copy the studies to " + str(STAGE))
     p.add_argument("--axial-width-mm", type=float, default=None)
     args = p.parse_args()

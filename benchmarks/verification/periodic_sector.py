@@ -1,5 +1,5 @@
-"""A rotationally periodic one-tooth thermal sector against the whole gear: the measurement
-behind the plan of docs/refinement.md, "Where the thermal run's time goes" (stop 37).
+"""A rotationally periodic one-tooth thermal sector against the whole gear: the verification of
+the tie behind ``[thermal_mesh] periodic_cuts`` (docs/thermal.md).
 
 The heat problem of a 16-tooth gear with 40 W on the drive flanks (the case where adiabatic cut
 faces are wrong), steady and after 600 s of heating, solved (1) on the whole gear, (2) on a
@@ -8,9 +8,12 @@ one-tooth sector with adiabatic cut faces and (3) on the same sector with its cu
 DOFs, unknowns, wall times and the largest difference to the whole gear (the test
 ``test_periodic_one_tooth_sector_equals_full_gear_for_drive_flank_heating`` asserts the ratio):
 
-    python benchmarks/periodic_sector.py
-    mpirun -n 2 python benchmarks/periodic_sector.py
-    python benchmarks/periodic_sector.py --element hex   # the all-hexahedral meshes
+    python benchmarks/verification/periodic_sector.py
+    mpirun -n 2 python benchmarks/verification/periodic_sector.py
+    python benchmarks/verification/periodic_sector.py --element hex   # the all-hexahedral meshes
+
+Purpose: verification (the periodic one-tooth sector against the whole gear).
+Writes: no documentation block (prints; docs/thermal.md quotes it).
 """
 
 import argparse
