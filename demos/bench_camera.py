@@ -38,20 +38,22 @@ import numpy as np
 from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-from gearfem import pipeline
+from gearfem import claims, pipeline
 from gearfem.config import case_to_dict, load_case
-from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.doctables import Provenance, markdown_table, replace_block
 from gearfem.core.errors import ParameterError
 from gearfem.core.io import read_json
 from gearfem.core.log import setup_logging
 from gearfem.diagnose.data import Dataset, camera_uncertainty_K, read_csv
 from gearfem.diagnose.design import Grid, bench_grid, check_grid
 from gearfem.diagnose.forward import FullModel
+from gearfem.diagnose.margins import markdown as margins_markdown
 from gearfem.diagnose.report import (
     DiagnosisReport,
     design_case,
     run_diagnosis,
     suggestion_markdown,
+    winner_params,
 )
 from gearfem.pipeline import RunSummary
 
@@ -96,6 +98,12 @@ def main() -> None:
         help="after --verdict: the winner (at its value and interval edges) and the runner-up "
         "on the full model at these operating points, 'rpm/Nm,rpm/Nm,...'",
     )
+    p.add_argument(
+        "--reproduce",
+        action="store_true",
+        help="after --verdict: gearfem run on the winner's case files at the bench points, "
+        "into README.md (block readme_verdict)",
+    )
     p.add_argument("--skip-runs", action="store_true", help="only the diagnosis")
     a = p.parse_args()
     setup_logging()  # $GEARFEM_LOG_LEVEL or INFO, rank 0
@@ -106,6 +114,8 @@ def main() -> None:
         verdict(a.case, Path(a.out) / "bench_verdict", comm, not a.no_doc, a.suggest_points)
     if a.confirm:
         confirm(a.case, Path(a.out) / "bench_verdict", comm, not a.no_doc, a.confirm)
+    if a.reproduce:
+        reproduce(Path(a.out) / "bench_verdict", comm, not a.no_doc)
     if a.skip_runs:
         return
     base = load_case(a.case)
@@ -342,6 +352,17 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
             "are not ranked):",
             "",
             ranking,
+            *(
+                [
+                    "",
+                    "**Fold margins** (the branch each bench point lands on: the distance to "
+                    "the fold where its gear's cool branch ends, gearfem.diagnose.margins):",
+                    "",
+                    margins_markdown(r.fold_margins),
+                ]
+                if r.fold_margins
+                else []
+            ),
             *(suggestion_markdown(r.suggestion) if r.suggestion is not None else []),
             "",
             *(
@@ -366,7 +387,111 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
                         out / f"{n}.png",
                         ROOT / "docs" / "images" / "diagnosis" / f"bench_verdict_{n}.png",
                     )
-            replace_block(ROOT / "docs" / "diagnosis.md", "bench_verdict", text)
+            replace_block(
+                ROOT / "docs" / "diagnosis.md", "bench_verdict", text, _provenance(r.provenance)
+            )
+
+
+def _provenance(data: dict | None) -> Provenance | None:
+    """The provenance a diagnosis or run recorded (gearfem.claims), for its quoted blocks."""
+    return None if data is None else Provenance(**data)
+
+
+def reproduce(out: Path, comm, doc: bool) -> None:
+    """The verdict reproduced the way a user would: ``gearfem run`` on each case file the
+    diagnosis wrote for its winner (``OUT/bench_verdict/winner_<rpm>rpm_<Nm>Nm.toml``), the
+    camera's steady reading next to the diagnosis's and the bench's. README.md block
+    ``readme_verdict``."""
+    rep = DiagnosisReport.from_json(read_json(out / "diagnosis.json"))
+    d = rep.diagnosis
+    data = read_csv(BENCH)
+    fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"
+    g = d.gain
+    if not d.chosen:
+        text = (
+            f"**The bench diagnosis on the shipped model**: {d.verdict.text} Held-out error "
+            f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after. "
+            "Details: [docs/diagnosis.md](docs/diagnosis.md)."
+        )
+        prov = _provenance(rep.provenance)
+    else:
+        params = winner_params(d)
+        after = (
+            d.refined.full_C
+            if d.refined is not None and d.refined.full_C
+            else (d.chosen_fit.predictions_C)
+        )
+        rows, provs = [], []
+        for i, m in enumerate(data.measurements):
+            name = f"winner_{m.speed_rpm:g}rpm_{m.torque_Nm:g}Nm.toml"
+            run_out = out / name.removesuffix(".toml")
+            s = _run(load_case(out / name), run_out, comm)
+            provs.append(s.provenance)
+            cam = s.instruments.camera
+            steady = cam.get("steady")
+            reading = steady.max_C if steady is not None else float("nan")
+            vv = rep.vv20["rows"][i]
+            rows.append(
+                (
+                    f"{m.speed_rpm:g} rpm, {m.torque_Nm:g} N m",
+                    f"{m.value:.0f} ± {m.uncertainty:.1f}",
+                    f"{after[i]:.1f}",
+                    f"`gearfem run {_relative(out)}/{name}`",
+                    f"{reading:.1f}",
+                    f"{vv['u_val_K']:.1f}",
+                )
+            )
+        table = markdown_table(
+            (
+                "bench point",
+                "bench camera (C)",
+                "diagnosis (C)",
+                "reproduce",
+                "gearfem run: camera_max, steady (C)",
+                "u_val (K)",
+            ),
+            rows,
+        )
+        label = ", ".join(f"{k} = {v:.3g}" for k, v in params.items())
+        iv = d.refined.intervals if d.refined is not None else d.chosen_fit.intervals
+        ivs = ", ".join(f"[{iv[k][0]:.3g}, {iv[k][1]:.3g}]" for k in params if k in iv)
+        fragile = [m for m in rep.fold_margins if m.fragile]
+        robust = (
+            "**fragile**: "
+            + "; ".join(
+                f"{m.speed_rpm:g} rpm / {m.torque_Nm:g} N m, {m.gear}, within "
+                f"{abs(m.margin):.3g} {m.unit} of its fold in {m.parameter} "
+                f"(uncertainty ± {m.uncertainty:.3g})"
+                for m in fragile
+            )
+            if fragile
+            else (
+                "robust: every fold lies beyond its parameter's uncertainty"
+                if rep.fold_margins
+                else "one steady state at each point (no folds)"
+            )
+        )
+        text = (
+            f"**The bench diagnosis on the shipped model**: {d.verdict.text}\n\n"
+            f"Winner {label} (95 % interval {ivs}); held-out error "
+            f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after; fold margins "
+            f"{robust}. Each bench point reproduced with `gearfem run` on the case file the "
+            f"diagnosis writes for its winner:\n\n{table}\n\n"
+            "Details, the ranking, the margins and what to measure next: "
+            "[docs/diagnosis.md](docs/diagnosis.md)."
+        )
+        prov = _provenance(provs[0]) if provs and provs[0] else _provenance(rep.provenance)
+        if prov is not None and rep.provenance:
+            prov = Provenance(
+                prov.resolution,
+                {**prov.code, **Provenance(**rep.provenance).code},
+                prov.commit,
+                prov.date,
+            )
+    if comm.rank == 0:
+        print(text)
+        if doc:
+            replace_block(ROOT / "README.md", "readme_verdict", text, prov)
 
 
 def confirm(case_path: str | None, out: Path, comm, doc: bool, points: str) -> None:
@@ -436,7 +561,12 @@ def confirm(case_path: str | None, out: Path, comm, doc: bool, points: str) -> N
     if comm.rank == 0:
         print(text)
         if doc:
-            replace_block(ROOT / "docs" / "diagnosis.md", "bench_verdict_confirm", text)
+            replace_block(
+                ROOT / "docs" / "diagnosis.md",
+                "bench_verdict_confirm",
+                text,
+                claims.provenance(load_case(case_path), claims.DIAGNOSIS_CODE),
+            )
 
 
 if __name__ == "__main__":
