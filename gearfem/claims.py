@@ -36,8 +36,9 @@ DIAGNOSIS_CODE = ("gearfem.diagnose.report",)
 #: (relative to the repository root), with the command that writes them.
 QUOTED_BLOCKS: dict[str, dict[str, str]] = {
     "README.md": {
-        "readme_headline": "python benchmarks/headline.py results/thesis",
-        "readme_verdict": "mpirun -n 2 python demos/bench_camera.py --verdict",
+        "readme_headline": "./dev.sh run && python benchmarks/headline.py results/thesis "
+        "--other results/bench_2000rpm_4Nm",
+        "readme_verdict": "mpirun -n 2 python demos/bench_camera.py --verdict --reproduce",
     },
     "docs/diagnosis.md": {
         "bench_verdict": "mpirun -n 2 python demos/bench_camera.py --verdict",
