@@ -31,6 +31,7 @@ from gearfem.core.log import ProgressBar
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.core.provenance import versions
 from gearfem.core.results import JsonRecord
+from gearfem.core.tasks import run_split
 from gearfem.coupling.friction_report import (
     branch_starts,
     evaluate_at,
@@ -52,7 +53,7 @@ from gearfem.cycle.measures import pitch_point_band_pressure_Pa
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.report import write_cycle_outputs
 from gearfem.geometry.involute import GearPair
-from gearfem.geometry.mesh import build_gear_mesh
+from gearfem.geometry.mesh import build_gear_mesh, cache_gear_mesh
 from gearfem.geometry.options import BODIES
 from gearfem.geometry.placement import placement
 from gearfem.instruments.camera import CameraGeometry, gear_window
@@ -234,10 +235,20 @@ def cycle(
     progress=None,
 ):
     """The structural cycle of the case's torque (cached). Returns (CycleResult, directory,
-    from_cache)."""
+    from_cache).
+
+    On several ranks with ``[cycle] parallel = "positions"`` (the condensed solver's default)
+    every rank builds the whole model on its own (the mesh is meshed once, on rank 0, and read by
+    each) and solves its block of the positions (:func:`gearfem.cycle.solve.solve_cycle`);
+    otherwise the mesh is distributed over ``comm``."""
+    spread = comm.size > 1 and case.cycle.positions_over_ranks
 
     def factory():
-        gm = pair_mesh(case, comm, mesh_cache)
+        if spread:
+            cache_gear_mesh(case.geometry, case.mesh, comm, cache_dir=mesh_cache, bodies=BODIES)
+            gm = pair_mesh(case, MPI.COMM_SELF, mesh_cache)
+        else:
+            gm = pair_mesh(case, comm, mesh_cache)
         return GearContactModel(
             gm,
             case.materials,
@@ -245,6 +256,7 @@ def cycle(
             case.operating.torque_Nm,
             case.cycle,
             compliance_store=compliance_store(case.geometry, case.mesh, case.materials, cache_dir),
+            share=comm if spread else None,
         )
 
     return cached_cycle(
@@ -254,6 +266,7 @@ def cycle(
         cache_dir=cache_dir,
         rebuild=rebuild,
         progress=progress,
+        world=comm if spread else None,
     )
 
 
@@ -402,37 +415,31 @@ def observed_thermal(
     ranks and when no instrument reads a field). ``branch_search``: see :func:`thermal_field`."""
     record = needs_fields(case.instruments)
     main = case.thermal.body
-    th, field = thermal_field(
-        case,
-        out / "thermal",
-        comm,
-        cycle_result,
-        mesh_cache,
-        write_fields=write_fields,
-        steady=steady,
-        write_plot=write_plot,
-        record=record,
-        branch_search=branch_search,
-    )
-    fields = {main: field}
-    others: dict[str, dict[str, Any]] = {}
-    if record:
-        for body in instrument_bodies(case):
-            if body == main:
-                continue
+    bodies = [main] + ([b for b in instrument_bodies(case) if b != main] if record else [])
+
+    def one_gear(body: str, sub: MPI.Comm):
+        c = case
+        if body != main:
             c = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, body=body))
-            others[body], fields[body] = thermal_field(
-                c,
-                out / f"thermal_{body}",
-                comm,
-                cycle_result,
-                mesh_cache,
-                write_fields=write_fields,
-                steady=steady,
-                write_plot=write_plot,
-                record=True,
-                branch_search=branch_search,
-            )
+        return thermal_field(
+            c,
+            out / ("thermal" if body == main else f"thermal_{body}"),
+            sub,
+            cycle_result,
+            mesh_cache,
+            write_fields=write_fields,
+            steady=steady,
+            write_plot=write_plot,
+            record=record,
+            branch_search=branch_search,
+        )
+
+    # the gears' thermal models are independent and small (about 10^4 unknowns): on several
+    # ranks, each gear on ranks of its own, at the same time
+    runs = run_split(comm, bodies, one_gear)
+    th = runs[main][0]
+    fields = {b: runs[b][1] for b in bodies}
+    others: dict[str, dict[str, Any]] = {b: runs[b][0] for b in bodies if b != main}
     snapshot = None
     if comm.rank == 0 and (record or case.instruments.torque.enabled):
         labels, times_s = _labels(fields.get(main), th, case)

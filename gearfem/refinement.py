@@ -536,8 +536,8 @@ def layer_similarity(study: RefinementStudy) -> str:
     to whole layers (:func:`refined_mesh`), so a case at 4 layers gives 3 / 4 / 6 at factor 1.5:
     refined by 1.33, then 1.5. The representative size h (from the DOFs) averages that over the
     mesh; a quantity the axial resolution governs (the hottest surface temperature in the middle
-    of the face width) sees other ratios and may show no order (docs/refinement.md, "Graded
-    layers")."""
+    of the face width) sees other ratios and may show no order (docs/refinement.md, "Structural
+    layers across the face width")."""
     if study.kind != "thermal_mesh":
         return ""
     layers = [lv.setting.get("layers") for lv in study.levels]

@@ -286,6 +286,11 @@ class Condensation:
         bodies: :func:`body_dofs` of each body.
         store: Optional :class:`ComplianceStore`.
         prefix: PETSc options prefix of the MUMPS factorisations.
+        share: With ``comm`` of one rank: the communicator of the processes that each hold the
+            same problem (every rank its own copy of the mesh, e.g. to solve different positions
+            of a cycle). Each body's compliance missing from the store is then computed once, by
+            rank k mod size of ``share`` for the k-th body, all at the same time, and broadcast;
+            every rank factors every body for its own back-substitutions.
     """
 
     root = 0
@@ -297,12 +302,22 @@ class Condensation:
         comm: MPI.Comm,
         store: ComplianceStore | None = None,
         prefix: str = "gearfem_condensed_",
+        share: MPI.Comm | None = None,
     ) -> None:
         self.bodies, self.comm, self.store = dict(bodies), comm, store
         self.factors: dict[str, PETSc.PC] = {}
         self.matrices: dict[str, PETSc.Mat] = {}
         self.compliance: dict[str, np.ndarray] = {}
         self._scopes = []
+        if share is not None and share.size > 1:
+            if comm.size != 1:
+                raise ParameterError(
+                    "share",
+                    f"a communicator of {share.size} ranks with a problem on {comm.size}",
+                    "a problem on one rank (each rank of share holds its own copy)",
+                )
+            self._init_shared(K, share, prefix)
+            return
         from_store, t_fact, t_cond = {}, 0.0, 0.0
         for b in self.bodies.values():
             mine = comm.rank == b.owner
@@ -339,11 +354,52 @@ class Condensation:
                     comm.Recv(C, source=b.owner, tag=77)
             if comm.rank == self.root:
                 self.compliance[b.name] = C
+        self._finish_info(comm, from_store, t_fact, t_cond)
+
+    def _init_shared(self, K: PETSc.Mat, share: MPI.Comm, prefix: str) -> None:
+        """Every rank of ``share`` holds the whole problem: compliances computed once (body k by
+        rank k mod size, concurrently) and broadcast; every body factored on every rank."""
+        store = self.store
+        matrices, loaded = {}, {}
+        for b in self.bodies.values():
+            isr = PETSc.IS().createGeneral(b.free.astype(PETSc.IntType), comm=PETSc.COMM_SELF)
+            (matrices[b.name],) = K.createSubMatrices(isr)
+            isr.destroy()
+            loaded[b.name] = store.load(b) if store is not None else None
+        # the same store on every rank: computed only when no rank found it
+        have = {n: share.allreduce(C is not None, op=MPI.LAND) for n, C in loaded.items()}
+        t_fact = t_cond = 0.0
+        for k, b in enumerate(self.bodies.values()):
+            if not have[b.name] and share.rank == k % share.size:
+                t0 = time.perf_counter()
+                with threadpool_limits(1, "blas"):
+                    C, info = self._compute(matrices[b.name], b, prefix)
+                t_cond += time.perf_counter() - t0
+                if store is not None:
+                    store.save(b, C, info)
+                loaded[b.name] = C
+        for b in self.bodies.values():
+            t0 = time.perf_counter()
+            pc, scope = cholesky_factor(matrices[b.name], prefix + f"{b.name}_")
+            self.factors[b.name], self.matrices[b.name] = pc, matrices[b.name]
+            self._scopes.append(scope)
+            t_fact += time.perf_counter() - t0
+        for k, b in enumerate(self.bodies.values()):
+            if not have[b.name]:
+                C = loaded[b.name] if share.rank == k % share.size else None
+                if C is None:
+                    C = np.empty((b.num_contact, b.num_contact))
+                share.Bcast(C, root=k % share.size)
+                loaded[b.name] = C
+            self.compliance[b.name] = loaded[b.name]
+        self._finish_info(share, have, t_fact, t_cond)
+
+    def _finish_info(self, comm: MPI.Comm, from_store, t_fact: float, t_cond: float) -> None:
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
         self.info = CondensationInfo(
             contact_dofs={n: b.num_contact for n, b in self.bodies.items()},
             free_dofs={n: len(b.free) for n, b in self.bodies.items()},
-            from_store=from_store,
+            from_store=dict(from_store),
             factor_s=comm.allreduce(t_fact, op=MPI.MAX),
             condense_s=comm.allreduce(t_cond, op=MPI.MAX),
             compliance_MB=comm.bcast(

@@ -122,6 +122,9 @@ class CondensedContactProblem(ContactProblem):
         guards: Surfaces left out of ``interfaces`` and what they could touch (:class:`Guard`); a
             penetration there after a solve raises UncoveredContactError naming the facets' label.
         guard_hint: Added to that error (how to widen the surface set).
+        share: With a problem on one rank (``V`` on a one-rank mesh): the communicator of the
+            ranks that each hold their own copy of this problem; the compliances missing from the
+            store are computed once among them (:class:`~gearfem.contact.compliance.Condensation`).
     """
 
     def __init__(
@@ -140,6 +143,7 @@ class CondensedContactProblem(ContactProblem):
         store: ComplianceStore | None = None,
         guards: Sequence[Guard] = (),
         guard_hint: str = "",
+        share: MPI.Comm | None = None,
     ) -> None:
         if traction_form is not None:
             raise ParameterError(
@@ -182,7 +186,7 @@ class CondensedContactProblem(ContactProblem):
             {b: np.concatenate(v) if v else np.zeros(0, np.int64) for b, v in contact.items()},
         )
         self.condensation = Condensation(
-            self.K_full, dofs, self.comm, store=store, prefix=petsc_options_prefix
+            self.K_full, dofs, self.comm, store=store, prefix=petsc_options_prefix, share=share
         )
         self.body_dofs = dofs
         # the condensed unknowns: c of every body, body after body, canonical order within

@@ -165,9 +165,12 @@ class HistoryRecorder:
                 }
             )
 
-    def finish(self) -> ContactHistory:
-        """Gather the points to every rank and compute the bands (collective)."""
-        model, comm = self.model, self.model.comm
+    def finish(self, world=None) -> ContactHistory:
+        """Gather the points to every rank and compute the bands (collective on the model's
+        communicator, or on ``world`` when its ranks each recorded other positions of a model on
+        one rank)."""
+        model = self.model
+        comm = world if world is not None else model.comm
         keys = (
             "position",
             "body",

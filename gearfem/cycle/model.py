@@ -51,6 +51,10 @@ class GearContactModel:
         options: Cycle options (surfaces, predictor, solver).
         compliance_store: With ``options.solver = "condensed"``: where the gears' compliances are
             kept between runs (None: computed by this model).
+        share: With the condensed solver and ``gm`` on one rank: the communicator of the ranks
+            that each build this same model (to solve different positions of the cycle,
+            :func:`gearfem.cycle.solve.solve_cycle`); the gears' compliances are computed once
+            among them.
 
     With the condensed solver, the contact surfaces are the parts of the teeth that can engage
     over the angles the cycle solves (:meth:`condensed_facets`); the other contact facets are
@@ -65,6 +69,7 @@ class GearContactModel:
         torque_Nm: float,
         options: CycleOptions = CycleOptions(),  # noqa: B008 - frozen, immutable
         compliance_store: ComplianceStore | None = None,
+        share: MPI.Comm | None = None,
     ) -> None:
         require_positive("operating.torque_Nm", torque_Nm)
         if set(gm.bodies) != set(BODIES):
@@ -186,6 +191,7 @@ class GearContactModel:
                 petsc_options_prefix="gearfem_cycle_condensed_",
                 controlled=held,
                 store=compliance_store,
+                share=share,
                 guards=self._guards(mask, youngs),
                 guard_hint=(
                     "the condensed surfaces hold parts of pinion teeth "

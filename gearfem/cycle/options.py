@@ -12,6 +12,9 @@ from gearfem.geometry.options import TOOTH_KINDS
 #: Contact solvers of the cycle (``[cycle] solver``).
 SOLVERS = ("condensed", "full")
 
+#: How a cycle uses several MPI ranks (``[cycle] parallel``).
+PARALLEL_MODES = ("positions", "mesh")
+
 
 @dataclasses.dataclass(frozen=True)
 class CycleOptions:
@@ -60,6 +63,15 @@ class CycleOptions:
             range (:meth:`gearfem.cycle.model.GearContactModel.condensed_facets`). The margin
             covers the contact's width and the loaded teeth's longer path. The facets left out
             are checked after every position: a contact there raises an error naming the tooth.
+        parallel: How the condensed solver uses several MPI ranks. ``"positions"``: every rank
+            holds the whole pair mesh and solves its own contiguous block of the positions (the
+            gears' compliances computed once, one gear per rank); the positions are independent
+            once the compliances exist, so the cycle scales with the ranks. ``"mesh"``: the mesh
+            is distributed, the contact points are evaluated by the ranks that own them and the
+            dense active-set algebra runs on rank 0. Both give the same result within the contact
+            solver's tolerance (a block's first position starts from zero contact force), so the
+            choice, like the number of ranks, is not part of the stored cycle's key. The full
+            solver always distributes the mesh.
     """
 
     positions_per_pitch: int = 24
@@ -73,6 +85,7 @@ class CycleOptions:
     pressure_smoothing_fraction: float = 0.005
     solver: str = "condensed"
     condensed_margin_pitches: float = 0.5
+    parallel: str = "positions"
 
     def __post_init__(self) -> None:
         require_int("cycle.positions_per_pitch", self.positions_per_pitch, 2, 2000)
@@ -90,3 +103,10 @@ class CycleOptions:
         )
         require_choice("cycle.solver", self.solver, SOLVERS)
         require_range("cycle.condensed_margin_pitches", self.condensed_margin_pitches, 0.0, 10.0)
+        require_choice("cycle.parallel", self.parallel, PARALLEL_MODES)
+
+    @property
+    def positions_over_ranks(self) -> bool:
+        """Whether several ranks solve different positions (the condensed solver with
+        ``parallel = "positions"``)."""
+        return self.solver == "condensed" and self.parallel == "positions"

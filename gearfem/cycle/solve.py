@@ -234,12 +234,13 @@ class _PositionProbe:
         )
 
 
-def _log_position(i: int, n: int, phi: float, rec: PositionRecord) -> None:
+def _log_position(i: int, n: int, phi: float, rec: PositionRecord, rank: int | None = None) -> None:
     log.info(
-        "position %d/%d: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, "
+        "position %d/%d%s: pinion %.3f deg, TE %.3f um, loads %s N, p_max %.1f MPa, %d Newton, "
         "%.1f s",
         i + 1,
         n,
+        "" if rank is None else f" (rank {rank})",
         math.degrees(phi),
         rec.te_m * 1e6,
         ", ".join(f"{k}:{v:.0f}" for k, v in rec.tooth_load_N.items() if v > 0),
@@ -249,6 +250,22 @@ def _log_position(i: int, n: int, phi: float, rec: PositionRecord) -> None:
     )
 
 
+def position_blocks(n: int, size: int) -> list[range]:
+    """Contiguous blocks of the ``n`` positions of a cycle over ``size`` ranks, in order.
+
+    Each block warm-starts from its own previous position; a block after the first begins with
+    the position before it, solved again and not kept (:func:`solve_cycle`), so that its first
+    kept position starts from a converged neighbour as in a one-rank cycle. The blocks are sized
+    so that every rank solves about as many positions, that warm-up included."""
+    if size <= 1:
+        return [range(n)]
+    solves = n + size - 1  # the warm-ups of the blocks after the first
+    counts = [solves // size + (1 if k < solves % size else 0) for k in range(size)]
+    sizes = [counts[0]] + [c - 1 for c in counts[1:]]
+    edges = np.concatenate([[0], np.cumsum(sizes)])
+    return [range(int(edges[k]), int(edges[k + 1])) for k in range(size)]
+
+
 def solve_cycle(
     model: GearContactModel,
     positions_per_pitch: int | None = None,
@@ -256,12 +273,20 @@ def solve_cycle(
     start_angle_deg: float | None = None,
     check_periodicity: bool | None = None,
     progress=None,
+    world: MPI.Comm | None = None,
 ) -> CycleResult:
     """Step the pinion angle through the cycle and collect the cycle results (collective).
 
     Args:
         model: The gear contact model (its torque and contact options).
         progress: Optional callable(i, n, label) called after every position (rank 0 may print).
+        world: With a model on one rank (``model.comm`` of size 1): the communicator of the ranks
+            that each hold a copy of the same model. The positions are then dealt out over its
+            ranks in contiguous blocks (:func:`position_blocks`), each rank solving its own, and
+            the records gathered: the positions are independent once the compliances exist,
+            so the cycle scales with the ranks instead of waiting on one rank's dense algebra.
+            The result is the same on every rank and equals the one-rank cycle's within the
+            contact solver's tolerance (a block's first position starts cold).
     """
     o = model.options
     n_pitch = positions_per_pitch or o.positions_per_pitch
@@ -274,23 +299,48 @@ def solve_cycle(
     n = max(1, round(n_pitch * pitches))
     phis = start + pitch * pitches * np.arange(n) / n
     mu = model.contact.friction_coefficient
+    spread = world is not None and world.size > 1
+    if spread and comm.size != 1:
+        raise GearfemError(
+            f"solve_cycle: positions are spread over {world.size} ranks only for a model on one "
+            f"rank (this model is on {comm.size})"
+        )
+    mine = position_blocks(n, world.size)[world.rank] if spread else range(n)
     se = _StrainEnergy(model)
     probe = _PositionProbe(model, se)
     records: list[PositionRecord] = []
     recorder = HistoryRecorder(model)
-    for i, phi in enumerate(phis):
-        records.append(probe.solve(phi))
+    if mine.start > 0 and len(mine):  # warm-up: the position before the block, not kept
+        t0 = time.perf_counter()
+        model.solve_position(
+            phis[mine.start - 1],
+            f"pinion angle {math.degrees(phis[mine.start - 1]):.3f} deg (warm-up)",
+        )
+        log.debug("warm-up position %d: %.1f s", mine.start, time.perf_counter() - t0)
+    for i in mine:
+        records.append(probe.solve(phis[i]))
         recorder.record(i)
-        _log_position(i, n, phi, records[-1])
+        _log_position(i, n, phis[i], records[-1])
         if progress is not None:
-            progress(i + 1, n, f"{math.degrees(phi):.2f} deg")
+            progress(i + 1 - mine.start, len(mine), f"{math.degrees(phis[i]):.2f} deg")
     teeth = probe.teeth
 
     periodicity = None
-    shifted_cells = None
-    if check:
+    shifted = None
+    # the check position one pitch after the start: by the rank that solved the last position
+    # (a warm start from it)
+    if check and (not spread or world.rank == world.size - 1):
         shifted = probe.solve(start + pitch)
         _log_position(n, n, start + pitch, shifted)
+    if spread:
+        parts = world.allgather(records)
+        for r, part in enumerate(parts[1:], start=1):  # rank 0 logged its own as they came
+            for i, rec in zip(position_blocks(n, world.size)[r], part):
+                _log_position(i, n, phis[i], rec, rank=r)
+        records = [rec for part in parts for rec in part]
+        if check:
+            shifted = world.bcast(shifted, root=world.size - 1)
+    if check:
         first = records[0]
         periodicity = {
             "te_first_m": first.te_m,
@@ -301,7 +351,7 @@ def solve_cycle(
             "tooth_load_first_N": dict(first.tooth_load_N),
             "tooth_load_shifted_N": dict(shifted.tooth_load_N),
         }
-        shifted_cells = shifted.cell_strain_energy_J_m3
+    shifted_cells = shifted.cell_strain_energy_J_m3 if shifted is not None else None
 
     w_cells = np.array([r.cell_strain_energy_J_m3 for r in records])
     facet_heat = {b: [r.facet_heat_W_per_rad_s[b] for r in records] for b in BODIES}
@@ -331,7 +381,7 @@ def solve_cycle(
             )
     if periodicity is not None:
         periodicity.update(_periodicity_of_cells(model, se, w_cells[0], shifted_cells, pitch))
-    history = recorder.finish()
+    history = recorder.finish(world if spread else None)
 
     return CycleResult(
         torque_Nm=model.torque_Nm,
@@ -358,13 +408,11 @@ def solve_cycle(
         info={
             "dofs": model.V.dofmap.index_map.size_global * 3,
             "positions": n,
-            "mpi_size": comm.size,
+            "mpi_size": world.size if spread else comm.size,
+            "positions_over_ranks": spread,
             "solver": o.solver,
             "contact_teeth": {b: list(v) for b, v in model.contact_teeth.items()},
-            **(model.problem.info if o.solver == "condensed" else {}),
-            "stalled_newton_solves": model.problem.stalled,
-            "factorizations": model.problem.factorizations,
-            "linear_solves": model.problem.linear_solves,
+            **_solver_info(model, world if spread else None),
             "creep_ratio": model.creep_ratio,
             "speed_ratio": model.ratio,
             "slip_regularization_m_s": model.contact.slip_regularization_m_s,
@@ -372,6 +420,49 @@ def solve_cycle(
         },
         history=history,
     )
+
+
+#: Solver statistics that add up over the ranks that solved positions (the others: the largest, or
+#: the mean for the ``*_mean`` figures).
+_ADDITIVE_INFO = frozenset(
+    {
+        "dense_factorizations",
+        "newton_directions",
+        "dense_solve_s",
+        "direction_s",
+        "state_s",
+        "stalled_newton_solves",
+        "factorizations",
+        "linear_solves",
+    }
+)
+
+
+def _solver_info(model: GearContactModel, world: MPI.Comm | None) -> dict:
+    """The contact solver's statistics of the cycle: of this model, or merged over the ranks of
+    ``world`` that each solved a block of positions (collective on ``world``)."""
+    p = model.problem
+    info = {
+        **(p.info if model.options.solver == "condensed" else {}),
+        "stalled_newton_solves": p.stalled,
+        "factorizations": p.factorizations,
+        "linear_solves": p.linear_solves,
+    }
+    if world is None:
+        return info
+    parts = world.allgather(info)
+    out = {}
+    for k, v in info.items():
+        vals = [part[k] for part in parts]
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            out[k] = v
+        elif k in _ADDITIVE_INFO:
+            out[k] = type(v)(sum(vals))
+        elif k.endswith("_mean"):
+            out[k] = float(np.mean(vals))
+        else:
+            out[k] = max(vals)
+    return out
 
 
 def _cell_data(model: GearContactModel, se: _StrainEnergy, body: str):

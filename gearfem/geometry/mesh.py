@@ -259,29 +259,17 @@ def _build_into_cache(
     return info
 
 
-def build_gear_mesh(
+def cache_gear_mesh(
     geometry: GearPairGeometry | None = None,
     options: MeshOptions | None = None,
     comm=None,
     cache_dir: Path | str | None = None,
     rebuild: bool = False,
     bodies: tuple[str, ...] = BODIES,
-) -> GearMesh:
-    """Build (or load from the cache) the mesh of the pair and distribute it on ``comm``.
-
-    Collective on ``comm``: gmsh runs on rank 0 only, every rank reads the result with
-    ``dolfinx.io.gmsh.read_from_msh``. Bad parameters raise ParameterError on every rank.
-
-    Args:
-        geometry: Gear pair (default: the thesis pair).
-        options: Meshing options (default: :class:`MeshOptions` defaults).
-        comm: MPI communicator (default ``MPI.COMM_WORLD``).
-        cache_dir: Cache root (default: see :func:`default_cache_dir`).
-        rebuild: Regenerate even if cached (the old entry is replaced).
-        bodies: The bodies to mesh: both (the contact cycle) or one (a thermal model of one gear,
-            better balanced in parallel).
-    """
-    from dolfinx.io import gmsh as dgmsh
+) -> tuple[Path, dict]:
+    """Make sure the mesh of the pair is in the cache (gmsh on rank 0 of ``comm`` when it is not)
+    and return its cache entry and build record, on every rank (collective). Bad parameters raise
+    ParameterError on every rank. Arguments as for :func:`build_gear_mesh`."""
     from mpi4py import MPI
 
     geometry = geometry or GearPairGeometry()
@@ -293,7 +281,6 @@ def build_gear_mesh(
     key = cache_key(geometry, options, bodies)
     final = root / key
     error: str | None = None
-    t0 = time.perf_counter()
     if comm.rank == 0:
         try:
             cached = (final / BUILD_NAME).is_file() and (final / MSH_NAME).is_file()
@@ -319,7 +306,42 @@ def build_gear_mesh(
             raise exc
         raise RuntimeError(f"mesh build failed on rank 0: {error}")
     info = json.loads((final / BUILD_NAME).read_text()) if comm.rank == 0 else None
-    info = comm.bcast(info, root=0)
+    return final, comm.bcast(info, root=0)
+
+
+def build_gear_mesh(
+    geometry: GearPairGeometry | None = None,
+    options: MeshOptions | None = None,
+    comm=None,
+    cache_dir: Path | str | None = None,
+    rebuild: bool = False,
+    bodies: tuple[str, ...] = BODIES,
+) -> GearMesh:
+    """Build (or load from the cache) the mesh of the pair and distribute it on ``comm``.
+
+    Collective on ``comm``: gmsh runs on rank 0 only (:func:`cache_gear_mesh`), every rank reads
+    the result with ``dolfinx.io.gmsh.read_from_msh``. Bad parameters raise ParameterError on
+    every rank.
+
+    Args:
+        geometry: Gear pair (default: the thesis pair).
+        options: Meshing options (default: :class:`MeshOptions` defaults).
+        comm: MPI communicator (default ``MPI.COMM_WORLD``).
+        cache_dir: Cache root (default: see :func:`default_cache_dir`).
+        rebuild: Regenerate even if cached (the old entry is replaced).
+        bodies: The bodies to mesh: both (the contact cycle) or one (a thermal model of one gear,
+            better balanced in parallel).
+    """
+    from dolfinx.io import gmsh as dgmsh
+    from mpi4py import MPI
+
+    geometry = geometry or GearPairGeometry()
+    options = options or MeshOptions()
+    comm = comm or MPI.COMM_WORLD
+    bodies = check_bodies(bodies)
+    t0 = time.perf_counter()
+    final, info = cache_gear_mesh(geometry, options, comm, cache_dir, rebuild, bodies)
+    key = final.name
     t1 = time.perf_counter()
     if (
         comm.rank == 0
