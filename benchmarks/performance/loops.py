@@ -1,0 +1,210 @@
+"""How long gearfem's loops take on this machine: the main job, a further torque and speed, the
+cycle and the thermal run on 1 and 2 ranks, the bench diagnosis, and (``--suite``) the tests.
+
+Every figure is measured by running the command a user runs, in a subprocess, with empty caches
+where the figure is "from scratch" (``GEARFEM_CACHE`` and ``GEARFEM_MESH_CACHE`` in a temporary
+directory; the FFCx cache of ``~/.cache/fenics`` is kept, as on any machine after its first run):
+
+* **main job**: ``mpirun -n 2 gearfem run`` of the built-in case with empty caches (mesh,
+  compliances, cycle, thermal meshes), its stages from ``summary.json`` (cycle with mesh and
+  compliances, thermal, instruments), the cycle's Newton iterations per position, and the CPU
+  time of the ranks split into user and system time (system time is what ranks waiting in MPI
+  spend, and the sign of a rank idling while the other works);
+* **a further torque** (4 N m: a new cycle, the compliances stored) and **a further speed**
+  (2000 rpm at 8 N m: the cycle stored, the thermal and camera runs only);
+* **1 against 2 ranks**: the 4 N m cycle (``gearfem cycle``, compliances stored) and the thermal
+  stage of both gears (``gearfem run`` with the cycle stored) on 1 and on 2 ranks, and the
+  speed-up;
+* **bench diagnosis**: ``demos/bench_camera.py --verdict --skip-runs --no-doc`` (``gearfem
+  diagnose --suggest`` of the bench against the built-in case, the whole library) with a cold
+  surrogate cache (cycles stored);
+* with ``--suite``: ``./dev.sh test`` and ``./dev.sh test --quick`` in a fresh clone of the
+  repository's HEAD (set-up included).
+
+Prints the table and, with ``--docs``, writes it into block ``loops`` of docs/performance.md and
+the one-line summary into block ``readme_timings`` of README.md.
+
+    python benchmarks/performance/loops.py [--suite] [--docs]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+VENV = Path(sys.executable).parent
+
+
+def _run(cmd: list[str], env: dict, cwd: Path = ROOT) -> dict:
+    """Run ``cmd``; its wall, user and system time (children) and whether it succeeded."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        sys.stderr.write(proc.stdout[-3000:] + proc.stderr[-3000:])
+        raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}")
+    return {
+        "wall_s": wall,
+        "user_s": after.ru_utime - before.ru_utime,
+        "sys_s": after.ru_stime - before.ru_stime,
+        "stdout": proc.stdout,
+    }
+
+
+def _gearfem(np_: int, *args: str) -> list[str]:
+    return [str(VENV / "mpirun"), "-n", str(np_), str(VENV / "gearfem"), *args]
+
+
+def _case(tmp: Path, name: str, **operating) -> Path:
+    """The built-in case at another operating point, as a case file."""
+    code = (
+        "from gearfem.config import load_case, write_case; import sys; "
+        f"c = load_case(None).with_operating(**{operating!r}); write_case(c, sys.argv[1])"
+    )
+    path = tmp / f"{name}.toml"
+    subprocess.run([sys.executable, "-c", code, str(path)], check=True)
+    return path
+
+
+def measure(suite: bool) -> tuple[list[tuple[str, str, str]], dict]:
+    rows: list[tuple[str, str, str]] = []
+    facts: dict = {}
+    tmp = Path(tempfile.mkdtemp(prefix="gearfem-loops-"))
+    env = dict(os.environ, PYVISTA_OFF_SCREEN="true", MPLBACKEND="Agg")
+    env["GEARFEM_CACHE"] = str(tmp / "cache")
+    env["GEARFEM_MESH_CACHE"] = str(tmp / "meshes")
+    env["GEARFEM_LOG_LEVEL"] = "WARNING"
+    try:
+        # the main job, empty caches
+        r = _run(_gearfem(2, "run", "--out", str(tmp / "main")), env)
+        s = json.loads((tmp / "main" / "summary.json").read_text())
+        w, c = s["wall_time_s"], s["cycle"]
+        its = c["newton_iterations"] / c["positions"]
+        facts["main_s"] = r["wall_s"]
+        rows += [
+            ("main job, empty caches (2 ranks)", f"{r['wall_s']:.0f} s", "gearfem run"),
+            (
+                "  of which cycle (mesh, compliances, positions)",
+                f"{w['cycle_s']:.0f} s",
+                f"{c['positions']} positions, {its:.1f} Newton iterations per position; "
+                f"compliances {c['info'].get('condensation_s', 0):.0f} s",
+            ),
+            ("  thermal (both gears)", f"{w['thermal_s']:.0f} s", ""),
+            ("  camera", f"{w.get('instruments_s', 0):.0f} s", ""),
+            (
+                "  CPU time of the ranks",
+                f"user {r['user_s']:.0f} s, system {r['sys_s']:.0f} s",
+                "system time: ranks waiting in MPI",
+            ),
+        ]
+        t4 = _case(tmp, "torque4", torque_Nm=4.0)
+        r = _run(_gearfem(2, "run", str(t4), "--out", str(tmp / "t4")), env)
+        rows.append(("a further torque (4 N m)", f"{r['wall_s']:.0f} s", "compliances stored"))
+        s2 = _case(tmp, "speed2000", speed_rpm=2000.0)
+        r = _run(_gearfem(2, "run", str(s2), "--out", str(tmp / "s2")), env)
+        rows.append(("a further speed (2000 rpm)", f"{r['wall_s']:.0f} s", "cycle stored"))
+        # 1 against 2 ranks: the 4 N m cycle (compliances stored), the thermal stage
+        times = {}
+        for n in (1, 2):
+            shutil.rmtree(tmp / "cache" / "cycles", ignore_errors=True)
+            times[("cycle", n)] = _run(
+                _gearfem(n, "cycle", str(t4), "--out", str(tmp / f"c{n}")), env
+            )["wall_s"]
+        for n in (1, 2):
+            times[("thermal", n)] = _run(
+                _gearfem(n, "run", str(t4), "--out", str(tmp / f"th{n}")), env
+            )["wall_s"]
+        for what in ("cycle", "thermal"):
+            a, b = times[(what, 1)], times[(what, 2)]
+            rows.append(
+                (
+                    f"{what} 1 against 2 ranks",
+                    f"{a:.0f} s / {b:.0f} s, speed-up {a / b:.2f}",
+                    "the 4 N m cycle, compliances stored"
+                    if what == "cycle"
+                    else "gearfem run with the cycle stored (both gears, camera)",
+                )
+            )
+        # the bench diagnosis, cold surrogate cache (cycles stored)
+        shutil.rmtree(tmp / "cache" / "surrogate", ignore_errors=True)
+        r = _run(
+            [
+                str(VENV / "mpirun"), "-n", "2", sys.executable,
+                str(ROOT / "demos" / "bench_camera.py"), "--verdict", "--skip-runs", "--no-doc",
+                "--out", str(tmp / "verdict"),
+            ],
+            env,
+        )  # fmt: skip
+        facts["diagnosis_s"] = r["wall_s"]
+        rows.append(
+            ("bench diagnosis with --suggest (2 ranks)", f"{r['wall_s']:.0f} s", "cold surrogate")
+        )
+        if suite:
+            clone = tmp / "clone"
+            subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
+            senv = {k: v for k, v in os.environ.items() if not k.startswith("GEARFEM_")}
+            r = _run(["./dev.sh", "test"], senv, cwd=clone)
+            facts["suite_s"] = r["wall_s"]
+            rows.append(("./dev.sh test, fresh clone", f"{r['wall_s'] / 60:.1f} min", "set-up"))
+            r = _run(["./dev.sh", "test", "--quick"], senv, cwd=clone)
+            facts["quick_s"] = r["wall_s"]
+            rows.append(("./dev.sh test --quick", f"{r['wall_s'] / 60:.1f} min", "venv set up"))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return rows, facts
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--suite", action="store_true", help="also time the tests in a fresh clone")
+    ap.add_argument("--docs", action="store_true", help="write docs/performance.md and README.md")
+    a = ap.parse_args()
+    rows, facts = measure(a.suite)
+    sys.path.insert(0, str(ROOT))
+    from gearfem.core.doctables import markdown_table, replace_block
+
+    today = datetime.date.today().isoformat()
+    commit = subprocess.run(
+        ["git", "-C", str(ROOT), "describe", "--always", "--dirty"],
+        capture_output=True, text=True, check=False,
+    ).stdout.strip()  # fmt: skip
+    machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
+    table = markdown_table(("loop", "time", "note"), rows)
+    text = (
+        f"{table}\n\nMeasured by `python benchmarks/performance/loops.py"
+        f"{' --suite' if a.suite else ''}` at {commit} on {today} ({machine}; load average "
+        f"{os.getloadavg()[0]:.1f} at the end)."
+    )
+    print(text)
+    if a.docs:
+        replace_block(ROOT / "docs" / "performance.md", "loops", text)
+        parts = [f"the main job takes {facts['main_s'] / 60:.1f} min with empty caches"]
+        parts.append(f"the bench diagnosis {facts['diagnosis_s'] / 60:.1f} min")
+        if "suite_s" in facts:
+            parts.append(
+                f"the test suite {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
+                f"{facts['quick_s'] / 60:.1f} min)"
+            )
+        line = (
+            f"On this project's machine ({machine}): " + ", ".join(parts) + f". Measured at "
+            f"{commit} on {today} by `benchmarks/performance/loops.py` "
+            "([docs/performance.md](docs/performance.md))."
+        )
+        replace_block(ROOT / "README.md", "readme_timings", line)
+
+
+if __name__ == "__main__":
+    main()
