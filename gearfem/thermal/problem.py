@@ -38,7 +38,7 @@ from gearfem.thermal.domain import ThermalDomain
 from gearfem.thermal.newton import NewtonSolver, SolverStatistics
 from gearfem.thermal.options import ThermalOptions
 from gearfem.thermal.periodic import PeriodicTie
-from gearfem.thermal.properties import enthalpy_ufl, table_ufl
+from gearfem.thermal.properties import antiderivative, antiderivative_ufl, table_ufl
 from gearfem.thermal.source_terms import HeatSources, field_ufl
 from gearfem.thermal.timestepping import (
     StepController,
@@ -158,7 +158,10 @@ class ThermalProblem:
 
         rho = material.density_kg_m3
         cp, kT = material.specific_heat(), material.conductivity()
-        e = lambda u: enthalpy_ufl(rho, cp, u, self.initial_K)
+        # the enthalpy's reference (the initial temperature, often the ambient) as a constant,
+        # like every number that differs between runs (_const)
+        g_ref = self._const(float(antiderivative(cp, self.initial_K)))
+        e = lambda u: rho * (antiderivative_ufl(cp, u) - g_ref)
         stored = (
             self._a[0] * e(T) + self._a[1] * e(self._T_n) + self._a[2] * e(self._T_nm1)
         ) / self._dt
@@ -195,14 +198,20 @@ class ThermalProblem:
         )
 
     # --- the forms, one builder per part ----------------------------------------------------------
+    def _const(self, value: float) -> fem.Constant:
+        """A number of the forms as a constant of the mesh, not a literal: the compiled forms then
+        do not depend on it, and a run with another convection coefficient, ambient, emissivity,
+        conductivity or loading frequency (a study, a diagnosis's surrogate nodes) reuses them
+        instead of compiling anew (FFCx keys its cache by the form's code)."""
+        return fem.Constant(self.domain.mesh, PETSc.ScalarType(value))
+
     def _volume_sources(self, T, x) -> dict[str, Any]:
         """Volumetric sources (W/m³): hysteresis s_h f H(T) U_max and a prescribed q_v."""
         src = self.sources
         vol: dict[str, Any] = {}
         if src.u_max is not None:
             vol["hysteresis"] = (
-                src.hysteresis_scale
-                * src.loading_frequency_Hz
+                self._const(src.hysteresis_scale * src.loading_frequency_Hz)
                 * table_ufl(src.hysteresis, T)
                 * src.u_max
             )
@@ -226,7 +235,7 @@ class ThermalProblem:
         self._fscale = fem.Constant(domain.mesh, 1.0)
         self._friction_unscaled: list[tuple[Any, Any]] = []
         if src.flank_flux_W_m2 is not None:
-            qf = src.flux_scale * field_ufl(src.flank_flux_W_m2, x, self._t)
+            qf = self._const(src.flux_scale) * field_ufl(src.flank_flux_W_m2, x, self._t)
             if src.flux_temperature_factor is not None:
                 qf = qf * src.flux_temperature_factor(T)
             self._friction_unscaled.append((qf, ds(domain.tags(src.flux_surfaces))))
@@ -249,7 +258,7 @@ class ThermalProblem:
             self._tbar_vec = assemble_vector(self._tbar_form)
             self._flux_B = assemble_matrix(fem.form(ufl.TrialFunction(self.V) * w0 * dsm))
             self._flux_B.assemble()
-            qm = src.flux_scale * m.value
+            qm = self._const(src.flux_scale) * m.value
             self._friction_unscaled.append((qm, dsm))
             surf["friction"].append((self._fscale * qm, dsm))
         sigma = STEFAN_BOLTZMANN_W_m2K4
@@ -258,9 +267,14 @@ class ThermalProblem:
             if not names:
                 continue
             dsr = ds(domain.tags(names))
-            conv_term = ex.h(T) * (T - ex.fluid_K)
+            h = ex.h(T)
+            conv_term = (self._const(h) if isinstance(h, float) else h) * (
+                T - self._const(ex.fluid_K)
+            )
             rad_term = (
-                ex.emissivity * sigma * (T**4 - ex.radiation_K**4) if ex.emissivity > 0.0 else None
+                self._const(ex.emissivity * sigma) * (T**4 - self._const(ex.radiation_K**4))
+                if ex.emissivity > 0.0
+                else None
             )
             if role == "bore":
                 surf["bore"].append((conv_term if rad_term is None else conv_term + rad_term, dsr))
@@ -290,9 +304,9 @@ class ThermalProblem:
         return {
             "F_nl": F_nl,
             "F_nl_transient": F_nl if self._cp_const else F_nl + stored * v * dx,
-            "mass": rho * float(cp.values[0]) * u * v * dx if self._cp_const else None,
+            "mass": self._const(rho * float(cp.values[0])) * u * v * dx if self._cp_const else None,
             "stiffness": (
-                float(kT.values[0]) * ufl.inner(ufl.grad(u), ufl.grad(v)) * dx
+                self._const(float(kT.values[0])) * ufl.inner(ufl.grad(u), ufl.grad(v)) * dx
                 if self._k_const
                 else None
             ),
