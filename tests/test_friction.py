@@ -474,3 +474,18 @@ def test_lowest_steady_state_is_where_the_transient_from_ambient_ends():
         prob.set_initial(TA)
         prob.integrate(duration_s=20000.0)
         assert prob.temperatures_K()["mean_bulk"] == pytest.approx(hot, abs=0.5)
+
+
+def test_steady_runs_of_a_rising_law_take_the_lowest_steady_state(tmp_path):
+    """``[thermal] mode = "steady"`` with a flux that may rise (gearfem.thermal.outputs): the
+    run's steady state is the lowest one, not Newton's from the initial field, and the summary
+    says how it was found."""
+    from gearfem.thermal.outputs import solve_and_write
+
+    prob, law, _ = _lumped(prefix="zd_sw_")
+    _, branches = _analytic(law)
+    with prob:
+        prob.set_initial(branches[2] + 50.0)  # a hot initial field: Newton alone would stay hot
+        records, summ = solve_and_write(prob, tmp_path, write_fields=False, write_plot=False)
+    assert summ["steady_state_search"]["branch"] == "lowest"
+    assert records[-1].temperatures_K["mean_bulk"] == pytest.approx(branches[0], abs=2e-3)
