@@ -140,11 +140,15 @@ class FullModel:
             self.case, comm, self.times_s, None, library=self.library, quantities=self.quantities
         )
 
-    def cycle(self, torque_Nm: float):
-        if torque_Nm not in self._cycles:
-            cyc, _, _ = pipeline.cycle(self.case.with_operating(torque_Nm=torque_Nm), self.comm)
-            self._cycles[torque_Nm] = cyc
-        return self._cycles[torque_Nm]
+    def cycle(self, torque_Nm: float, case: Case | None = None):
+        """The structural cycle of the case (or of ``case``: an input study may change its
+        geometry) at ``torque_Nm``, computed or read from the cache once per process."""
+        c = (case or self.case).with_operating(torque_Nm=torque_Nm)
+        key = pipeline.case_cycle_key(c)
+        if key not in self._cycles:
+            cyc, _, _ = pipeline.cycle(c, self.comm)
+            self._cycles[key] = cyc
+        return self._cycles[key]
 
     def point_case(
         self, speed_rpm: float, torque_Nm: float, ambient_C: float, model: dict[str, float]
@@ -184,8 +188,9 @@ class FullModel:
     ) -> dict[Request, float]:
         """Temperatures (C) of every quantity at every sample time and at the end (steady state).
 
-        ``transform(case) -> case`` changes the thermal run only (input-uncertainty studies); the
-        structural cycle stays that of the unchanged case."""
+        ``transform(case) -> case`` changes the run (input-uncertainty studies); a change of what
+        the structural cycle depends on (the geometry: the tip-round radius) solves the cycle of
+        the changed case."""
         return self._evaluate(
             speed_rpm, torque_Nm, ambient_C, model, transform, branch_search=False
         ).temperatures_C
@@ -212,7 +217,7 @@ class FullModel:
             case = transform(case)
         case = dataclasses.replace(case, instruments=self._instruments(case))
         out = self.work_dir / f"run{self.solves}"
-        cyc = self.cycle(torque_Nm)
+        cyc = self.cycle(torque_Nm, case)
         try:
             summ, _, snapshot = pipeline.observed_thermal(
                 case,

@@ -48,6 +48,10 @@ def _replace_camera(**kw):
     return change
 
 
+def _replace_geometry(**kw):
+    return lambda c: dataclasses.replace(c, geometry=dataclasses.replace(c.geometry, **kw))
+
+
 def _replace_material(**kw):
     return lambda c: dataclasses.replace(
         c, material=dataclasses.replace(c.material, **kw), material_wheel=None
@@ -127,6 +131,15 @@ def run_diagnosis(
             1.0 / math.sqrt(3.0),
         ),
     }
+    # the tip rounds' radius is not measured: the case's ± 0.05 m (uniform; 0.1-0.3 mm for the
+    # thesis's 0.2 mm, m = 2 mm); the entering pair's first contact and the hot spot at the flank
+    # foot sit on it (a cycle of the changed geometry per torque)
+    g = case.geometry
+    r_lo, r_hi = ((g.tip_round_coefficient + d) * g.module_mm for d in (-0.05, 0.05))
+    pert[f"tip round radius ({r_lo:.2g}-{r_hi:.2g} mm, uniform)"] = (
+        _replace_geometry(tip_round_coefficient=g.tip_round_coefficient + 0.05),
+        1.0 / math.sqrt(3.0),
+    )
     if "camera_max" in quantities:
         # the camera's optics are known only roughly: blur FWHM 1 +- 0.5 px (uniform); its
         # reading of a hot spot two pixels wide moves by kelvins with it (docs/instruments.md)
