@@ -161,7 +161,7 @@ def fold_margins(
                 # the torque, to first order the friction-heat scale: the cool branch from a fifth
                 # of the heat upwards
                 fold, x = trace_lowest_branch(
-                    problem, problem.set_friction_scale, SAFE_SCALE, 3.0, 1.0
+                    problem, problem.set_friction_scale, SAFE_SCALE, 3.0, 1.0, proportional=True
                 )
                 _destroy(x)
                 found.append(
@@ -193,7 +193,13 @@ def fold_margins(
                     n = full.solves
                     if full.gone is None:
                         fold, y = trace_lowest_branch(
-                            problem, set_value, prm.lo, prm.hi, prm.hi - prm.lo, x0=x
+                            problem,
+                            set_value,
+                            prm.lo,
+                            prm.hi,
+                            prm.hi - prm.lo,
+                            x0=x,
+                            proportional=name == "friction_glass_transition",
                         )
                         _destroy(y)
                     _destroy(x)

@@ -226,6 +226,7 @@ def trace_lowest_branch(
     scale: float,
     x0=None,
     tolerance: float = TOLERANCE,
+    proportional: bool = False,
 ) -> tuple[Fold, object]:
     """Trace the cool branch of ``problem`` in a parameter from ``start`` towards ``limit`` and
     bracket its fold (collective). Returns the fold and the last cool state (a PETSc Vec of the
@@ -235,7 +236,10 @@ def trace_lowest_branch(
     ``x0`` (a cool steady state at ``start``), or, without one, from Newton from ambient at
     ``start``, which must then be a value where the cool branch surely exists (a start from
     which Newton fails gives ``Fold(None, start, ...)``). Steps start at :data:`FIRST_STEP` ×
-    ``scale`` and are halved at a failure down to ``tolerance`` × ``scale``.
+    ``scale`` and are halved at a failure down to ``tolerance`` × ``scale``. A step fails when
+    Newton fails or the friction heat jumps by more than :data:`JUMP_RATIO` (with
+    ``proportional``, a parameter the heat is proportional to on a branch, such as the heat scale
+    or a glassy mu: the heat per unit parameter).
     """
     direction = 1.0 if limit >= start else -1.0
     solves = 0
@@ -266,7 +270,8 @@ def trace_lowest_branch(
         if (q - limit) * direction > 0.0:
             q = limit
         h = solve(q, x)
-        if h is not None and h <= JUMP_RATIO * max(heat, 1e-300):
+        grow = q / p if proportional and p != 0.0 and q / p > 0.0 else 1.0
+        if h is not None and h <= JUMP_RATIO * grow * max(heat, 1e-300):
             p, heat = q, h
             x.destroy()
             x = problem.state_vector()
@@ -284,12 +289,20 @@ def trace_lowest_branch(
 SAFE_SCALE = 0.2
 
 
-def cool_at_full_heat(problem) -> tuple[Fold, Any]:
+def cool_at_full_heat(problem, tolerance: float = TOLERANCE) -> tuple[Fold, Any]:
     """The lowest branch from its state at the friction-heat scale :data:`SAFE_SCALE` (Newton
     from ambient) traced to the full heat (scale 1): the fold (``gone`` None: it reached the
     full heat) and its last state (a PETSc Vec, the caller's to destroy; None when Newton failed
     at the start)."""
-    return trace_lowest_branch(problem, problem.set_friction_scale, SAFE_SCALE, 1.0, 1.0)
+    return trace_lowest_branch(
+        problem,
+        problem.set_friction_scale,
+        SAFE_SCALE,
+        1.0,
+        1.0,
+        tolerance=tolerance,
+        proportional=True,
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -304,23 +317,34 @@ class LowestState(JsonRecord):
     solves: int
 
 
-def lowest_steady_state(
-    problem, settle_s: float = 1800.0, max_settles: int = 4
-) -> tuple[Any, LowestState]:
-    """The steady state a transient from ambient reaches, mostly without the transient
+#: The bracket of the fold to which :func:`lowest_steady_state` traces the lowest branch (in the
+#: heat scale): its run-away starts that close to the fold.
+LOWEST_TOLERANCE = 0.02
+
+#: Above the fold (:func:`lowest_steady_state`): the hot start's uniform temperature lies this
+#: far above the hottest node of the last state on the lowest branch (K).
+HOT_START_ABOVE_K = 150.0
+
+
+def lowest_steady_state(problem, settle_s: float = 1800.0, max_settles: int = 4):
+    """The steady state a transient from ambient reaches, without resolving the transient
     (collective).
 
     With a heat source that does not fall with temperature, a transient that starts below every
     steady state rises monotonically and ends on the lowest steady state above its start
     (comparison principle): the lowest branch, continued in the friction-heat scale from
     :data:`SAFE_SCALE` (where it is the only state near ambient), if it reaches the full heat.
-    If the lowest branch ends at a fold before the full heat, the transient runs away from it to
-    the next stable state up: that part is integrated, from the state at the fold with the full
-    heat (``settle_s`` of transient, then the steady solve from its end, the span doubled while
-    that fails, at most ``max_settles`` times). Returns the steady record (as
-    :meth:`ThermalProblem.solve_steady`) and how it was found; the friction scale is restored
-    to 1."""
-    fold, x = cool_at_full_heat(problem)
+
+    If the lowest branch ends at a fold before the full heat, the run goes on from the fold to the
+    next stable state up. For the S-shaped response of a glass step (a cool and a hot branch) that
+    is the hot branch, which Newton from a uniform start :data:`HOT_START_ABOVE_K` above the fold
+    state's hottest node finds; it is taken when it lies above the fold state everywhere (the
+    order the transient keeps). Otherwise the transient from the fold state is integrated
+    (``settle_s``, doubled while the steady solve from its end fails, ``max_settles`` times).
+    Returns the steady record (as :meth:`ThermalProblem.solve_steady`) and how it was found; the
+    friction scale is restored to 1."""
+    # the fold is bracketed only as far as the next state up needs a start near it
+    fold, x = cool_at_full_heat(problem, tolerance=LOWEST_TOLERANCE)
     solves = fold.solves
     try:
         if fold.gone is None:
@@ -328,31 +352,51 @@ def lowest_steady_state(
             problem.set_state(x)
             rec = problem.solve_steady()
             return rec, LowestState("lowest", None, solves + 1)
-        if x is None:  # no state near ambient even at SAFE_SCALE: from ambient
-            problem.set_initial(problem.initial_K)
-        else:
-            problem.set_state(x)
-            problem.set_initial(problem.T.copy())
         problem.set_friction_scale(1.0)
+        if x is not None:
+            problem.set_state(x)
+        below = problem.T.x.array.copy()
+        top = problem.temperatures_K()["max_surface"]
+        problem.set_initial(top + HOT_START_ABOVE_K)
+        try:
+            rec = problem.solve_steady()
+            n = problem.V.dofmap.index_map.size_local
+            gap = float(np.min(problem.T.x.array[:n] - below[:n])) if n else 0.0
+            if problem.comm.allreduce(gap, op=_min()) >= -0.5:
+                return rec, LowestState("above the fold", fold.fold, solves + 1)
+        except ConvergenceError:
+            pass
+        # not ordered above the fold state (or no state from the hot start): the transient
+        problem.set_initial(problem.initial_K)
+        problem.T.x.array[:] = below
+        problem.set_initial(problem.T.copy())
         last: ConvergenceError | None = None
         for k in range(max_settles):
             problem.integrate(duration_s=problem.time_s + settle_s * 2**k)
             try:
+                end = problem.T.copy()
+                problem.set_initial(end)
                 rec = problem.solve_steady()
-                return rec, LowestState("above the fold", fold.fold, solves + k + 1)
+                return rec, LowestState("above the fold (transient)", fold.fold, solves + k + 2)
             except ConvergenceError as err:
                 last = err
         raise ConvergenceError(
             "thermal Newton",
             "no steady state after the lowest branch's fold "
-            f"(scale {fold.fold}): the transient from there had not settled after "
-            f"{problem.time_s:g} s ({last.reason if last else ''})",
+            f"(scale {fold.fold}): the transient from there had not settled "
+            f"({last.reason if last else ''})",
             step="lowest steady state",
         )
     finally:
         if x is not None:
             x.destroy()
         problem.set_friction_scale(1.0)
+
+
+def _min():
+    from mpi4py import MPI
+
+    return MPI.MIN
 
 
 @dataclasses.dataclass(frozen=True)
