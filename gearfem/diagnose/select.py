@@ -12,9 +12,10 @@ with k >= n cannot be tested and are left out). Verdict:
 
 * "baseline adequate": no model beats the baseline by more than ``detect`` (6: strong evidence);
 * otherwise the best model, simplified to a nested sub-model when that is within ``tie`` (2);
-  "not identifiable" when a non-nested model lies within ``tie`` of it, or when a parameter's
-  profile-likelihood interval spans its whole prior; the report then names the measurement (among
-  ``probes``) where the rival fits differ most;
+  "not identifiable" when a non-nested model lies within ``tie`` of it (and the best passes the
+  chi-square test: a best fit that fails it is "partial" first, its rivals named), or when a
+  parameter's profile-likelihood interval spans its whole prior; the report then names the
+  measurement (among ``probes``) where the rival fits differ most;
 * "partial": the best model beats the baseline but still fails a chi-square goodness-of-fit test
   at 1 %; "unexplained": no model beats the baseline, which fails that test.
 
@@ -441,10 +442,12 @@ def diagnose(
         }
         gof = gof_p_value(chosen["chi2"], n, chosen["k"])
         verdict["chi2_p_value"] = gof
-        if rivals:
-            verdict["kind"] = "not identifiable"
-        elif gof < GOF_LEVEL:
+        # a best fit that fails the chi-square test explains nothing, whatever its rivals: that is
+        # said first (rivals that fail alike are not "not identifiable", they are all wrong)
+        if gof < GOF_LEVEL:
             verdict["kind"] = "partial"
+        elif rivals:
+            verdict["kind"] = "not identifiable"
     # intervals and held-out errors for the models that matter
     rivals_all = [
         r for r in results if any(r["candidates"] == c for c in verdict.get("competitors", []))
@@ -611,11 +614,13 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
     if kind == "identified":
         return fmt(chosen)
     if kind == "partial":
+        others = verdict.get("competitors") or []
+        alike = f" (as poor: {', '.join('+'.join(c) for c in others)})" if others else ""
         return (
             f"no candidate explains the data: the best, {fmt(chosen)}, still fails the "
             f"chi-square test "
-            f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}); the cause is "
-            f"outside the library "
+            f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}){alike}; the cause "
+            "is outside the library "
             "or needs more candidates at once than these data can test"
         )
     rivals = " vs ".join("+".join(c) for c in [chosen["candidates"], *verdict["competitors"]])
