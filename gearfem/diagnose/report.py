@@ -17,7 +17,7 @@ from gearfem.core.io import prepare_output, write_json
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY, apply_all, by_name
-from gearfem.diagnose.data import Dataset, Measurement, unit_of
+from gearfem.diagnose.data import FIELD_QUANTITIES, Dataset, Measurement, unit_of
 from gearfem.diagnose.design import (
     STANDING_DELTA,
     Grid,
@@ -407,8 +407,11 @@ class _Split:
 
 
 def _probes(sur: Surrogate, data: Dataset) -> Dataset:
-    """Measurements one could add at the data's operating points: every tabulated quantity (field
-    temperatures and the data's instrument quantities), every tabulated time."""
+    """Measurements one could add at the data's operating points, every tabulated time: the
+    readings of the instruments the data use (camera, probes, torque meters), and the model's
+    field temperatures only when the data themselves are such (what no bench instrument reads is
+    not proposed to a bench)."""
+    fields_in_data = any(m.quantity in FIELD_QUANTITIES for m in data.measurements)
     rows, seen = [], set()
     for m in data.measurements:
         if m.point in seen:
@@ -416,7 +419,11 @@ def _probes(sur: Surrogate, data: Dataset) -> Dataset:
         seen.add(m.point)
         base = sur.tables[(float(m.speed_rpm), float(m.torque_Nm))].base
         times = sorted({r[1] for r in base}, key=lambda t: math.inf if t is None else t)
-        quantities = tuple(dict.fromkeys(r[0] for r in base))
+        quantities = tuple(
+            q
+            for q in dict.fromkeys(r[0] for r in base)
+            if fields_in_data or q not in FIELD_QUANTITIES
+        )
         for q in quantities:
             for t in times:
                 v = 20.0 if unit_of(q) == "C" else 0.5
