@@ -141,9 +141,12 @@ class FullModel:
         )
 
     def cycle(self, torque_Nm: float, case: Case | None = None):
-        """The structural cycle of the case (or of ``case``: an input study may change its
-        geometry) at ``torque_Nm``, computed or read from the cache once per process."""
-        c = (case or self.case).with_operating(torque_Nm=torque_Nm)
+        """The structural cycle of the case at ``torque_Nm`` (with the geometry of ``case``: an
+        input study may change the tip rounds; what changes only the thermal run, such as a
+        conductivity, keeps the case's cycle), computed or read from the cache once per
+        process."""
+        c = self.case if case is None else dataclasses.replace(self.case, geometry=case.geometry)
+        c = c.with_operating(torque_Nm=torque_Nm)
         key = pipeline.case_cycle_key(c)
         if key not in self._cycles:
             cyc, _, _ = pipeline.cycle(c, self.comm)
