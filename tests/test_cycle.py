@@ -364,7 +364,13 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
     unresolved = 0
     for b in BODIES:
         f = r.fields[b]
-        q, _, bands = reference_flux(r, b, FrictionOptions().law_for(0.5), mats, speed, 300.0)
+        law = FrictionOptions().law_for(0.5)
+        q, _, hertz = reference_flux(r, b, law, mats, speed, 300.0)
+        # the default flash width: every band's Hertz width (the tip rounds' radius included)
+        assert np.all(hertz.hertz_width_used)
+        np.testing.assert_array_equal(hertz.half_width_m, hertz.hertz_half_width_m)
+        # the pressure profile's widths, checked below
+        _, _, bands = reference_flux(r, b, law, mats, speed, 300.0, flash_width="profile")
         ref = f.generated_flux_W_m2_per_rad_s * omega
         assert np.max(np.abs(q - ref)) <= 1e-12 * np.max(ref)
         # each gear's flanks carry the friction power generated in the mesh (30 teeth)
@@ -379,7 +385,7 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         # bands had an infinite mean flux and a NaN flash temperature): one band of the cycle
         # cut down to its most loaded point
         cut = _one_point_band(r, b)
-        _, _, one = reference_flux(cut, b, FrictionOptions().law_for(0.5), mats, speed, 300.0)
+        _, _, one = reference_flux(cut, b, law, mats, speed, 300.0, flash_width="profile")
         unresolved += int(np.count_nonzero(one.hertz_width_used))
         assert np.all(one.half_width_m > 0) and np.all(np.isfinite(one.q0_W_m2))
         assert np.all(np.isfinite(one.flash_per_flux_K_m2_W))
@@ -394,7 +400,7 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         pe = np.minimum(bands.peclet, bands.mate_peclet)
         assert np.sum(hw[pe > 5.0]) > 0.999 * np.sum(hw)
         # Blok's partition at high Peclet numbers: b1 sqrt(v1) / (b1 sqrt(v1) + b2 sqrt(v2))
-        blok = reference_flux(r, b, FrictionOptions().law_for(0.5), mats, speed, 300.0, "blok")[2]
+        blok = reference_flux(r, b, law, mats, speed, 300.0, "blok", flash_width="profile")[2]
         hi = (blok.peclet > 200) & (blok.mate_peclet > 200)
         v1, v2 = blok.peclet[hi], blok.mate_peclet[hi]  # equal materials: b equal, L ~ v
         np.testing.assert_allclose(
