@@ -120,11 +120,12 @@ def main() -> None:
         return
     base = load_case(a.case)
     bench = read_csv(BENCH)
-    rows = []
+    rows, provs = [], []
     for m in bench.measurements:
         label = f"bench_{m.speed_rpm:g}rpm_{m.torque_Nm:g}Nm"
         case = base.with_operating(speed_rpm=m.speed_rpm, torque_Nm=m.torque_Nm)
         s = _run(case, Path(a.out) / label, comm)
+        provs.append(_provenance(s.provenance))
         ins = s.instruments
         at = "900" if "900" in ins.camera else "end"
         cam = ins.camera[at]
@@ -180,7 +181,11 @@ def main() -> None:
     if comm.rank == 0:
         print(table + note)
         if not a.no_doc:
-            replace_block(ROOT / "docs" / "reproduction.md", "bench_camera", table + note)
+            prov = provs[0]
+            if prov is not None and all(p is not None for p in provs):
+                code = {k: v for p in provs for k, v in p.code.items()}
+                prov = Provenance(prov.resolution, code, prov.commit, prov.date)
+            replace_block(ROOT / "docs" / "reproduction.md", "bench_camera", table + note, prov)
 
 
 def _relative(path: Path) -> str:

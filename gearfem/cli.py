@@ -228,8 +228,22 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"{end.aim_std_C:.1f} K), at pixel {end.pixel} on {end.body} {end.surface} at the "
             f"nominal aim; the hottest model node of the pair is {end.hottest_node_C:.1f} C"
         )
-    if h.torque_loss_Nm is not None:
-        _say(f"torque meters: torque loss {h.torque_loss_Nm:.4f} N m")
+    q = summary.instruments.torque if summary.instruments is not None else None
+    if q is not None:
+        what = (
+            "the friction law's and the hysteresis' power at the end value"
+            if q.source == "law"
+            else "the structural cycle's torques"
+        )
+        cyc = (
+            f" (the cycle's constant mu: {q.cycle_torque_loss_Nm:.4f} N m)"
+            if q.source == "law" and q.cycle_torque_loss_Nm is not None
+            else ""
+        )
+        _say(
+            f"torque meters ({what}): torque loss {q.torque_loss_Nm:.4f} +- "
+            f"{q.u_torque_loss_Nm:.4f} N m, efficiency {q.efficiency:.4f}{cyc}"
+        )
     _say(
         f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/"
         + (", instruments/ (snapshot.npz, thermograms)" if summary.instruments else "")

@@ -351,18 +351,21 @@ def surface_field_max(
 
 
 def instrument_bodies(case: Case) -> tuple[str, ...]:
-    """The gears whose fields the case's instruments read (the camera sees both)."""
+    """The gears whose fields the case's instruments read: the camera sees both, and the torque
+    meters read the heat both gears' models make (the friction law's share of each, and the
+    hysteresis) when the sources come from a cycle."""
     ins = case.instruments
     wanted = {case.thermal.body}
-    if ins.camera.enabled:
+    if ins.camera.enabled or (ins.torque.enabled and case.sources.mode == "cycle"):
         wanted |= set(BODIES)
     wanted |= {p.body for p in ins.probes.values()}
     return tuple(b for b in BODIES if b in wanted)
 
 
 def needs_fields(instruments: InstrumentOptions) -> bool:
-    """True when an instrument reads temperature fields (camera or probes)."""
-    return instruments.camera.enabled or bool(instruments.probes)
+    """True when an instrument reads what the thermal runs record: temperature fields (camera,
+    probes) or the heat of each gear at the reported times (torque meters)."""
+    return instruments.camera.enabled or bool(instruments.probes) or instruments.torque.enabled
 
 
 def check_instruments(case: Case) -> None:
@@ -528,21 +531,29 @@ class _Recording:
     """Observer of a thermal run that keeps the field at the output times, the end (and, from
     :meth:`steady`, the steady state) for the instruments."""
 
-    def __init__(self, recorder: FieldRecorder, options) -> None:
-        self.recorder, self.options = recorder, options
+    def __init__(self, recorder: FieldRecorder, options, model_fraction: float = 1.0) -> None:
+        self.recorder, self.options, self.fraction = recorder, options, model_fraction
+
+    def heat(self, balance) -> dict[str, float]:
+        """The whole gear's friction and hysteresis heat of a step's balance (W)."""
+        return {
+            "friction_W": float(balance.friction_W) / self.fraction,
+            "hysteresis_W": float(balance.hysteresis_W) / self.fraction,
+        }
 
     def on_step(self, problem, record, write_field: bool) -> None:
         if not write_field:
             return
         temps = {k: v - ZERO_CELSIUS_K for k, v in record.temperatures_K.items()}
+        heat = self.heat(record.balance)
         if self.options.mode == "steady":
-            self.recorder.record("end", None, temps)
+            self.recorder.record("end", None, temps, heat)
             return
         t = record.time_s
         if t <= 0.0:
             return
         end = abs(t - self.options.duration_s) <= 1e-9 * max(1.0, t)
-        self.recorder.record("end" if end else f"{t:g}", t, temps)
+        self.recorder.record("end" if end else f"{t:g}", t, temps, heat)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -641,7 +652,11 @@ def thermal_field(
         info["friction_heat_fraction"] = src.heat_fractions(case.materials)[body]
     info.update(extra or {})
 
-    recording = _Recording(FieldRecorder(problem.T, domain), case.thermal) if record else None
+    recording = (
+        _Recording(FieldRecorder(problem.T, domain), case.thermal, domain.model_fraction)
+        if record
+        else None
+    )
 
     def more(records) -> dict[str, Any]:
         gen = records[-1].balance.generated_W
@@ -675,7 +690,9 @@ def thermal_field(
             if settled_s is not None:
                 out["transient_continued_to_s"] = settled_s
             if recording is not None:  # problem.T holds the steady state
-                recording.recorder.record("steady", None, out["steady_state_C"])
+                recording.recorder.record(
+                    "steady", None, out["steady_state_C"], recording.heat(rec.balance)
+                )
         if friction is not None:
             friction.update(friction_branches(problem, case, end, steady, branch_search))
             out["friction"] = friction

@@ -596,6 +596,40 @@ def test_suggest_names_the_instrument_that_sees_a_hidden_effect():
     )
 
 
+def test_only_the_torque_meter_separates_friction_from_convection():
+    """Friction heat x 0.6 hidden: with the camera alone friction and convection read alike; with
+    the torque meters beside it (which read the friction law's power, as the full model's do since
+    they follow the active law) the friction is identified, its interval holds the truth, and the
+    held-out gain counts the torque readings too (N m beside K)."""
+    from diagnose_lumped import LumpedModel
+
+    from gearfem.diagnose.forward import Surrogate
+    from gearfem.diagnose.select import diagnose
+
+    pts = ((1000.0, 8.0), (2000.0, 4.0), (1500.0, 6.0))
+    lib = tuple(by_name(n) for n in ("friction_scale", "convection_scale", "bore_heat_path"))
+    lm = LumpedModel(times_s=())
+    sur = Surrogate(lm, pts, lib)
+    noise = {"camera_max": 2.0, "torque_loss_Nm": 0.057}  # the camera's K, the meters' N m
+    rng = np.random.default_rng(1)
+    rows = []
+    for sp, tq in pts:
+        amb = float(np.round(rng.uniform(18.0, 28.0), 1))
+        truth = lm.evaluate(sp, tq, amb, {"friction_scale": 0.6})
+        for q, u in noise.items():
+            v = float(truth[(q, None)] + rng.normal(0.0, u))
+            rows.append(ddata.Measurement(sp, tq, None, q, v, u, amb))
+    both = ddata.Dataset(tuple(rows), "camera and torque meters")
+    camera = ddata.Dataset(tuple(m for m in rows if m.quantity == "camera_max"), "camera")
+    for d, kind in ((camera, "not identifiable"), (both, "identified")):
+        r = diagnose(sur.predict, d, library=lib, max_size=1, model_error=sur.error)
+        assert r.verdict.kind == kind, r.verdict.text
+    assert r.chosen == ("friction_scale",)
+    lo, hi = r.chosen_fit.intervals["friction_scale"]
+    assert lo <= 0.6 <= hi
+    assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
+
+
 @pytest.mark.mpi
 def test_surrogate_points_shared_over_ranks():
     """Under mpirun the surrogate's points are tabulated by the ranks on their own and gathered:

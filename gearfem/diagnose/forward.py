@@ -258,15 +258,10 @@ class FullModel:
 
             def read() -> tuple[dict[Request, float], dict[Request, float]]:
                 times = (None, *self.times_s)
-                fields = [q for q in self.quantities if q not in TORQUE_QUANTITIES]
-                labels = (
-                    tuple(dict.fromkeys(snapshot.label_of(t) for t in times))
-                    if fields
-                    else snapshot.labels
-                )
+                labels = tuple(dict.fromkeys(snapshot.label_of(t) for t in times))
                 got = evaluate(case.instruments, snapshot, labels=labels)
                 values = {
-                    (q, t): got.value(q, snapshot.label_of(t) if q in fields else labels[0])
+                    (q, t): got.value(q, snapshot.label_of(t))
                     for q in self.quantities
                     for t in times
                 }
@@ -296,13 +291,15 @@ class FullModel:
 
     def _instruments(self, case: Case):
         """The case's instruments reduced to those the wanted quantities need (no camera, no
-        second gear when no ``camera_max`` is wanted)."""
+        second gear when neither ``camera_max`` nor a torque reading is wanted)."""
         ins = case.instruments
         probes = {n: p for n, p in ins.probes.items() if f"probe:{n}" in self.quantities}
+        torque = any(q in TORQUE_QUANTITIES for q in self.quantities)
         return dataclasses.replace(
             ins,
             camera=dataclasses.replace(ins.camera, enabled="camera_max" in self.quantities),
             probes=probes,
+            torque=dataclasses.replace(ins.torque, enabled=torque and ins.torque.enabled),
         )
 
     def predict(

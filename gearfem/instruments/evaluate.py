@@ -31,7 +31,11 @@ class InstrumentReadings(JsonRecord):
             (None: steady state).
         camera: The camera's reading at each label.
         probes: Each probe's reading at each label (label -> name -> reading).
-        torque: The torque meters' reading (the same at every time; None without a cycle).
+        torque: The torque meters' reading at the end value (the steady state when the run has
+            one, else the end of the run; None without a cycle).
+        torque_at: Their reading at each label (the power of the active friction law and the
+            hysteresis at that state, :func:`gearfem.instruments.torque.read_torque`; empty when
+            the snapshot does not keep both gears' heat: then ``torque`` is the cycle's reading).
         files: The thermogram files written (relative to the output directory).
     """
 
@@ -41,6 +45,7 @@ class InstrumentReadings(JsonRecord):
     probes: dict[str, dict[str, ProbeReading]]
     torque: TorqueReading | None = None
     files: tuple[str, ...] = ()
+    torque_at: dict[str, TorqueReading] = dataclasses.field(default_factory=dict)
 
     def value(self, quantity: str, label: str) -> float:
         """The reading of a measured quantity (``camera_max``, ``probe:NAME``,
@@ -50,7 +55,7 @@ class InstrumentReadings(JsonRecord):
                 raise ParameterError(
                     "quantity", quantity, "a run with torque meters and a contact cycle"
                 )
-            return float(getattr(self.torque, quantity))
+            return float(getattr(self.torque_at.get(label, self.torque), quantity))
         if quantity == "camera_max":
             if label not in self.camera:
                 raise ParameterError("quantity", quantity, "a run with the camera enabled")
@@ -156,9 +161,18 @@ def evaluate(
             )
             for lab, r in zip(labels, got):
                 probes[lab][name] = r
-    torque = None
+    torque, torque_at = None, {}
     if "torque" in only and options.torque.enabled and snapshot.torques is not None:
-        torque = read_torque(options.torque, snapshot.torques, snapshot.pinion_speed_rpm)
+        for lab in labels:
+            heat = snapshot.mesh_heat_W(lab)
+            if heat is not None:
+                torque_at[lab] = read_torque(
+                    options.torque, snapshot.torques, snapshot.pinion_speed_rpm, heat
+                )
+        end = snapshot.label_of(None) if snapshot.labels else None
+        torque = torque_at.get(end) or read_torque(
+            options.torque, snapshot.torques, snapshot.pinion_speed_rpm
+        )
     return InstrumentReadings(
         labels=labels,
         times_s=tuple(snapshot.times_s[i] for i in rows),
@@ -166,6 +180,7 @@ def evaluate(
         probes=probes,
         torque=torque,
         files=tuple(files),
+        torque_at=torque_at,
     )
 
 

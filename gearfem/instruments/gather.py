@@ -111,6 +111,7 @@ class FieldRecorder:
         self.labels: list[str] = []
         self.times_s: list[float | None] = []
         self.temperatures_C: dict[str, dict[str, float]] = {}
+        self.heat_W: dict[str, dict[str, float]] = {}
         if self.comm.rank != 0:
             return
         order = np.lexsort((g_coords[:, 2], g_coords[:, 1], g_coords[:, 0]))
@@ -131,8 +132,16 @@ class FieldRecorder:
         self.faces = faces[order_f]
         self.face_kind = g_kinds[order_f]
 
-    def record(self, label: str, time_s: float | None, temperatures_C: dict[str, float]) -> None:
-        """Gather the current temperature as ``label`` (collective)."""
+    def record(
+        self,
+        label: str,
+        time_s: float | None,
+        temperatures_C: dict[str, float],
+        heat_W: dict[str, float] | None = None,
+    ) -> None:
+        """Gather the current temperature as ``label`` (collective), with the thermal model's
+        reported temperatures and, when given, the whole gear's heat sources at that time
+        (``friction_W``, ``hysteresis_W``: what the torque meters read from)."""
         if self._Ts is not None:
             self._Ts.interpolate(self._T)
             arr = self._Ts.x.array
@@ -148,6 +157,8 @@ class FieldRecorder:
                 self.labels.append(label)
                 self.times_s.append(time_s)
             self.temperatures_C[label] = dict(temperatures_C)
+            if heat_W is not None:
+                self.heat_W[label] = dict(heat_W)
 
     def body_field(
         self,
@@ -178,6 +189,7 @@ class FieldRecorder:
             speed_rpm=float(speed_rpm),
             emissivity=float(emissivity),
             temperatures_C=dict(self.temperatures_C),
+            heat_W=dict(self.heat_W),
         )
 
 

@@ -86,6 +86,9 @@ class BodyField:
         emissivity: The thermal model's radiation emissivity of the surfaces.
         temperatures_C: The thermal model's reported temperatures at each label (max_surface,
             mean_bulk, flank_mean, ...).
+        heat_W: The whole gear's heat sources at each label: ``friction_W`` (its share of the
+            friction heat of the active friction law, at that state) and ``hysteresis_W`` (empty
+            for a snapshot written before they were kept).
     """
 
     body: str
@@ -101,6 +104,7 @@ class BodyField:
     speed_rpm: float
     emissivity: float
     temperatures_C: dict[str, dict[str, float]]
+    heat_W: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
 
     @property
     def pitch_rad(self) -> float:
@@ -198,6 +202,18 @@ class FieldSnapshot:
             raise ParameterError("time label", label, "one of " + ", ".join(self.labels))
         return self.labels.index(label)
 
+    def mesh_heat_W(self, label: str) -> tuple[float, float] | None:
+        """The pair's friction and hysteresis heat (W, whole gears) at ``label``: the sum of both
+        gears' shares, each from its own thermal model at that state (None unless both gears'
+        fields with their heat are kept)."""
+        parts = [b.heat_W.get(label) for b in self.bodies.values()]
+        if len(parts) != 2 or any(p is None for p in parts):
+            return None
+        return (
+            float(sum(p["friction_W"] for p in parts)),
+            float(sum(p["hysteresis_W"] for p in parts)),
+        )
+
     def label_of(self, time_s: float | None) -> str:
         """The label of a reported time: None is the end value (the steady state when the run
         computed one, else the end of the run); a time is the output time it equals."""
@@ -241,6 +257,7 @@ class FieldSnapshot:
                 "speed_rpm": b.speed_rpm,
                 "emissivity": b.emissivity,
                 "temperatures_C": b.temperatures_C,
+                "heat_W": b.heat_W,
             }
         if self.torques is not None:
             t = self.torques
@@ -286,6 +303,7 @@ class FieldSnapshot:
                     speed_rpm=float(m["speed_rpm"]),
                     emissivity=float(m["emissivity"]),
                     temperatures_C=m["temperatures_C"],
+                    heat_W=m.get("heat_W", {}),
                 )
             torques = None
             if meta["torques"] is not None:

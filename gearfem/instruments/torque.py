@@ -14,6 +14,18 @@ Over a periodic cycle the elastic energy returns to its value, so the power bala
 T_loss ω₁ = the mean friction power ∫ μ p v_s dA (the cycle's energy-balance check): the torque
 loss is a direct measurement of the mesh's friction. Standard uncertainties from the meters'
 (independent) uncertainty u: u(T_loss) = u sqrt(1 + (z₁/z₂)²), u(η) = η u sqrt(1/T̄₁² + 1/T₂²).
+
+**The reading of the active friction law.** The structural cycle is solved with one constant μ,
+while the friction heat follows the case's friction law (``[friction]``: μ at each contact point's
+contact temperature, pressure and sliding speed). What the meters read is the power the pair
+dissipates at its thermal state: the friction heat of the law (both gears' shares, each gear's
+from its own thermal model) plus the hysteresis heat of both gears, referred to the input shaft,
+
+    T_loss = (P_friction + P_hysteresis) / ω₁,    T̄₁ = T₂ z₁/z₂ + T_loss,
+
+at every reported time of the run (:func:`read_torque` with ``heat``). With the cycle's constant μ
+the law's friction heat is the cycle's friction power, so this reading is the cycle's own plus the
+hysteresis; the cycle's constant-μ reading is kept beside it (``cycle_torque_loss_Nm``).
 """
 
 from __future__ import annotations
@@ -32,8 +44,11 @@ from gearfem.instruments.snapshot import CycleTorques
 class TorqueReading(JsonRecord):
     """What the two torque meters give (see the module docstring).
 
-    ``cycle_friction_power_W`` is the cycle's own friction power at the operating speed, for
-    comparison with ``torque_loss_Nm`` × ω₁ (= ``friction_power_W``).
+    ``source``: ``"law"`` when the reading is the power of the active friction law and the
+    hysteresis at the run's thermal state (``friction_power_W`` and ``hysteresis_power_W`` then
+    sum to ``torque_loss_Nm`` × ω₁), ``"cycle"`` when it is the structural cycle's torques at its
+    constant μ. ``cycle_friction_power_W`` and ``cycle_torque_loss_Nm`` are the cycle's own, for
+    comparison.
     """
 
     input_torque_Nm: float
@@ -45,17 +60,32 @@ class TorqueReading(JsonRecord):
     u_torque_loss_Nm: float
     u_efficiency: float
     meter_uncertainty_Nm: float
+    source: str = "cycle"
+    hysteresis_power_W: float = 0.0
+    cycle_torque_loss_Nm: float | None = None
 
 
 def read_torque(
-    options: TorqueMeterOptions, torques: CycleTorques, pinion_speed_rpm: float
+    options: TorqueMeterOptions,
+    torques: CycleTorques,
+    pinion_speed_rpm: float,
+    heat: tuple[float, float] | None = None,
 ) -> TorqueReading:
-    """The torque meters' reading of a cycle at the operating speed."""
-    t1 = float(np.mean(torques.pinion_torque_Nm))
+    """The torque meters' reading at the operating speed: with ``heat`` = (friction, hysteresis)
+    power of the pair (W) at the run's thermal state, the reading of that dissipation (the
+    active friction law's, see the module docstring); without, the structural cycle's torques."""
+    t1_cycle = float(np.mean(torques.pinion_torque_Nm))
     t2 = torques.resisting_torque_Nm
     i = torques.speed_ratio
     omega = 2.0 * math.pi * pinion_speed_rpm / 60.0
-    loss = t1 - t2 * i
+    cycle_loss = t1_cycle - t2 * i
+    if heat is None:
+        t1, loss = t1_cycle, cycle_loss
+        p_f, p_h, source = loss * omega, 0.0, "cycle"
+    else:
+        p_f, p_h = (float(v) for v in heat)
+        loss = (p_f + p_h) / omega
+        t1, source = t2 * i + loss, "law"
     eta = t2 * i / t1
     u = options.uncertainty_Nm
     return TorqueReading(
@@ -63,9 +93,12 @@ def read_torque(
         output_torque_Nm=t2,
         torque_loss_Nm=loss,
         efficiency=eta,
-        friction_power_W=loss * omega,
+        friction_power_W=p_f,
         cycle_friction_power_W=float(np.mean(torques.friction_power_W_per_rad_s)) * omega,
         u_torque_loss_Nm=u * math.sqrt(1.0 + i * i),
         u_efficiency=eta * u * math.sqrt(1.0 / t1**2 + 1.0 / t2**2),
         meter_uncertainty_Nm=u,
+        source=source,
+        hysteresis_power_W=p_h,
+        cycle_torque_loss_Nm=cycle_loss,
     )
