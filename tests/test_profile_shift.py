@@ -60,42 +60,50 @@ def test_unshifted_pair_is_the_standard_pair(z1, z2, alpha):
 
 def test_worked_example_khk():
     """The worked example of KHK Gears' Gear Technical Reference ('calculation of profile shifted
-    spur gears'), reproduced on the stored page
+    spur gears'), as reproduced on the stored page
     http://bolsover.com/utilitiesforalibre/profile-shifted-external-spur-gears.html: m = 3 mm,
-    alpha = 20 deg, z = 12 / 24, x = 0.6 / 0.36. Published (rounded): inv(alpha_w) = 0.034316
-    (0.034317 on the stored page), alpha_w = 26.0886 deg (26.0888), y = 0.83329 (0.83333),
-    a_w = 56.4999 mm (the stored page gives the rounded input 56.500), d_b = 33.8289 / 67.6579,
-    d_w = 37.667 / 75.333, d_a = 44.840 / 79.400 (tip-shortened), d_f = 32.100 / 66.660,
-    eps_alpha = 1.202. Each published digit is met; alpha_w and a_w also agree with an independent
-    root of the involute equation (scipy brentq) to 1e-9."""
-    m, z1, z2, x1, x2 = 3e-3, 12, 24, 0.6, 0.36
-    p = profile_shifted_pair(z1, z2, m, 20.0, x1, x2)
-    aw_deg = p.working_pressure_angle_deg
-    assert inv(aw_deg * DEG) == pytest.approx(0.034316, abs=5e-7)
-    assert aw_deg == pytest.approx(26.0886, abs=5e-5)
-    assert p.centre_distance_modification_coef == pytest.approx(0.83329, abs=5e-6)
-    assert p.centre_distance_m * 1e3 == pytest.approx(56.4999, abs=5e-5)
+    alpha = 20 deg, z = 12 / 24, working centre distance 56.500 mm, x1 = 0.6 (x2 = 0.36, the sum
+    0.960). Published there: inv(alpha_w) = 0.034317, alpha_w = 26.0888 deg, y = 0.83333,
+    d_b = 33.8289 / 67.6579, d_w = 37.667 / 75.333, d_a = 44.840 / 79.400 (tip-shortened),
+    d_f = 32.100 / 66.660, eps_alpha = 1.202.
+
+    Both routes meet every published digit: (a) from a_w = 56.500 mm and x1 = 0.6
+    (:func:`profile_shifted_pair_at_centre_distance`; x1 + x2 = 0.96006); (b) from x1 = 0.6,
+    x2 = 0.36 exactly, where a_w = 56.49987 mm (56.500 to the page's three decimals) and
+    alpha_w = 26.08856 deg (the page's 26.0888 belongs to the rounded a_w); (b)'s alpha_w and a_w
+    also agree with an independent root of the involute equation (scipy brentq) to 1e-9."""
+    m, z1, z2 = 3e-3, 12, 24
+    a = profile_shifted_pair_at_centre_distance(z1, z2, m, 20.0, 56.5e-3, 0.6)
+    b = profile_shifted_pair(z1, z2, m, 20.0, 0.6, 0.36)
+    assert inv(a.working_pressure_angle_deg * DEG) == pytest.approx(0.034317, abs=5e-7)
+    assert a.working_pressure_angle_deg == pytest.approx(26.0888, abs=5e-5)
+    assert a.centre_distance_modification_coef == pytest.approx(0.83333, abs=5e-6)
+    assert a.shift_sum == pytest.approx(0.960, abs=5e-4)
+    assert b.centre_distance_m * 1e3 == pytest.approx(56.500, abs=5e-4)
     mm = {
         "base": (33.8289, 67.6579, 5e-5),
         "working_pitch": (37.667, 75.333, 5e-4),
         "tip": (44.840, 79.400, 5e-4),
         "root": (32.100, 66.660, 5e-4),
     }
-    for name, (d1, d2, tol) in mm.items():
-        assert 2e3 * getattr(p, f"{name}_radius1_m") == pytest.approx(d1, abs=tol), name
-        assert 2e3 * getattr(p, f"{name}_radius2_m") == pytest.approx(d2, abs=tol), name
-    assert p.contact_ratio == pytest.approx(1.202, abs=5e-4)
-    # independent: the root of tan(a) - a = inv(20 deg) + 2 tan(20 deg) 0.96 / 36
+    for p in (a, b):
+        for name, (d1, d2, tol) in mm.items():
+            assert 2e3 * getattr(p, f"{name}_radius1_m") == pytest.approx(d1, abs=tol), name
+            assert 2e3 * getattr(p, f"{name}_radius2_m") == pytest.approx(d2, abs=tol), name
+        assert p.contact_ratio == pytest.approx(1.202, abs=5e-4)
+    # (b) independently: the root of tan(a) - a = inv(20 deg) + 2 tan(20 deg) 0.96 / 36
     target = math.tan(20 * DEG) - 20 * DEG + 2 * math.tan(20 * DEG) * 0.96 / 36
-    aw = brentq(lambda a: math.tan(a) - a - target, 0.1, 1.2, xtol=1e-15)
-    assert aw_deg == pytest.approx(math.degrees(aw), abs=1e-9)
-    assert p.centre_distance_m == pytest.approx(54e-3 * math.cos(20 * DEG) / math.cos(aw), rel=1e-9)
+    aw = brentq(lambda x: math.tan(x) - x - target, 0.1, 1.2, xtol=1e-15)
+    assert b.working_pressure_angle_deg == pytest.approx(math.degrees(aw), abs=1e-9)
+    assert b.centre_distance_m == pytest.approx(54e-3 * math.cos(20 * DEG) / math.cos(aw), rel=1e-9)
+    assert b.working_pressure_angle_deg == pytest.approx(26.08856, abs=5e-6)
+    assert b.centre_distance_m * 1e3 == pytest.approx(56.49987, abs=5e-6)
     # tip shortening keeps the standard clearance 0.25 m, reference thickness m (pi/2 + 2 x tan a)
-    assert p.tip_clearance1_m == pytest.approx(0.75e-3, rel=1e-9)
-    assert p.tip_clearance2_m == pytest.approx(0.75e-3, rel=1e-9)
-    assert p.tooth_thickness1_m == pytest.approx(m * (math.pi / 2 + 1.2 * math.tan(20 * DEG)))
+    assert b.tip_clearance1_m == pytest.approx(0.75e-3, rel=1e-9)
+    assert b.tip_clearance2_m == pytest.approx(0.75e-3, rel=1e-9)
+    assert b.tooth_thickness1_m == pytest.approx(m * (math.pi / 2 + 1.2 * math.tan(20 * DEG)))
     # the thickness at the reference circle from the involute relation is the same number
-    assert p.thickness_at_m(1, m * z1 / 2) == pytest.approx(p.tooth_thickness1_m, rel=1e-14)
+    assert b.thickness_at_m(1, m * z1 / 2) == pytest.approx(b.tooth_thickness1_m, rel=1e-14)
 
 
 def test_shift_sum_from_centre_distance_round_trips():

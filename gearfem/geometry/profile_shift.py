@@ -2,8 +2,8 @@
 
 Given the tooth numbers z1, z2, the module m, the basic rack (pressure angle alpha, addendum
 h_aP* m, dedendum h_fP* m, tip radius rho_fP* m) and the profile shift coefficients x1, x2 (the
-rack moved x m away from the gear's centre), for a pair meshing without backlash [ISO 21771:2007,
-sections 4-5; DIN 3960; Niemann & Winter, Maschinenelemente II, ch. 21]:
+rack moved x m away from the gear's centre), for a pair meshing without backlash (ISO 21771:2007,
+DIN 3960; as in Niemann & Winter, Maschinenelemente II):
 
 * involute function inv(alpha) = tan(alpha) - alpha and its inverse (Newton),
   :func:`gearfem.geometry.involute.inv`, :func:`gearfem.geometry.involute.inv_inverse`;
@@ -208,7 +208,7 @@ def min_shift_without_undercut(
 ) -> float:
     """x_min = h_FfP* - z sin^2(alpha) / 2, h_FfP* = h_fP* - rho_fP* (1 - sin(alpha)): below it the
     rack's straight flank reaches past the interference point r sin^2(alpha) and undercuts the
-    involute (DIN 3960; for 20 deg, 1.25 m, 0.38 m: h_FfP* = 1.000, z_min = 2 / sin^2(alpha) =
+    involute (for 20 deg, 1.25 m, 0.38 m: h_FfP* = 1.000, z_min = 2 / sin^2(alpha) =
     17.1 at x = 0)."""
     z = _teeth("teeth", teeth)
     alpha = _alpha(pressure_angle_deg)
