@@ -478,10 +478,15 @@ def reproduce(out: Path, comm, doc: bool) -> None:
         )
         text = (
             f"**The bench diagnosis on the shipped model**: {d.verdict.text}\n\n"
-            f"Winner {label} (95 % interval {ivs}); held-out error "
-            f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after; fold margins "
+            + (
+                f"Winner {label} (95 % interval {ivs}); held-out error "
+                if d.verdict.kind == "identified"
+                else f"The best candidate on the surrogate, {label}, is no explanation (the "
+                "verdict above); held-out error "
+            )
+            + f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after; fold margins "
             f"{robust}. Each bench point reproduced with `gearfem run` on the case file the "
-            f"diagnosis writes for its winner:\n\n{table}\n\n"
+            f"diagnosis writes for that value:\n\n{table}\n\n"
             "Details, the ranking, the margins and what to measure next: "
             "[docs/diagnosis.md](docs/diagnosis.md)."
         )

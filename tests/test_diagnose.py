@@ -732,3 +732,42 @@ def test_suggest_measurements_path(tmp_path):
     _plots(r, d, tmp_path, s)
     for name in ("prediction_vs_data.png", "ranking.png", "suggestion.png"):
         assert (tmp_path / name).stat().st_size > 10_000, name
+
+
+def test_a_fit_that_fails_on_the_full_model_is_not_a_verdict():
+    """The chosen model is confirmed on the full model: when the full model at the refined value
+    fails the chi-square test (here a full model that differs from the surrogate by +-25 K at two
+    operating points, in opposite directions, which no convection scale can absorb), the verdict
+    says that no candidate explains the data, with the full model's chi2 and RMS error, and quotes
+    no profile interval; a full model equal to the surrogate leaves the verdict identified."""
+    from diagnose_lumped import LumpedModel
+
+    from gearfem.diagnose.forward import Surrogate
+    from gearfem.diagnose.select import GOF_LEVEL, diagnose, refine
+
+    lm = LumpedModel(times_s=())
+    pts = COVERAGE_DESIGNS[1]
+    lib = tuple(by_name(n) for n in ("convection_scale", "bore_heat_path"))
+    sur = Surrogate(lm, pts, lib)
+    d = _lumped_data(lm, pts, {"convection_scale": 1.8}, np.random.default_rng(5), ("mean_bulk",))
+    r = diagnose(sur.predict, d, library=lib, max_size=1, u_model_K=0.0, model_error=sur.error)
+    assert r.verdict.kind == "identified", r.verdict.text
+
+    same = refine(lm.predict, sur.predict, d, r, library=lib, model_error=sur.error)
+    assert same.verdict.kind == "identified", same.verdict.text
+    assert same.refined.full_p_value >= GOF_LEVEL
+
+    sign = np.array([1.0 if m.speed_rpm == pts[0][0] else -1.0 for m in d.measurements])
+    assert 0 < np.sum(sign > 0) < len(sign)
+
+    def full(data, model):
+        return np.asarray(lm.predict(data, model)) + 25.0 * sign
+
+    rr = refine(full, sur.predict, d, r, library=lib, model_error=sur.error)
+    assert rr.refined.full_p_value < GOF_LEVEL
+    assert rr.verdict.kind == "partial"
+    assert rr.verdict.chi2_p_value == rr.refined.full_p_value
+    assert "no candidate explains the data on the full model" in rr.verdict.text
+    assert f"chi2 = {rr.refined.full_chi2:.3g}" in rr.verdict.text
+    assert "profile interval" not in rr.verdict.text
+    assert rr.refined.full_rmse_K == pytest.approx(25.0, rel=0.5)

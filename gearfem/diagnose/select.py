@@ -132,6 +132,11 @@ class Refinement(JsonRecord):
     full_C: list[float] | None = None
     edges: tuple[EdgeCheck, ...] = ()
     interval_scale: float = 1.0
+    #: chi2 of the full model at the refined parameters (sigma without the surrogate's error) and
+    #: its goodness-of-fit p-value: below GOF_LEVEL the chosen model fails on the full model
+    #: whatever the corrected surrogate says (seen: a branch the surrogate interpolates across)
+    full_chi2: float | None = None
+    full_p_value: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -616,6 +621,16 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
     if kind == "partial":
         others = verdict.get("competitors") or []
         alike = f" (as poor: {', '.join('+'.join(c) for c in others)})" if others else ""
+        if "full_rmse_K" in chosen:
+            rmse = chosen["full_rmse_K"]
+            rms = f", RMS error {rmse:.3g} K" if rmse is not None else ""
+            return (
+                f"no candidate explains the data on the full model: the best on the surrogate, "
+                f"{fmt(chosen)}, fails the chi-square test on the full model at that value "
+                f"(chi2 = {chosen['chi2']:.3g}, p = {verdict['chi2_p_value']:.2g}{rms}){alike}; "
+                "the surrogate's fit does not hold on the model it stands for (a branch or a "
+                "step of the full model between the surrogate's nodes)"
+            )
         return (
             f"no candidate explains the data: the best, {fmt(chosen)}, still fails the "
             f"chi-square test "
@@ -752,6 +767,9 @@ def refine(
         return float(r @ r)
 
     c_min = min(chi2_full(m) for m in [params0, params] if final_check or m is params0)
+    if final_check:
+        check["full_chi2"] = chi2_full(params)
+        check["full_p_value"] = gof_p_value(check["full_chi2"], n, k)
     target = c_min + CHI2_95 * scale
     if edges == "auto":
         e = np.zeros(len(data)) if model_error is None else np.asarray(model_error(data, names))
@@ -814,8 +832,17 @@ def refine(
         "unconstrained": list(v.unconstrained),
         "separate_by": [dataclasses.asdict(x) for x in v.separate_by],
     }
+    if refined.full_p_value is not None and refined.full_p_value < GOF_LEVEL:
+        # the full model is the model: a fit that passes on the (corrected) surrogate only is no
+        # explanation, and that is said before any rivalry
+        vd["kind"] = "partial"
+        vd["chi2_p_value"] = refined.full_p_value
+        chosen["chi2"] = refined.full_chi2
+        chosen["full_rmse_K"] = refined.full_rmse_K
+        chosen["intervals"] = {}  # a profile interval of a model that fails is not quoted
     text = verdict_text(vd, chosen, library)
-    return dataclasses.replace(result, refined=refined, verdict=dataclasses.replace(v, text=text))
+    verdict = dataclasses.replace(v, text=text, kind=vd["kind"], chi2_p_value=vd["chi2_p_value"])
+    return dataclasses.replace(result, refined=refined, verdict=verdict)
 
 
 def _full_edge(chi2_full, model_at, p, v_best, v_edge, bound, target, tol, max_runs):
