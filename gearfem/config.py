@@ -7,7 +7,10 @@ A case file has one table per stage, each a frozen dataclass of the module that 
     [mesh]           # gearfem.geometry.options.MeshOptions: the structural (contact) mesh
     [thermal_mesh]   # MeshOptions of the thermal model's own mesh (absent: the [mesh] table)
     [material]       # gearfem.core.materials.Material (both gears; [material_wheel] overrides
-                     # the wheel)
+                     # the wheel). name = "POM" selects the library's constants
+                     # (gearfem/data/materials, docs/materials.md), the table's other keys
+                     # override them; a name not in the library is an error (free text goes in
+                     # the case's top-level name)
     [contact]        # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5)
     [friction]       # gearfem.contact.friction.FrictionOptions: the friction law of the heat
                      # sources (default: the contact's constant mu)
@@ -38,6 +41,7 @@ from gearfem.baselines import BaselineOptions
 from gearfem.contact.friction import FrictionOptions
 from gearfem.contact.options import ContactOptions
 from gearfem.core.errors import ParameterError
+from gearfem.core.material_library import library_material
 from gearfem.core.materials import Material, data_text
 from gearfem.core.params import from_dict, require_nonnegative, require_positive, to_dict
 from gearfem.coupling.options import REMOVED_KEYS, SourceOptions
@@ -115,7 +119,39 @@ class Case:
         return dataclasses.replace(self, operating=op)
 
 
+#: The case tables that hold a :class:`Material`.
+MATERIAL_TABLES = ("material", "material_wheel")
+
+
+def _library_materials(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` with each material table that names a material started from the library's
+    constants (canonical name; the table's own keys override them). An unknown name raises
+    ParameterError naming the table's ``name``, the value and the library's names; a steel, or a
+    polymer without an H(T) table when the table gives none, raises likewise."""
+    out = dict(data)
+    for key in MATERIAL_TABLES:
+        table = data.get(key)
+        if not isinstance(table, dict) or "name" not in table:
+            continue
+        try:
+            lib = library_material(table["name"], f"{key}.name")
+        except ParameterError as err:
+            raise ParameterError(
+                err.name,
+                err.value,
+                err.allowed,
+                f"{err.reason}; free text describing the case goes in its top-level name",
+            ) from err
+        hysteresis = table.get("hysteresis")
+        if isinstance(hysteresis, list):
+            hysteresis = tuple(tuple(row) for row in hysteresis)
+        base = to_dict(lib.to_material(hysteresis=hysteresis, parameter=f"{key}.name"))
+        out[key] = base | {k: v for k, v in table.items() if k != "name"}
+    return out
+
+
 def case_from_dict(data: dict[str, Any]) -> Case:
+    data = _library_materials(data)
     for key, replacement in REMOVED_KEYS.items():
         if isinstance(data.get("sources"), dict) and key in data["sources"]:
             raise ParameterError(

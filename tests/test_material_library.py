@@ -11,6 +11,7 @@ from importlib import resources
 import pytest
 
 from gearfem import baselines as B
+from gearfem.config import case_from_dict, case_to_dict, load_case
 from gearfem.core.errors import ParameterError
 from gearfem.core.material_library import (
     VALUE_UNITS,
@@ -136,7 +137,7 @@ def test_peek450g_is_the_shipped_data():
     assert lib.value("friction_against_steel") == float(steel_t["mu_from"])
     assert lib.value("friction_against_self") == 0.5  # the thesis model's constant (5.1.2)
     mat = lib.to_material()
-    assert mat.hysteresis_table() == ref.__class__(ref.T_K, ref.values, "material.hysteresis")
+    assert mat.hysteresis == "peek450g" and mat.hysteresis_table() == ref
     for field in ("density_kg_m3", "youngs_modulus_Pa", "specific_heat_J_kgK", "emissivity"):
         assert getattr(mat, field) == getattr(shipped, field)
 
@@ -204,12 +205,49 @@ def test_input_uncertainties_bracket_the_values():
 
 
 def test_to_material_needs_loss_data_and_a_polymer():
-    with pytest.raises(ParameterError, match=r"POM\.hysteresis .*no loss data for POM"):
+    with pytest.raises(ParameterError, match=r"material\.hysteresis .*no loss data for POM"):
         library_material("POM").to_material()
     m = library_material("POM").to_material(hysteresis=((20.0, 100.0), (0.01, 0.02)))
     assert m.youngs_modulus_Pa == 2.85e9 and m.hysteresis_table()(373.15) == pytest.approx(0.02)
     with pytest.raises(ParameterError, match="steel gear is not yet a body"):
         library_material("steel").to_material()
+    # the library's PEEK 450G is the solvers' default material, H(T) by its shipped name
+    assert library_material("PEEK 450G").to_material() == Material()
+
+
+def test_a_case_file_selects_library_materials_by_name():
+    """``[material] name`` selects the library's constants (the table's keys override them, per
+    gear); a name not in the library, a steel and a polymer without H(T) are errors naming the key,
+    the value and what is allowed."""
+    pa66 = library_material("PA66")
+    h = [[20.0, 100.0], [0.01, 0.05]]
+    case = case_from_dict(
+        {
+            "material": {"name": "nylon 66", "hysteresis": h, "youngs_modulus_Pa": 2.0e9},
+            "material_wheel": {"name": "peek"},
+        }
+    )
+    pinion, wheel = case.materials["pinion"], case.materials["wheel"]
+    assert pinion.name == "PA66" and pinion.youngs_modulus_Pa == 2.0e9
+    for key in ("density_kg_m3", "thermal_conductivity_W_mK", "specific_heat_J_kgK", "emissivity"):
+        assert getattr(pinion, key) == pa66.value(key), key
+    assert pinion.glass_transition_C == pa66.value("glass_transition_C")
+    assert pinion.hysteresis_table()(373.15) == pytest.approx(0.05)
+    assert wheel == Material() and load_case().material == Material()
+    # a written case reads back as the same case (its name selects, its values override)
+    assert case_from_dict(case_to_dict(case)) == case
+    # without a name the constants are typed (defaults PEEK 450G's)
+    typed = case_from_dict({"material": {"youngs_modulus_Pa": 3.5e9}})
+    assert typed.material == Material(youngs_modulus_Pa=3.5e9)
+    with pytest.raises(ParameterError) as err:
+        case_from_dict({"material_wheel": {"name": "my PEEK"}})
+    msg = str(err.value)
+    assert msg.startswith("material_wheel.name = 'my PEEK' is not allowed")
+    assert all(repr(n) in msg for n in NAMES) and "top-level name" in msg
+    with pytest.raises(ParameterError, match=r"^material\.name = 'steel' .*not yet a body"):
+        case_from_dict({"material": {"name": "steel"}})
+    with pytest.raises(ParameterError, match=r"^material_wheel\.hysteresis = None .*POM"):
+        case_from_dict({"material_wheel": {"name": "POM"}})
 
 
 GOOD = """# test material

@@ -25,8 +25,9 @@ Numbers for the diagnosis: :func:`input_uncertainties` (each value's interval, k
 the Blok heat partition by thermal effusivity, :func:`effusivity_partition` and its interval
 :func:`effusivity_partition_range`.
 
-Not yet connected (docs/materials.md): the case file's ``[material] name`` does not select these
-data yet; :meth:`LibraryMaterial.to_material` builds the polymer :class:`Material` the solvers use.
+In a case file, ``[material] name`` selects a material of this library (gearfem.config: the
+table's other keys override its values; an unknown name is the error above). Not yet connected
+(docs/materials.md): a steel body, profile shift in the mesh, E(T) in the cycle.
 Pure Python and numpy (tomllib); no DOLFINx.
 """
 
@@ -41,7 +42,12 @@ from importlib import resources
 from typing import Any
 
 from gearfem.core.errors import ParameterError
-from gearfem.core.materials import Material, TemperatureTable
+from gearfem.core.materials import (
+    ZERO_CELSIUS_K,
+    Material,
+    TemperatureTable,
+    peek450g_hysteresis,
+)
 
 #: Value keys a library file may hold, with their units (SI; temperatures in deg C).
 VALUE_UNITS: dict[str, str] = {
@@ -186,31 +192,40 @@ class LibraryMaterial:
         return effusivity(self)
 
     def to_material(
-        self, hysteresis: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+        self,
+        hysteresis: str | tuple[tuple[float, ...], tuple[float, ...]] | None = None,
+        parameter: str = "material.name",
     ) -> Material:
         """The polymer :class:`~gearfem.core.materials.Material` of these constants (the solvers'
-        material), with the library's H(T) table or ``hysteresis`` ([[T_C...], [H...]]).
+        material), with the library's H(T) table or ``hysteresis`` (``"peek450g"`` or
+        [[T_C...], [H...]]). The library's PEEK 450G table is the thesis's, so it comes out as
+        ``"peek450g"``: ``library_material("PEEK 450G").to_material() == Material()``.
 
-        Raises ParameterError for a steel (not yet a body of the cycle and thermal models,
-        docs/materials.md) and for a polymer without an H(T) table when none is given.
+        Raises ParameterError naming ``parameter`` for a steel (not yet a body of the cycle and
+        thermal models, docs/materials.md) and for a polymer without an H(T) table when none is
+        given.
         """
         if self.kind != "polymer":
             raise ParameterError(
-                "material.name",
+                parameter,
                 self.name,
                 "a polymer of the library",
                 "a steel gear is not yet a body of gearfem's cycle and thermal models",
             )
         if hysteresis is None:
             if "hysteresis" not in self.tables:
+                table = parameter.rpartition(".")[0] or "material"
                 raise ParameterError(
-                    f"{self.name}.hysteresis",
+                    f"{table}.hysteresis",
                     None,
                     "an H(T) table [[T_C...], [H...]]",
-                    f"the library has no loss data for {self.name}",
+                    f"the library has no loss data for {self.name}: give the table in "
+                    f"[{table}] with its source",
                 )
             t = self.tables["hysteresis"]
             hysteresis = (t.T_C, t.values)
+            if _same_table(t, peek450g_hysteresis()):
+                hysteresis = "peek450g"
         return Material(
             name=self.name,
             density_kg_m3=self.value("density_kg_m3"),
@@ -222,6 +237,14 @@ class LibraryMaterial:
             glass_transition_C=self.value("glass_transition_C"),
             hysteresis=hysteresis,
         )
+
+
+def _same_table(t: SourcedTable, other: TemperatureTable) -> bool:
+    """The library table ``t`` is ``other`` (temperatures to 1e-9 K, values exactly)."""
+    return len(t.T_C) == len(other.T_K) and all(
+        abs(a + ZERO_CELSIUS_K - b) < 1e-9 and v == w
+        for a, b, v, w in zip(t.T_C, other.T_K, t.values, other.values)
+    )
 
 
 # ------------------------------------------------------------------------------------------------
