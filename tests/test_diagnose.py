@@ -125,6 +125,46 @@ def test_vv20_arithmetic():
     assert np.allclose(u, [5.0, 10.0]) and set(parts) == {"k", "cp"}
 
 
+def test_material_input_uncertainty_comes_from_the_library():
+    """The V&V 20 material inputs are uniform over the library's intervals: a one-sided step of
+    u_x / delta = 1/sqrt(12) across a range ending at the value, 1/sqrt(3) across value -+ d; the
+    case's material (and its override of the value) decides which interval and where."""
+    from gearfem.config import case_from_dict
+    from gearfem.core.material_library import library_material
+    from gearfem.diagnose.report import material_perturbations, uniform_step
+
+    assert uniform_step(0.25, 0.25, 0.29) == pytest.approx((0.04, 1.0 / math.sqrt(12.0)))
+    assert uniform_step(0.9, 0.87, 0.93) == pytest.approx((0.03, 1.0 / math.sqrt(3.0)))
+    assert uniform_step(0.99, 0.96, 1.02, upper=1.0)[0] == pytest.approx(-0.03)
+    h = [[20.0, 100.0], [0.01, 0.02]]
+    for name, k_override in (("PEEK 450G", None), ("POM", 0.4)):
+        table = {"name": name} | ({"hysteresis": h} if name == "POM" else {})
+        if k_override is not None:
+            table["thermal_conductivity_W_mK"] = k_override
+        case = case_from_dict({"material": table})
+        lib = library_material(name)
+        (k_label, (k_tr, k_scale)), (e_label, (e_tr, _)) = material_perturbations(case).items()
+        lo, hi = lib["thermal_conductivity_W_mK"].interval()
+        delta, scale = uniform_step(lib.value("thermal_conductivity_W_mK"), lo, hi)
+        k = k_tr(case).material.thermal_conductivity_W_mK
+        assert k == pytest.approx(case.material.thermal_conductivity_W_mK + delta)
+        assert k_scale == pytest.approx(scale) and name in k_label and name in e_label
+        e = lib["emissivity"]
+        delta, _ = uniform_step(e.value, *e.interval(), upper=1.0)
+        assert e_tr(case).thermal.emissivity == pytest.approx(case.material.emissivity + delta)
+
+
+def test_suggestion_after_a_full_model_failure_says_so():
+    """One explanation standing on the surrogate that fails on the full model is not "one
+    explanation stands": the suggestion says it fails and points at a mechanism's measurement."""
+    from gearfem.diagnose.design import suggestion_text
+
+    assert "one explanation stands" in suggestion_text((), ())
+    text = suggestion_text((), (), full_model_p=1.4e-8)
+    assert "fails on the full model (p = 1.4e-08)" in text and "torque meter" in text
+    assert "one explanation stands" not in text
+
+
 def test_candidate_priors_and_nodes():
     for c in LIBRARY:
         p = c.parameter

@@ -14,6 +14,7 @@ from mpi4py import MPI
 from gearfem import claims
 from gearfem.config import Case, write_case
 from gearfem.core.io import prepare_output, write_json
+from gearfem.core.material_library import library_material
 from gearfem.core.results import JsonRecord
 from gearfem.cycle.cache import cache_root
 from gearfem.diagnose.candidates import LIBRARY, apply_all, by_name
@@ -56,6 +57,45 @@ def _replace_material(**kw):
     return lambda c: dataclasses.replace(
         c, material=dataclasses.replace(c.material, **kw), material_wheel=None
     )
+
+
+def uniform_step(value: float, lo: float, hi: float, upper: float | None = None):
+    """(delta, scale) of a one-sided finite difference for an input uniform on [lo, hi] (given
+    about ``value``): the step is the interval's wider side (upwards on a tie, downwards when that
+    would pass ``upper``), the scale u_x / |delta| with u_x = (hi - lo) / sqrt(12). A symmetric
+    ``value -+ d`` steps by d, scale 1/sqrt(3); a range with ``value`` at one end steps across it,
+    scale 1/sqrt(12)."""
+    below, above = value - lo, hi - value
+    delta = above if above >= below else -below
+    if upper is not None and value + delta > upper:
+        delta = -below
+    return delta, (hi - lo) / math.sqrt(12.0) / abs(delta)
+
+
+def material_perturbations(case: Case) -> dict[str, tuple[Any, float]]:
+    """The material inputs of the V&V 20 input uncertainty: thermal conductivity and emissivity,
+    each uniform over its interval in the materials library (gearfem/data/materials, the case
+    material's ``name``), shifted to the case's value where the case overrides the library's. The
+    emissivity is the thermal model's (``[thermal] emissivity`` or the material's)."""
+    mat = case.material
+    lib = library_material(mat.name, "material.name")
+    pert = {}
+    k = lib["thermal_conductivity_W_mK"]
+    lo, hi = k.interval()
+    delta, scale = uniform_step(k.value, lo, hi)
+    pert[f"thermal_conductivity_W_mK ({lo:.3g}-{hi:.3g}, uniform; {lib.name} library)"] = (
+        _replace_material(thermal_conductivity_W_mK=mat.thermal_conductivity_W_mK + delta),
+        scale,
+    )
+    e = lib["emissivity"]
+    lo, hi = e.interval()
+    value = case.thermal.emissivity or mat.emissivity
+    delta, scale = uniform_step(value, value - (e.value - lo), value + (hi - e.value), upper=1.0)
+    pert[
+        f"emissivity ({e.value:.2f} -{e.value - lo:.2g}/+{hi - e.value:.2g}, uniform; "
+        f"{lib.name} library)"
+    ] = (_replace_thermal(emissivity=value + delta), scale)
+    return pert
 
 
 def studied_u_num(case: Case, data: Dataset, S: np.ndarray) -> tuple[np.ndarray | None, str]:
@@ -115,22 +155,7 @@ def run_diagnosis(
         S1 = full.predict(data, {}, transform=_replace_thermal(degree=1))
         u_num = 1.25 * np.abs(S - S1) / 3.0
         num_note = "1.25 |S(P2) - S(P1)| / (2^2 - 1) (no refinement study of its resolution)"
-    mat = case.material
-    # input: conductivity 0.25-0.29 W/(m K) (material.toml range), emissivity 0.90 +- 0.05
-    # (assumed),
-    # both uniform: one-sided step of the full range / half-range, scaled to a standard uncertainty
-    pert = {
-        "thermal_conductivity_W_mK (0.25-0.29, uniform)": (
-            _replace_material(thermal_conductivity_W_mK=mat.thermal_conductivity_W_mK + 0.04),
-            0.5 / math.sqrt(3.0),
-        ),
-        "emissivity (0.90 +- 0.05, uniform)": (
-            _replace_thermal(
-                emissivity=min(1.0, (case.thermal.emissivity or mat.emissivity) + 0.05)
-            ),
-            1.0 / math.sqrt(3.0),
-        ),
-    }
+    pert = material_perturbations(case)
     # the tip rounds' radius is not measured: the case's ± 0.05 m (uniform; 0.1-0.3 mm for the
     # thesis's 0.2 mm, m = 2 mm); the entering pair's first contact and the hot spot at the flank
     # foot sit on it (a cycle of the changed geometry per torque)
@@ -581,7 +606,12 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "",
         f"Held-out (leave one operating point out) RMS error: {fmt(g.loo_rmse_before_K)} "
         f"before, {fmt(g.loo_rmse_after_K)} after; in-sample RMS {fmt(g.rmse_before_K)} "
-        f"before, {fmt(g.rmse_after_K)} after.",
+        f"before, {fmt(g.rmse_after_K)} after on the surrogate"
+        + (
+            f", {fmt(result.refined.full_rmse_K)} on the full model at the refined value."
+            if result.refined is not None and result.refined.full_rmse_K is not None
+            else "."
+        ),
     ]
     if result.refined is not None:
         c = result.refined
