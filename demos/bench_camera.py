@@ -351,7 +351,12 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
             "",
             f"**Verdict: {d.verdict.text}** Held-out RMS error {fmt(g.loo_rmse_before_K)} "
             f"before, {fmt(g.loo_rmse_after_K)} after; in-sample {fmt(g.rmse_before_K)} before, "
-            f"{fmt(g.rmse_after_K)} after.",
+            f"{fmt(g.rmse_after_K)} after on the surrogate"
+            + (
+                f", {fmt(d.refined.full_rmse_K)} on the full model at the refined value."
+                if d.refined is not None and d.refined.full_rmse_K is not None
+                else "."
+            ),
             "",
             "Single candidates, ranked (pairs have as many parameters as the bench has data and "
             "are not ranked):",

@@ -73,6 +73,7 @@ from gearfem.core.params import (
     require_positive,
     require_range,
 )
+from gearfem.geometry.profile_shift import max_rack_fillet_coef
 
 log = logging.getLogger(__name__)
 
@@ -1061,28 +1062,6 @@ def profile_shift_from_thickness(
     )
     alpha = _deg("pressure_angle_deg", pressure_angle_deg)
     return (s / m - math.pi / 2.0) / (2.0 * math.tan(alpha))
-
-
-def max_rack_fillet_coef(pressure_angle_deg: float, dedendum_coef: float = 1.25) -> float:
-    """Largest tip-fillet radius rho_fP / m that fits the basic rack (a full-round tool tip).
-
-    The tool tooth's half-width at its tip is pi/4 - h_fP tan(alpha) (per module); a fillet
-    tangent to flank and tip line is centred (1 - sin(alpha)) rho / cos(alpha) inside the corner,
-    so E = pi/4 m - h_fP tan(alpha) - (1 - sin(alpha)) rho_fP / cos(alpha) >= 0 (ISO 6336-3 eq. for
-    E with s_pr = 0) gives rho_fP,max = (pi/4 - h_fP tan(alpha)) cos(alpha) / (1 - sin(alpha)).
-    For 20 deg, h_fP = 1.25 m: 0.472 m; for 30 deg: 0.110 m.
-    """
-    alpha = _deg("pressure_angle_deg", pressure_angle_deg)
-    h = require_positive("dedendum_coef", dedendum_coef)
-    half_tip = math.pi / 4.0 - h * math.tan(alpha)
-    if half_tip <= 0:
-        raise ParameterError(
-            "dedendum_coef",
-            h,
-            f"< {math.pi / 4 / math.tan(alpha):.4f}",
-            "the rack tooth comes to a point before reaching this depth",
-        )
-    return half_tip * math.cos(alpha) / (1.0 - math.sin(alpha))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -43,7 +43,14 @@ from gearfem.core.params import require_positive
 from gearfem.core.results import JsonRecord
 from gearfem.diagnose.candidates import LIBRARY, Candidate
 from gearfem.diagnose.data import Dataset, Measurement, camera_uncertainty_K, unit_of
-from gearfem.diagnose.select import Diagnosis, ModelError, Predict, fit, ranking_error
+from gearfem.diagnose.select import (
+    GOF_LEVEL,
+    Diagnosis,
+    ModelError,
+    Predict,
+    fit,
+    ranking_error,
+)
 
 #: Speeds of the bench grid, rpm: the thesis bench ran 1000 and 2000 rpm (6.1-6.2); 500 and 1500
 #: in between and below. Its servo motors' limits are not stated in the thesis (6.1.1); nothing
@@ -352,8 +359,17 @@ def suggest(
         draws=draws,
         ranked=tuple(ranked),
         decisive=decisive,
-        text=suggestion_text(expl, decisive, library),
+        text=suggestion_text(expl, decisive, library, full_model_p=_full_model_failure(result)),
     )
+
+
+def _full_model_failure(result: Diagnosis) -> float | None:
+    """The full model's p-value at the refined chosen model when it fails the goodness-of-fit
+    test (the verdict then names no cause), else None."""
+    r = result.refined
+    if r is None or r.full_p_value is None or r.full_p_value >= GOF_LEVEL:
+        return None
+    return r.full_p_value
 
 
 #: A proposal below this expected information gain (bits) is not listed as deciding anything.
@@ -373,9 +389,22 @@ def _decisive(ranked: list[Proposal], n: int = 3) -> tuple[Proposal, ...]:
 
 
 def suggestion_text(
-    expl: tuple[Explanation, ...], decisive: tuple[Proposal, ...], library=LIBRARY
+    expl: tuple[Explanation, ...],
+    decisive: tuple[Proposal, ...],
+    library=LIBRARY,
+    full_model_p: float | None = None,
 ) -> str:
-    """The measurements that would decide and what each outcome would mean."""
+    """The measurements that would decide and what each outcome would mean. ``full_model_p``: the
+    full model's p-value where the one standing explanation fails on it (no cause named)."""
+    if len(expl) < 2 and full_model_p is not None:
+        return (
+            "nothing of the library to separate, and the one explanation standing on the surrogate"
+            + (f" ({expl[0].label})" if expl else "")
+            + f" fails on the full model (p = {full_model_p:.2g}): the cause is outside the "
+            "library or needs several candidates at once. A measurement of a mechanism itself "
+            "(a torque meter reads the flank friction, a probe the bulk) tells more than one "
+            "that narrows this parameter"
+        )
     if len(expl) >= 2 and not decisive:
         return (
             "no proposal of the grid separates "

@@ -762,9 +762,15 @@ def refine(
     sigma_full = _sigma(data, u_model_K)
     w = np.array(data.series_weights())
 
+    chi2_seen: dict[tuple, float] = {}
+
     def chi2_full(model):
-        r = _residuals(full, data, model, sigma_full)
-        return float(r @ r)
+        # each model once: the refined one is asked for by the minimum and the final check
+        key = tuple(sorted(model.items()))
+        if key not in chi2_seen:
+            r = _residuals(full, data, model, sigma_full)
+            chi2_seen[key] = float(r @ r)
+        return chi2_seen[key]
 
     c_min = min(chi2_full(m) for m in [params0, params] if final_check or m is params0)
     if final_check:

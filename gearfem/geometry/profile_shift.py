@@ -219,12 +219,27 @@ def min_shift_without_undercut(
 
 
 def max_rack_fillet_coef(pressure_angle_deg: float, dedendum_coef: float = 1.25) -> float:
-    """Largest rack tip radius rho_fP* that fits the basic rack's tooth (a full round):
-    (pi/4 - h_fP* tan(alpha)) cos(alpha) / (1 - sin(alpha)) (0.472 for 20 deg, 0.110 for 30 deg
-    at h_fP* = 1.25; as :func:`gearfem.baselines.max_rack_fillet_coef`)."""
+    """Largest tip-fillet radius rho_fP* = rho_fP / m that fits the basic rack (a full-round tool
+    tip).
+
+    The tool tooth's half-width at its tip is pi/4 - h_fP* tan(alpha) (per module); a fillet
+    tangent to flank and tip line is centred (1 - sin(alpha)) rho / cos(alpha) inside the corner,
+    so E = pi/4 m - h_fP tan(alpha) - (1 - sin(alpha)) rho_fP / cos(alpha) >= 0 (ISO 6336-3 eq. for
+    E with s_pr = 0) gives rho_fP,max* = (pi/4 - h_fP* tan(alpha)) cos(alpha) / (1 - sin(alpha)).
+    For 20 deg, h_fP* = 1.25: 0.472; for 30 deg: 0.110. A rack that comes to a point above
+    ``dedendum_coef`` raises ParameterError naming it.
+    """
     alpha = _alpha(pressure_angle_deg)
     h = require_positive("dedendum_coef", dedendum_coef)
-    return (math.pi / 4.0 - h * math.tan(alpha)) * math.cos(alpha) / (1.0 - math.sin(alpha))
+    half_tip = math.pi / 4.0 - h * math.tan(alpha)
+    if half_tip <= 0:
+        raise ParameterError(
+            "dedendum_coef",
+            h,
+            f"< {math.pi / 4 / math.tan(alpha):.4f}",
+            "the rack tooth comes to a point before reaching this depth",
+        )
+    return half_tip * math.cos(alpha) / (1.0 - math.sin(alpha))
 
 
 def _build(
