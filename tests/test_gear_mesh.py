@@ -623,10 +623,11 @@ def test_cli_mesh_writes_mesh_json_and_picture(tmp_path, capsys):
 
     case = tmp_path / "case.toml"
     case.write_text(
+        "name = 'mesh only: the material is validated, not used'\n\n"
         "[geometry]\nteeth_pinion = 30\n\n"
         "[mesh]\nteeth_in_model = 5\nsize_flank_mm = 0.4\nsize_tip_mm = 0.4\nsize_root_mm = "
         "0.4\nlayers = 1\n\n"
-        "[material]\nname = 'ignored by the mesh command'\n"
+        "[material]\nname = 'POM'\nhysteresis = [[20.0, 100.0], [0.01, 0.02]]\n"
     )
     out = tmp_path / "out"
     assert main(["mesh", str(case), "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
