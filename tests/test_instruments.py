@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +40,9 @@ from gearfem.instruments.scene import Surface, gear_surface, linear_triangles
 from gearfem.instruments.snapshot import KINDS, BodyField, CycleTorques, FieldSnapshot
 from gearfem.instruments.torque import read_torque
 from gearfem.thermal.options import ThermalOptions
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_cycle import TINY  # the cycle tests' small pair mesh
 
 H, C, K = 6.62607015e-34, 299792458.0, 1.380649e-23
 SMALL = MeshOptions(
@@ -750,17 +754,6 @@ def test_observe_needs_a_finished_run(tmp_path):
 
 
 # ------------------------------------------------- torque meters and the forward model (cycles)
-
-TINY = MeshOptions(
-    teeth_in_model=4,
-    refined_teeth=3,
-    layers=2,
-    size_flank_mm=0.35,
-    size_tip_mm=0.35,
-    size_root_mm=0.45,
-    size_tooth_mm=1.5,
-    size_body_mm=5.0,
-)
 
 
 @pytest.mark.slow

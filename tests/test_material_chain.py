@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,20 +27,11 @@ from gearfem import pipeline
 from gearfem.config import case_from_dict
 from gearfem.core.material_library import library_material, library_names
 from gearfem.cycle.options import CycleOptions
-from gearfem.geometry.options import MeshOptions
 from gearfem.thermal.options import ThermalOptions
 
-#: tests/test_cycle.py's small pair mesh (a reference tooth with its heated images in the model).
-TINY = MeshOptions(
-    teeth_in_model=4,
-    refined_teeth=3,
-    layers=2,
-    size_flank_mm=0.35,
-    size_tip_mm=0.35,
-    size_root_mm=0.45,
-    size_tooth_mm=1.5,
-    size_body_mm=5.0,
-)
+sys.path.insert(0, str(Path(__file__).parent))
+from test_cycle import TINY  # the cycle tests' small pair mesh
+
 #: A loss fraction H(T) for a polymer the library has none for: test input, not data.
 TEST_HYSTERESIS = [[20.0, 150.0], [0.01, 0.05]]
 POLYMERS = tuple(n for n in library_names() if library_material(n).kind == "polymer")
