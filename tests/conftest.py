@@ -41,16 +41,15 @@ def pytest_configure(config: pytest.Config) -> None:
             reporter._tw = type(reporter._tw)(stream)  # type: ignore[attr-defined]
 
 
-#: Test modules by their serial time, longest first (seconds on one core of the CI machine, ``pytest
-#: --durations`` summed per module at 18e31d2, 2026-11-27: 749, 591, 353, 155, 148). The rest follow
-#: in their usual order. Longest first, the per-module sums split into 1129 / 1127 s over the two
-#: workers (measured on a fresh clone: 1290 s wall for the 1-rank tier, against 1450 s in xdist's
-#: own order, most tests first, which started the 749 s module late). Only the order depends on this
-#: list.
+#: Test modules by their serial time, longest first. The rest follow in their usual order; only the
+#: order depends on this list. xdist gives each worker one module to start (then the next in line
+#: when a worker has two tests left): the two diagnosis modules start apart, the friction one
+#: first, so that the classic one finds the coarse case's 8 N m cycle in the cache that the
+#: friction surrogate computed, instead of computing it at the same time on the other worker.
 LONGEST_MODULES = (
     "test_diagnose_friction.py",
-    "test_diagnose.py",
     "test_cycle.py",
+    "test_diagnose.py",
     "test_instruments.py",
     "test_contact.py",
 )
