@@ -130,13 +130,14 @@ def test_condensed_sliding_block_is_gross_slip():
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_condensed_hertz_matches_the_full_solver(comms):
     """Hertz line contact (h = 14 mm): the condensed solver gives the full solver's force, peak
     pressure and half-width (the same discrete problem; they differ by the Newton and Uzawa
     tolerances, which the two reach from different first iterates), on 1 and 2 ranks."""
     out = {}
     for solver in ("full", "condensed"):
-        for comm in comms:
+        for comm in comms if MPI.COMM_WORLD.size > 1 else comms[:1]:  # on 1 rank: both are it
             case = hertz_case(comm, HERTZ, contact_size=0.014, solver=solver)
             rep = case.problem.solve("hertz")
             tol = case.problem.interfaces[0].penetration_tolerance()

@@ -354,18 +354,19 @@ def test_augmented_lagrangian_meets_tolerance_and_matches_stiff_penalty():
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_hertz_one_and_two_ranks_agree(comms):
     """The coarse Hertz case (h = 14 mm, a/h = 2.2) on 1 and on all ranks: the same force, peak
     pressure and half-width, and p0 within the discretisation's bound (h/a)²/12 = 1.7 %."""
     results = []
-    for comm in comms:
+    for comm in comms if MPI.COMM_WORLD.size > 1 else comms[:1]:  # on 1 rank: both are it
         h = 0.014
         case = hertz_case(comm, HERTZ, contact_size=h)
         case.problem.solve("hertz")
         r = compare_hertz(case)
         assert abs(r.p0_error) < peak_pressure_bound(h, r.a_analytic_m), (comm.size, r.p0_error)
         results.append((r.force_per_length_N_m, r.p0_fe_Pa, r.a_fe_m))
-    (F1, p1, a1), (F2, p2, a2) = results
+    (F1, p1, a1), (F2, p2, a2) = results[0], results[-1]
     assert pytest.approx(F1, rel=1e-8) == F2
     assert p2 == pytest.approx(p1, rel=1e-8)
     assert a2 == pytest.approx(a1, rel=1e-8)

@@ -430,6 +430,7 @@ def test_surrogate_error_estimate_bounds_its_error():
             assert est <= ERROR_FACTOR * sur.tol_K + 1e-12, (c.name, est)
 
 
+@pytest.mark.slow
 def test_profile_interval_coverage_every_candidate():
     """Empirical coverage of the 95 % profile interval over 40 seeds x every candidate, at
     operating points other than the generator's, data analysed through the surrogate with its

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -40,9 +39,6 @@ from gearfem.instruments.scene import Surface, gear_surface, linear_triangles
 from gearfem.instruments.snapshot import KINDS, BodyField, CycleTorques, FieldSnapshot
 from gearfem.instruments.torque import read_torque
 from gearfem.thermal.options import ThermalOptions
-
-sys.path.insert(0, str(Path(__file__).parent))
-from test_cycle import TINY  # the cycle tests' small pair mesh
 
 H, C, K = 6.62607015e-34, 299792458.0, 1.380649e-23
 SMALL = MeshOptions(
@@ -690,6 +686,7 @@ def _prescribed_run_case() -> Case:
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_run_writes_every_reading_and_observe_reads_them_again(comms, tmp_path_factory):
     serial, world = comms
     base = Path(world.bcast(str(tmp_path_factory.mktemp("runs")) if world.rank == 0 else None))
@@ -754,33 +751,6 @@ def test_observe_needs_a_finished_run(tmp_path):
 
 
 # ------------------------------------------------- torque meters and the forward model (cycles)
-
-
-@pytest.mark.slow
-def test_torque_loss_is_the_friction_power_over_the_pinion_speed():
-    """The torque meters' loss times the pinion speed is the cycle's friction power, to the
-    cycle's energy-balance tolerance (1.5 % at 12 positions, tests/test_cycle.py); without
-    friction the loss vanishes to that same tolerance."""
-    from gearfem.contact import ContactOptions
-    from gearfem.cycle import CycleOptions
-
-    readings = {}
-    for mu in (0.5, 0.0):
-        case = Case(
-            mesh=TINY,
-            contact=ContactOptions(friction_coefficient=mu),
-            cycle=CycleOptions(positions_per_pitch=12),
-        )
-        cyc, _, _ = pipeline.cycle(case, MPI.COMM_WORLD)
-        readings[mu] = read_torque(TorqueMeterOptions(), CycleTorques.of(cyc), 1000.0)
-    r = readings[0.5]
-    assert r.torque_loss_Nm > 0.0 and r.efficiency < 1.0
-    assert r.friction_power_W == pytest.approx(r.cycle_friction_power_W, rel=0.015)
-    assert r.efficiency == pytest.approx(1.0 - r.torque_loss_Nm / r.input_torque_Nm, rel=1e-12)
-    f = readings[0.0]
-    assert f.cycle_friction_power_W == 0.0
-    assert abs(f.torque_loss_Nm) <= 0.015 * r.torque_loss_Nm
-    assert f.efficiency == pytest.approx(1.0, abs=0.015 * r.torque_loss_Nm / f.input_torque_Nm)
 
 
 def test_torque_meters_read_the_power_the_pair_dissipates():
@@ -956,6 +926,7 @@ def test_hottest_point_is_the_fields_maximum_between_the_nodes():
         body.hottest_point(0, kinds=("tip",))
 
 
+@pytest.mark.slow
 def test_one_tooth_periodic_sector_reads_like_the_whole_gear(tmp_path_factory):
     """The camera completes a sector model by copying its central pitch to every tooth; a
     one-tooth sector with periodic cut faces is its own central pitch (the clipping planes are

@@ -102,6 +102,7 @@ def test_levels_that_round_to_the_same_discretisation_are_refused(tmp_path, comm
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 @pytest.mark.parametrize("case_level", ["coarsest", "middle", "finest"])
 def test_thermal_refinement_study(tmp_out, comm, case_level):
     out = tmp_out / f"converge_{case_level}"
@@ -130,6 +131,7 @@ def test_thermal_refinement_study(tmp_out, comm, case_level):
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_a_four_level_study_fits_all_levels(tmp_out, comm):
     """``--levels 4``: four thermal meshes, each row's u_num of the case from the least-squares
     fit through all four (gearfem.core.gci.least_squares_convergence), the tables with a column

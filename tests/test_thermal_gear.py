@@ -120,6 +120,7 @@ def test_sector_with_adiabatic_cuts_equals_full_gear_for_symmetric_heating(cache
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_periodic_one_tooth_sector_equals_full_gear_for_drive_flank_heating(cache):
     """Drive-flank heating breaks the mirror symmetry about the cut planes, so adiabatic cuts are
     wrong; a one-tooth sector with its cut faces tied periodically (``periodic_cuts``) has the
