@@ -410,21 +410,26 @@ class FlashTable:
         return mu, dmu, (1.0 - t) * h0 + t * h1
 
 
-def _profile(law: FrictionLaw, Tb: np.ndarray, flash0: np.ndarray, n_chunk: int = 20000):
+def _profile(law: FrictionLaw, Tb: np.ndarray, flash0: np.ndarray, n_chunk: int = 50000):
     """Profile-mean mu_T and largest flash temperature of bands at flank temperatures Tb with flash
-    temperatures per unit mu flash0 (the Volterra equation of the module docstring)."""
+    temperatures per unit mu flash0 (the Volterra equation of the module docstring). The bands are
+    the columns of ``mu`` (one row per node of the profile), so each step is one contiguous
+    vector-matrix product over a chunk of bands."""
     W, fm = _VOLTERRA.W, _VOLTERRA.f_mid
     n = len(fm)
+    Wf = W * fm[None, :]
     out_m, out_t = np.empty(len(Tb)), np.empty(len(Tb))
     for c0 in range(0, len(Tb), n_chunk):
         tb, K = Tb[c0 : c0 + n_chunk], flash0[c0 : c0 + n_chunk] / _VOLTERRA.i_max
-        theta = np.zeros((len(tb), n + 1))
-        mu = np.zeros((len(tb), n))
+        mu = np.empty((n, len(tb)))
+        theta = np.zeros(len(tb))
+        theta_max = np.zeros(len(tb))
         for k in range(1, n + 1):
-            mu[:, k - 1] = law.mu_of_T(tb + theta[:, k - 1])
-            theta[:, k] = K * (mu[:, :k] @ (W[k, :k] * fm[:k]))
-        out_m[c0 : c0 + n_chunk] = mu @ fm / np.sum(fm)
-        out_t[c0 : c0 + n_chunk] = theta.max(axis=1)
+            mu[k - 1] = law.mu_of_T(tb + theta)
+            theta = K * (Wf[k, :k] @ mu[:k])
+            np.maximum(theta_max, theta, out=theta_max)
+        out_m[c0 : c0 + n_chunk] = fm @ mu / np.sum(fm)
+        out_t[c0 : c0 + n_chunk] = theta_max
     return out_m, out_t
 
 
