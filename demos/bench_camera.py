@@ -38,7 +38,7 @@ import numpy as np
 from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-from gearfem import claims, pipeline
+from gearfem import pipeline
 from gearfem.config import case_to_dict, load_case
 from gearfem.core.doctables import Provenance, markdown_table, replace_block
 from gearfem.core.errors import ParameterError
@@ -56,6 +56,7 @@ from gearfem.diagnose.report import (
     winner_params,
 )
 from gearfem.pipeline import RunSummary
+from gearfem.uncertainty import DIAGNOSIS_CODE, provenance
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The bench measurements gearfem ships (package data; no file outside the clone is read).
@@ -403,7 +404,8 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
 
 
 def _provenance(data: dict | None) -> Provenance | None:
-    """The provenance a diagnosis or run recorded (gearfem.claims), for its quoted blocks."""
+    """The provenance a diagnosis or run recorded (gearfem.uncertainty.provenance), for its
+    quoted blocks."""
     return None if data is None else Provenance(**data)
 
 
@@ -580,7 +582,7 @@ def confirm(case_path: str | None, out: Path, comm, doc: bool, points: str) -> N
                 ROOT / "docs" / "diagnosis.md",
                 "bench_verdict_confirm",
                 text,
-                claims.provenance(load_case(case_path), claims.DIAGNOSIS_CODE),
+                provenance(load_case(case_path), DIAGNOSIS_CODE),
             )
 
 

@@ -3,8 +3,9 @@
 The README and the pages in ``docs/`` quote results of the built-in case: the main job's headline,
 the bench readings, the bench verdict with its intervals and the confirmation table. Each is
 written between ``<!-- gearfem:begin NAME -->`` markers by the script that computes it
-(:mod:`gearfem.core.doctables`), headed by a provenance line: the resolution key of the case it
-was computed on and the code hash of the modules that computed it. A change of the model (a new
+(:mod:`gearfem.core.doctables`), headed by a provenance line
+(:func:`gearfem.uncertainty.provenance`): the resolution key of the case it was computed on and
+the code hash of the modules that computed it. A change of the model (a new
 resolution of the built-in case, an edit of the code) then leaves the quoted figure marked as
 stale instead of standing beside a model that no longer gives it:
 
@@ -14,23 +15,20 @@ stale instead of standing beside a model that no longer gives it:
   :data:`QUOTED_BLOCKS` that carries no provenance at all;
 * the test suite runs it (``tests/test_claims.py``), so a change of the model cannot leave the
   headline behind; ``gearfem claims`` prints the list with the command that regenerates each.
+
+This module only checks: no run or diagnosis imports it, so adding a quoted block is not a change
+of the code the quoted figures hash.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import datetime
 from pathlib import Path
 
 from gearfem.config import Case, load_case
 from gearfem.core.doctables import Provenance, blocks
-from gearfem.core.provenance import code_hash, git_hash
+from gearfem.core.provenance import code_hash
 from gearfem.uncertainty import resolution_key
-
-#: The modules whose code a quoted result of a run depends on (and what they import).
-RUN_CODE = ("gearfem.pipeline",)
-#: ... of a diagnosis (the forward model, the selection, the report).
-DIAGNOSIS_CODE = ("gearfem.diagnose.report",)
 
 #: Blocks that quote results of the built-in case and must carry a provenance line, by page
 #: (relative to the repository root), with the command that writes them.
@@ -48,17 +46,6 @@ QUOTED_BLOCKS: dict[str, dict[str, str]] = {
         "bench_camera": "mpirun -n 2 python demos/bench_camera.py",
     },
 }
-
-
-def provenance(case: Case | None, roots: tuple[str, ...] = RUN_CODE) -> Provenance:
-    """The provenance of a result computed now with the current code of ``roots`` on ``case``
-    (None: a result without a case resolution behind it)."""
-    return Provenance(
-        resolution=resolution_key(case) if case is not None else None,
-        code={m: code_hash(m) for m in roots},
-        commit=git_hash(),
-        date=datetime.date.today().isoformat(),
-    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -132,12 +119,9 @@ def regenerate_command(claim: StaleClaim) -> str | None:
 
 
 __all__ = [
-    "DIAGNOSIS_CODE",
     "QUOTED_BLOCKS",
-    "RUN_CODE",
     "StaleClaim",
     "check_block",
-    "provenance",
     "regenerate_command",
     "stale_claims",
 ]

@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
-from gearfem import claims
 from gearfem.baselines import baseline_summary, max_rack_fillet_coef
 from gearfem.config import Case, load_case, write_case
 from gearfem.core.errors import ConvergenceError, ParameterError
@@ -68,7 +67,7 @@ from gearfem.thermal.lumped import gear_radii, lumped_estimate
 from gearfem.thermal.outputs import solve_and_write
 from gearfem.thermal.problem import ThermalProblem
 from gearfem.thermal.source_terms import prescribed_heat_sources
-from gearfem.uncertainty import RunUncertainty, run_uncertainty
+from gearfem.uncertainty import RunUncertainty, provenance, run_uncertainty
 
 log = logging.getLogger(__name__)
 
@@ -190,7 +189,8 @@ class RunSummary(JsonRecord):
     numerical_uncertainty: RunUncertainty | None = None
     instruments: InstrumentReadings | None = None
     thermal_other: dict[str, Any] | None = None
-    # what the run was computed with (gearfem.claims: a figure quoted from it carries this):
+    # what the run was computed with (gearfem.uncertainty.provenance; a figure quoted from it
+    # carries this, gearfem.claims checks it):
     # resolution key, code hash of the run's modules, commit, date
     provenance: dict[str, Any] | None = None
 
@@ -918,7 +918,7 @@ def run(
         numerical_uncertainty=unc,
         instruments=readings,
         thermal_other=next(iter(others.values()), None),
-        provenance=dataclasses.asdict(claims.provenance(case)),
+        provenance=dataclasses.asdict(provenance(case)),
     )
     vers = versions(comm)
     if comm.rank == 0:

@@ -33,6 +33,7 @@ study at all gets no u_num (``None``), never a made-up one.
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import hashlib
 import json
 import logging
@@ -41,8 +42,10 @@ from importlib import resources
 from pathlib import Path
 
 from gearfem.config import Case
+from gearfem.core.doctables import Provenance
 from gearfem.core.io import read_json, write_json
 from gearfem.core.params import to_dict
+from gearfem.core.provenance import code_hash, git_hash
 from gearfem.core.results import JsonRecord
 from gearfem.coupling.transfer import RECONSTRUCTION_VERSION
 from gearfem.cycle.cache import cache_root
@@ -145,6 +148,25 @@ def resolution_key(case: Case) -> str:
         ],
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+#: The modules whose code a quoted result of a run depends on (and what they import).
+RUN_CODE = ("gearfem.pipeline",)
+#: ... of a diagnosis (the forward model, the selection, the report).
+DIAGNOSIS_CODE = ("gearfem.diagnose.report",)
+
+
+def provenance(case: Case | None, roots: tuple[str, ...] = RUN_CODE) -> Provenance:
+    """The provenance of a result computed now with the current code of ``roots`` on ``case``
+    (None: a result without a case resolution behind it): its resolution key, the code hash of
+    the modules (:func:`gearfem.core.provenance.code_hash`), the commit and the date. A figure
+    quoted from the result carries it (:mod:`gearfem.claims` checks it)."""
+    return Provenance(
+        resolution=resolution_key(case) if case is not None else None,
+        code={m: code_hash(m) for m in roots},
+        commit=git_hash(),
+        date=datetime.date.today().isoformat(),
+    )
 
 
 @dataclasses.dataclass(frozen=True)

@@ -12,8 +12,8 @@ import pytest
 from gearfem import claims
 from gearfem.config import load_case
 from gearfem.core.doctables import Provenance, blocks, replace_block
-from gearfem.core.provenance import _code_of, code_hash
-from gearfem.uncertainty import resolution_key
+from gearfem.core.provenance import _code_of, code_hash, source_files
+from gearfem.uncertainty import DIAGNOSIS_CODE, RUN_CODE, provenance, resolution_key
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -42,7 +42,7 @@ def _page(tmp_path: Path, prov: Provenance | None) -> Path:
 
 def test_a_changed_resolution_or_code_makes_a_quoted_block_stale(tmp_path):
     builtin = load_case(None)
-    now = claims.provenance(builtin)
+    now = provenance(builtin)
     assert now.resolution == resolution_key(builtin)
     readme = _page(tmp_path, now)
     assert Provenance.parse(blocks(readme)["readme_headline"]) == now
@@ -68,6 +68,15 @@ def test_a_changed_resolution_or_code_makes_a_quoted_block_stale(tmp_path):
     _page(tmp_path, None)
     assert {c.reason for c in claims.stale_claims(tmp_path)} == {"no provenance line"}
     assert claims.regenerate_command(claims.stale_claims(tmp_path)[0])
+
+
+def test_the_list_of_quoted_blocks_is_not_code_they_quote():
+    """gearfem.claims (the quoted blocks and their check) is outside the code a run or a diagnosis
+    hashes: adding a block, or a command, leaves the quoted figures current."""
+    for roots in (RUN_CODE, DIAGNOSIS_CODE):
+        closure = source_files(*roots)
+        assert roots[0] in closure and "gearfem.uncertainty" in closure
+        assert "gearfem.claims" not in closure
 
 
 def test_code_hash_follows_the_code_not_its_docstrings(tmp_path):

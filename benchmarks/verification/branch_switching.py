@@ -41,7 +41,7 @@ import numpy as np
 from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-from gearfem import claims, pipeline
+from gearfem import pipeline
 from gearfem.config import load_case
 from gearfem.contact.friction import FrictionOptions
 from gearfem.core.doctables import markdown_table, replace_block
@@ -50,6 +50,7 @@ from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.core.tasks import run_split
 from gearfem.geometry.options import BODIES
 from gearfem.thermal.branches import SAFE_SCALE, trace_lowest_branch
+from gearfem.uncertainty import provenance
 
 POINTS = ((1000.0, 8.0), (2000.0, 4.0))
 AMBIENT_C = 21.0
@@ -206,7 +207,7 @@ def main() -> None:
     if comm.rank == 0:
         print(table + note)
         if a.docs:
-            replace_block(a.docs, "branch_switching", table + note, claims.provenance(base))
+            replace_block(a.docs, "branch_switching", table + note, provenance(base))
 
 
 if __name__ == "__main__":

@@ -28,13 +28,13 @@ import numpy as np
 from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
-from gearfem import claims, pipeline
+from gearfem import pipeline
 from gearfem.config import load_case
 from gearfem.contact.friction import FrictionOptions
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
 from gearfem.instruments.evaluate import evaluate
-from gearfem.uncertainty import run_uncertainty
+from gearfem.uncertainty import provenance, run_uncertainty
 
 
 def measures(case, comm) -> dict[str, float]:
@@ -116,7 +116,7 @@ def main() -> None:
     if comm.rank == 0:
         print(table + note)
         if a.docs:
-            replace_block(a.docs, "friction_tractions", table + note, claims.provenance(base))
+            replace_block(a.docs, "friction_tractions", table + note, provenance(base))
 
 
 if __name__ == "__main__":

@@ -43,7 +43,6 @@ from typing import Any
 
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import (
-    ZERO_CELSIUS_K,
     Material,
     TemperatureTable,
     peek450g_hysteresis,
@@ -224,7 +223,7 @@ class LibraryMaterial:
                 )
             t = self.tables["hysteresis"]
             hysteresis = (t.T_C, t.values)
-            if _same_table(t, peek450g_hysteresis()):
+            if t.table().same_function(peek450g_hysteresis()):
                 hysteresis = "peek450g"
         return Material(
             name=self.name,
@@ -237,14 +236,6 @@ class LibraryMaterial:
             glass_transition_C=self.value("glass_transition_C"),
             hysteresis=hysteresis,
         )
-
-
-def _same_table(t: SourcedTable, other: TemperatureTable) -> bool:
-    """The library table ``t`` is ``other`` (temperatures to 1e-9 K, values exactly)."""
-    return len(t.T_C) == len(other.T_K) and all(
-        abs(a + ZERO_CELSIUS_K - b) < 1e-9 and v == w
-        for a, b, v, w in zip(t.T_C, other.T_K, t.values, other.values)
-    )
 
 
 # ------------------------------------------------------------------------------------------------

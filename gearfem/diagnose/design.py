@@ -44,7 +44,6 @@ from gearfem.core.results import JsonRecord
 from gearfem.diagnose.candidates import LIBRARY, Candidate
 from gearfem.diagnose.data import Dataset, Measurement, camera_uncertainty_K, unit_of
 from gearfem.diagnose.select import (
-    GOF_LEVEL,
     Diagnosis,
     ModelError,
     Predict,
@@ -367,9 +366,7 @@ def _full_model_failure(result: Diagnosis) -> float | None:
     """The full model's p-value at the refined chosen model when it fails the goodness-of-fit
     test (the verdict then names no cause), else None."""
     r = result.refined
-    if r is None or r.full_p_value is None or r.full_p_value >= GOF_LEVEL:
-        return None
-    return r.full_p_value
+    return r.full_p_value if r is not None and r.fails_full_model else None
 
 
 #: A proposal below this expected information gain (bits) is not listed as deciding anything.

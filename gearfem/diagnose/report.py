@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
-from gearfem import claims
 from gearfem.config import Case, write_case
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.material_library import library_material
@@ -33,7 +32,7 @@ from gearfem.diagnose.margins import markdown as margins_markdown
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
 from gearfem.instruments.options import ProbeOptions
-from gearfem.uncertainty import run_uncertainty
+from gearfem.uncertainty import DIAGNOSIS_CODE, provenance, run_uncertainty
 
 
 def _replace_thermal(**kw):
@@ -239,7 +238,7 @@ def run_diagnosis(
         },
         suggestion=suggestion,
         fold_margins=tuple(margins),
-        provenance=dataclasses.asdict(claims.provenance(case, claims.DIAGNOSIS_CODE)),
+        provenance=dataclasses.asdict(provenance(case, DIAGNOSIS_CODE)),
     )
     if comm.rank == 0:
         _plots(result, data, out, suggestion)

@@ -138,6 +138,12 @@ class Refinement(JsonRecord):
     full_chi2: float | None = None
     full_p_value: float | None = None
 
+    @property
+    def fails_full_model(self) -> bool:
+        """The full model at the refined parameters fails the goodness-of-fit test (p below
+        GOF_LEVEL): the chosen model is then no explanation, whatever the surrogate says."""
+        return self.full_p_value is not None and self.full_p_value < GOF_LEVEL
+
 
 @dataclasses.dataclass(frozen=True)
 class Diagnosis(JsonRecord):
@@ -838,7 +844,7 @@ def refine(
         "unconstrained": list(v.unconstrained),
         "separate_by": [dataclasses.asdict(x) for x in v.separate_by],
     }
-    if refined.full_p_value is not None and refined.full_p_value < GOF_LEVEL:
+    if refined.fails_full_model:
         # the full model is the model: a fit that passes on the (corrected) surrogate only is no
         # explanation, and that is said before any rivalry
         vd["kind"] = "partial"
