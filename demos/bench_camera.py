@@ -64,13 +64,21 @@ BENCH = Path(str(resources.files("gearfem") / "data" / "testbench" / "thesis_tes
 
 
 def _run(case, out: Path, comm) -> RunSummary:
-    """The run of ``case`` in ``out``: reused when finished with the same case, else computed."""
+    """The run of ``case`` in ``out``: reused when finished with the same case by the current
+    code (its recorded provenance: resolution key and code hash), else computed."""
     done = False
     if comm.rank == 0 and (out / "summary.json").is_file() and (out / "case.toml").is_file():
         try:
-            done = case_to_dict(load_case(out / "case.toml")) == case_to_dict(case)
+            same_case = case_to_dict(load_case(out / "case.toml")) == case_to_dict(case)
         except ParameterError:  # a case file of another gearfem version: run again
-            done = False
+            same_case = False
+        recorded = _provenance(RunSummary.read(out / "summary.json").provenance)
+        now = provenance(case)
+        done = (
+            same_case
+            and recorded is not None
+            and (recorded.resolution, recorded.code) == (now.resolution, now.code)
+        )
     if comm.bcast(done, root=0):
         return RunSummary.read(out / "summary.json")
     return pipeline.run(case, out, comm, progress=False)

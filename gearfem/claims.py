@@ -45,6 +45,15 @@ QUOTED_BLOCKS: dict[str, dict[str, str]] = {
     "docs/reproduction.md": {
         "bench_camera": "mpirun -n 2 python demos/bench_camera.py",
     },
+    "docs/friction.md": {
+        "friction_tractions": "mpirun -n 2 python benchmarks/verification/friction_tractions.py "
+        "--mu 0.13 --docs docs/friction.md",
+        "branch_switching": "mpirun -n 2 python benchmarks/verification/branch_switching.py "
+        "--mu-glassy 0.13 --variants entry tip_radius flash_width --docs docs/friction.md",
+    },
+    "docs/materials.md": {
+        "vdi2736_gearfem": "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --docs",
+    },
 }
 
 
