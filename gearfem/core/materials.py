@@ -90,10 +90,6 @@ class TemperatureTable:
         if any(b <= a for a, b in zip(self.T_K, self.T_K[1:])):
             raise ParameterError(f"{self.name}.T_K", self.T_K, "strictly increasing temperatures")
 
-    def same_function(self, other: TemperatureTable) -> bool:
-        """The same temperatures and values as ``other`` (exactly; the names may differ)."""
-        return self.T_K == other.T_K and self.values == other.values
-
     @classmethod
     def from_celsius(cls, T_C, values, name: str = "table") -> TemperatureTable:
         return cls(
