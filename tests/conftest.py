@@ -86,6 +86,14 @@ def comms() -> tuple[MPI.Comm, MPI.Comm]:
 
 
 @pytest.fixture
+def distinct_comms() -> tuple[MPI.Comm, ...]:
+    """The communicators a 1-vs-N-ranks test computes with, each once: (serial, world) under
+    mpirun, (serial,) on one rank, where the world is the serial one (a test that loops over
+    them then compares its first and last results)."""
+    return (MPI.COMM_SELF, MPI.COMM_WORLD) if MPI.COMM_WORLD.size > 1 else (MPI.COMM_SELF,)
+
+
+@pytest.fixture
 def tmp_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A temporary directory shared by all ranks (rank 0 creates it and broadcasts the name)."""
     comm = MPI.COMM_WORLD
