@@ -1,0 +1,203 @@
+"""The cycle ↔ heat fixed point of a friction law, in the cycle's mu: how far the structural
+cycle's constant mu moves the readings of a law whose contacts run at another mu.
+
+The structural cycle is solved with one constant mu (``[contact] friction_coefficient``, 0.5 as
+in the thesis); the heat and the torque meters follow the case's friction law at every contact
+point, at its contact temperature (gearfem.coupling.friction_heat). docs/friction.md (block
+``friction_tractions``) shows that a cycle at a glassy mu differs from one at 0.5 by more than
+u_num. This script closes the loop in the one number the cycle takes, at each bench point
+(1000 rpm / 8 N m, 2000 rpm / 4 N m) of the built-in case under the glass-transition law:
+
+1. solve the cycle at mu_c (first the case's 0.5);
+2. on it, the steady state under the law that a run from ambient reaches (gearfem.thermal.branches:
+   the lowest branch, by continuation);
+3. read the law's effective mu as the torque meters read it, mu_eff = mu_c · P_law / P_cycle (the
+   law's friction power at that state over the cycle's own at mu_c: the mu of a constant-mu cycle
+   that dissipates what the law does);
+4. mu_c <- mu_eff and repeat until mu_c changes by less than ``--tol`` (at most ``--max-iter``
+   cycles).
+
+Per iteration it prints mu_c, mu_eff, each gear's heat-weighted mu (its branch: above the glassy
+and rubbery mean, the gear runs hot), the law's friction heat, the torque loss, the transmission
+error, the largest tooth-pair load and the steady camera reading, with the u_num of the case's
+resolution where a filed study measures the quantity. One effective mu is a first-order coupling:
+the law's mu differs between contacts (a hot and a cool gear run at different mu at the same time)
+and the cycle takes one value for all of them.
+
+Prints the table and, with ``--docs PAGE``, writes it into block ``friction_fixed_point`` of PAGE.
+
+    mpirun -n 2 python benchmarks/verification/friction_fixed_point.py --mu-glassy 0.13 \
+        [--docs docs/friction.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
+from gearfem import pipeline
+from gearfem.config import load_case
+from gearfem.contact.friction import FrictionOptions
+from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.log import setup_logging
+from gearfem.instruments.evaluate import evaluate
+from gearfem.uncertainty import provenance, run_uncertainty
+
+#: The bench points (speed rpm, torque N m).
+POINTS = ((1000.0, 8.0), (2000.0, 4.0))
+
+
+@dataclasses.dataclass(frozen=True)
+class Iterate:
+    """One pass of the loop at one bench point."""
+
+    mu_cycle: float
+    mu_effective: float
+    mu_pinion: float
+    mu_wheel: float
+    friction_heat_W: float
+    torque_loss_Nm: float
+    te_mean_um: float
+    largest_load_N: float
+    camera_C: float
+    wall_s: float
+
+
+def one_pass(case, mu_c: float, comm) -> Iterate:
+    """The cycle at ``mu_c``, the law's steady state on it and what it reads (collective)."""
+    t0 = time.perf_counter()
+    c = dataclasses.replace(
+        case, contact=dataclasses.replace(case.contact, friction_coefficient=mu_c)
+    )
+    cyc, _, _ = pipeline.cycle(c, comm)
+    th = dataclasses.replace(c.thermal, mode="steady", output_times_s=())
+    c = dataclasses.replace(c, thermal=th)
+    name = tempfile.mkdtemp(prefix="gearfem-fixed-point-") if comm.rank == 0 else None
+    out = Path(comm.bcast(name, root=0))
+    main, others, snap = pipeline.observed_thermal(
+        c, out, comm, cyc, write_fields=False, write_plot=False
+    )
+    got = None
+    if comm.rank == 0:
+        r = evaluate(c.instruments, snap)
+        label = snap.label_of(None)
+        tq = r.torque_at.get(label, r.torque)
+        got = (r.camera[label].max_C, tq.friction_power_W, tq.cycle_friction_power_W,
+               tq.torque_loss_Nm)  # fmt: skip
+    cam, p_law, p_cycle, loss = comm.bcast(got, root=0)
+    mu_of = {c.thermal.body: main["friction"]["mu_heat_weighted"]}
+    for body, s in others.items():
+        mu_of[body] = s["friction"]["mu_heat_weighted"]
+    loads = np.array([v for v in cyc.tooth_load_N.values()])
+    return Iterate(
+        mu_cycle=mu_c,
+        mu_effective=mu_c * p_law / p_cycle,
+        mu_pinion=float(mu_of["pinion"]),
+        mu_wheel=float(mu_of["wheel"]),
+        friction_heat_W=p_law,
+        torque_loss_Nm=loss,
+        te_mean_um=float(np.mean(cyc.te_m)) * 1e6,
+        largest_load_N=float(loads.max()),
+        camera_C=cam,
+        wall_s=time.perf_counter() - t0,
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mu-glassy", type=float, default=0.13, help="the law's glassy mu")
+    ap.add_argument("--tol", type=float, default=0.005, help="stop when mu_c moves less")
+    ap.add_argument("--max-iter", type=int, default=4, help="cycles per bench point at most")
+    ap.add_argument("--case", default=None, help="case TOML (default: the built-in case)")
+    ap.add_argument("--docs", default=None)
+    a = ap.parse_args()
+    setup_logging("WARNING")
+    comm = MPI.COMM_WORLD
+    base = load_case(a.case)
+    # the rubbery mu stated: by default it is the cycle's mu, which the loop changes
+    law = FrictionOptions(
+        law="glass_transition",
+        mu_glassy=a.mu_glassy,
+        mu_rubbery=base.contact.friction_coefficient,
+    )
+    t_start = time.perf_counter()
+    rows = []
+    for speed, torque in POINTS:
+        case = dataclasses.replace(
+            base.with_operating(speed_rpm=speed, torque_Nm=torque), friction=law
+        )
+        mu_c = base.contact.friction_coefficient
+        for k in range(a.max_iter):
+            it = one_pass(case, mu_c, comm)
+            rows.append((speed, torque, k, it))
+            if comm.rank == 0:
+                print(f"{speed:g} rpm / {torque:g} N m, pass {k}: {it}", flush=True)
+            if abs(it.mu_effective - mu_c) < a.tol:
+                break
+            mu_c = it.mu_effective
+    # u_num of the case's resolution, for the quantities its filed studies follow
+    first = rows[0][3]
+    unc = run_uncertainty(
+        base,
+        {"camera_max": first.camera_C, "transmission_error_mean_um": first.te_mean_um},
+    )
+    u_cam = unc.u_num("camera_max") if unc is not None else None
+    u_te = unc.u_num("transmission_error_mean_um") if unc is not None else None
+    mid = 0.5 * (a.mu_glassy + law.mu_rubbery)
+
+    def branch(mu: float) -> str:
+        return "hot" if mu > mid else "cool"
+
+    table = markdown_table(
+        ("bench point", "pass", "cycle mu", "law's effective mu", "pinion mu (branch)",
+         "wheel mu (branch)", "friction heat (W)", "torque loss (N m)", "TE mean (um)",
+         "largest tooth-pair load (N)", "camera_max, steady (C)"),
+        [
+            (
+                f"{s:g} rpm, {t:g} N m",
+                str(k),
+                f"{it.mu_cycle:.4f}",
+                f"{it.mu_effective:.4f}",
+                f"{it.mu_pinion:.3f} ({branch(it.mu_pinion)})",
+                f"{it.mu_wheel:.3f} ({branch(it.mu_wheel)})",
+                f"{it.friction_heat_W:.2f}",
+                f"{it.torque_loss_Nm:.4f}",
+                f"{it.te_mean_um:.2f}",
+                f"{it.largest_load_N:.1f}",
+                f"{it.camera_C:.2f}",
+            )
+            for s, t, k, it in rows
+        ],
+    )  # fmt: skip
+    u_text = (
+        f"u_num of the resolution at the first pass: camera {u_cam:.2g} K, TE {u_te:.2g} um"
+        if u_cam is not None and u_te is not None
+        else "no u_num filed for this resolution"
+    )
+    which = "The built-in case" if a.case is None else f"Case {a.case}"
+    command = (
+        f"mpirun -n {comm.size} python benchmarks/verification/friction_fixed_point.py "
+        f"--mu-glassy {a.mu_glassy:g}" + ("" if a.case is None else f" --case {a.case}")
+    )
+    note = (
+        f"\n\n{which}, glass-transition friction with glassy mu {a.mu_glassy:g} (rubbery "
+        f"{law.mu_rubbery:g}), steady states a run from ambient reaches; each pass solves the "
+        "cycle at the cycle mu and reads the law's effective mu, mu_c P_law / P_cycle, from the "
+        "torque meters; a gear's mu is its heat-weighted mean (hot above "
+        f"{mid:g}). {u_text}. `{command}`, {time.perf_counter() - t_start:.0f} s."
+    )
+    if comm.rank == 0:
+        print(table + note)
+        if a.docs:
+            replace_block(a.docs, "friction_fixed_point", table + note, provenance(base))
+
+
+if __name__ == "__main__":
+    main()
