@@ -50,6 +50,11 @@ QUOTED_BLOCKS: dict[str, dict[str, str]] = {
         "--mu 0.13 --docs docs/friction.md",
         "branch_switching": "mpirun -n 2 python benchmarks/verification/branch_switching.py "
         "--mu-glassy 0.13 --variants entry tip_radius flash_width --docs docs/friction.md",
+        "friction_fixed_point": "mpirun -n 2 python benchmarks/verification/"
+        "friction_fixed_point.py --mu-glassy 0.13 --docs docs/friction.md",
+        "friction_fixed_point_scan": "mpirun -n 2 python benchmarks/verification/"
+        "friction_fixed_point.py --mu-glassy 0.13 0.17 --start glassy --docs docs/friction.md "
+        "--block friction_fixed_point_scan",
     },
     "docs/materials.md": {
         "vdi2736_gearfem": "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --docs",

@@ -8,7 +8,8 @@ point, at its contact temperature (gearfem.coupling.friction_heat). docs/frictio
 u_num. This script closes the loop in the one number the cycle takes, at each bench point
 (1000 rpm / 8 N m, 2000 rpm / 4 N m) of the built-in case under the glass-transition law:
 
-1. solve the cycle at mu_c (first the case's 0.5);
+1. solve the cycle at mu_c (first the case's 0.5, or with ``--start glassy`` the glassy mu: the mu
+   of every contact of a gear at ambient, where a run from ambient starts);
 2. on it, the run under the law from ambient to 900 s and the steady state it leads to
    (gearfem.thermal.branches: the lowest branch, by continuation);
 3. read the law's effective mu as the torque meters read it, mu_eff = mu_c · P_law / P_cycle (the
@@ -25,10 +26,11 @@ resolution where a filed study measures the quantity. One effective mu is a firs
 the law's mu differs between contacts (a hot and a cool gear run at different mu at the same time)
 and the cycle takes one value for all of them.
 
-Prints the table and, with ``--docs PAGE``, writes it into block ``friction_fixed_point`` of PAGE.
+Prints the table and, with ``--docs PAGE``, writes it into block ``--block`` (default
+``friction_fixed_point``) of PAGE.
 
-    mpirun -n 2 python benchmarks/verification/friction_fixed_point.py --mu-glassy 0.13 \
-        [--docs docs/friction.md]
+    mpirun -n 2 python benchmarks/verification/friction_fixed_point.py --mu-glassy 0.13 [0.17 ...] \
+        [--start glassy] [--points 2000/4] [--docs docs/friction.md --block friction_fixed_point]
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ from gearfem.uncertainty import provenance, run_uncertainty
 
 #: The bench points (speed rpm, torque N m).
 POINTS = ((1000.0, 8.0), (2000.0, 4.0))
+DEFAULT_POINTS = ",".join(f"{s:g}/{t:g}" for s, t in POINTS)
 #: When the bench camera was read (s from a cold start).
 BENCH_TIME_S = 900.0
 
@@ -132,9 +135,24 @@ def one_pass(case, mu_c: float, comm) -> Iterate:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--mu-glassy", type=float, default=0.13, help="the law's glassy mu")
+    ap.add_argument(
+        "--mu-glassy", type=float, nargs="+", default=[0.13], help="the law's glassy mu (several)"
+    )
+    ap.add_argument(
+        "--points",
+        default=DEFAULT_POINTS,
+        help="operating points 'rpm/Nm,rpm/Nm' (default: the bench points)",
+    )
     ap.add_argument("--tol", type=float, default=0.005, help="stop when mu_c moves less")
     ap.add_argument("--max-iter", type=int, default=4, help="cycles per bench point at most")
+    ap.add_argument(
+        "--start",
+        choices=("rubbery", "glassy"),
+        default="rubbery",
+        help="the first cycle's mu: the case's (rubbery, the constant-mu cycle's) or the glassy "
+        "mu (every contact of a gear at ambient)",
+    )
+    ap.add_argument("--block", default="friction_fixed_point", help="block of --docs to write")
     ap.add_argument("--case", default=None, help="case TOML (default: the built-in case)")
     ap.add_argument("--docs", default=None)
     a = ap.parse_args()
@@ -142,51 +160,54 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     base = load_case(a.case)
     # the rubbery mu stated: by default it is the cycle's mu, which the loop changes
-    law = FrictionOptions(
-        law="glass_transition",
-        mu_glassy=a.mu_glassy,
-        mu_rubbery=base.contact.friction_coefficient,
-    )
+    points = [tuple(float(v) for v in p.split("/")) for p in a.points.split(",")]
+    mu_r = base.contact.friction_coefficient
     t_start = time.perf_counter()
     rows = []
-    for speed, torque in POINTS:
-        case = dataclasses.replace(
-            base.with_operating(speed_rpm=speed, torque_Nm=torque), friction=law
-        )
-        mu_c = base.contact.friction_coefficient
-        for k in range(a.max_iter):
-            it = one_pass(case, mu_c, comm)
-            rows.append((speed, torque, k, it))
-            if comm.rank == 0:
-                print(f"{speed:g} rpm / {torque:g} N m, pass {k}: {it}", flush=True)
-            if abs(it.mu_effective - mu_c) < a.tol:
-                break
-            mu_c = it.mu_effective
+    for mu_g in a.mu_glassy:
+        # the rubbery mu stated: by default it is the cycle's mu, which the loop changes
+        law = FrictionOptions(law="glass_transition", mu_glassy=mu_g, mu_rubbery=mu_r)
+        for speed, torque in points:
+            case = dataclasses.replace(
+                base.with_operating(speed_rpm=speed, torque_Nm=torque), friction=law
+            )
+            mu_c = mu_r if a.start == "rubbery" else mu_g
+            for k in range(a.max_iter):
+                it = one_pass(case, mu_c, comm)
+                rows.append((mu_g, speed, torque, k, it))
+                if comm.rank == 0:
+                    print(
+                        f"mu_g {mu_g:g}, {speed:g} rpm / {torque:g} N m, pass {k}: {it}", flush=True
+                    )
+                if abs(it.mu_effective - mu_c) < a.tol:
+                    break
+                mu_c = it.mu_effective
     # u_num of the case's resolution, for the quantities its filed studies follow
-    first = rows[0][3]
+    first = rows[0][4]
     unc = run_uncertainty(
         base,
         {"camera_max": first.camera_C, "transmission_error_mean_um": first.te_mean_um},
     )
     u_cam = unc.u_num("camera_max") if unc is not None else None
     u_te = unc.u_num("transmission_error_mean_um") if unc is not None else None
-    mid = 0.5 * (a.mu_glassy + law.mu_rubbery)
 
-    def branch(mu: float) -> str:
-        return "hot" if mu > mid else "cool"
+    def branch(mu: float, mu_g: float) -> str:
+        return "hot" if mu > 0.5 * (mu_g + mu_r) else "cool"
 
     table = markdown_table(
-        ("bench point", "pass", "cycle mu", "law's effective mu", "pinion mu (branch)",
-         "wheel mu (branch)", "friction heat (W)", "torque loss (N m)", "TE mean (um)",
-         "largest tooth-pair load (N)", "camera_max, 900 s (C)", "camera_max, steady (C)"),
+        ("glassy mu", "operating point", "pass", "cycle mu", "law's effective mu",
+         "pinion mu (branch)", "wheel mu (branch)", "friction heat (W)", "torque loss (N m)",
+         "TE mean (um)", "largest tooth-pair load (N)", "camera_max, 900 s (C)",
+         "camera_max, steady (C)"),
         [
             (
+                f"{g:g}",
                 f"{s:g} rpm, {t:g} N m",
                 str(k),
                 f"{it.mu_cycle:.4f}",
                 f"{it.mu_effective:.4f}",
-                f"{it.mu_pinion:.3f} ({branch(it.mu_pinion)})",
-                f"{it.mu_wheel:.3f} ({branch(it.mu_wheel)})",
+                f"{it.mu_pinion:.3f} ({branch(it.mu_pinion, g)})",
+                f"{it.mu_wheel:.3f} ({branch(it.mu_wheel, g)})",
                 f"{it.friction_heat_W:.2f}",
                 f"{it.torque_loss_Nm:.4f}",
                 f"{it.te_mean_um:.2f}",
@@ -194,7 +215,7 @@ def main() -> None:
                 f"{it.camera_900_C:.2f}",
                 f"{it.camera_C:.2f}",
             )
-            for s, t, k, it in rows
+            for g, s, t, k, it in rows
         ],
     )  # fmt: skip
     u_text = (
@@ -203,21 +224,27 @@ def main() -> None:
         else "no u_num filed for this resolution"
     )
     which = "The built-in case" if a.case is None else f"Case {a.case}"
+    mus = " ".join(f"{g:g}" for g in a.mu_glassy)
     command = (
         f"mpirun -n {comm.size} python benchmarks/verification/friction_fixed_point.py "
-        f"--mu-glassy {a.mu_glassy:g}" + ("" if a.case is None else f" --case {a.case}")
+        f"--mu-glassy {mus}"
+        + ("" if a.points == DEFAULT_POINTS else f" --points {a.points}")
+        + ("" if a.start == "rubbery" else f" --start {a.start}")
+        + ("" if a.case is None else f" --case {a.case}")
     )
     note = (
-        f"\n\n{which}, glass-transition friction with glassy mu {a.mu_glassy:g} (rubbery "
-        f"{law.mu_rubbery:g}), steady states a run from ambient reaches; each pass solves the "
-        "cycle at the cycle mu and reads the law's effective mu, mu_c P_law / P_cycle, from the "
-        "torque meters; a gear's mu is its heat-weighted mean (hot above "
-        f"{mid:g}). {u_text}. `{command}`, {time.perf_counter() - t_start:.0f} s."
+        f"\n\n{which}, glass-transition friction (T_g 143 C, rubbery mu {mu_r:g}), ambient "
+        f"{base.thermal.ambient_C:g} C; the first cycle at the {a.start} mu; each pass solves the "
+        "cycle at the cycle mu, the run from "
+        "ambient to 900 s and the steady state it leads to, and reads the law's effective mu, "
+        "mu_c P_law / P_cycle, from the torque meters; a gear's mu is its heat-weighted mean at "
+        "the steady state (hot above the mean of the glassy and the rubbery mu). "
+        f"{u_text}. `{command}`, {time.perf_counter() - t_start:.0f} s."
     )
     if comm.rank == 0:
         print(table + note)
         if a.docs:
-            replace_block(a.docs, "friction_fixed_point", table + note, provenance(base))
+            replace_block(a.docs, a.block, table + note, provenance(base))
 
 
 if __name__ == "__main__":
