@@ -152,7 +152,12 @@ def main() -> None:
         help="the first cycle's mu: the case's (rubbery, the constant-mu cycle's) or the glassy "
         "mu (every contact of a gear at ambient)",
     )
-    ap.add_argument("--block", default="friction_fixed_point", help="block of --docs to write")
+    ap.add_argument(
+        "--block",
+        choices=("friction_fixed_point", "friction_fixed_point_scan"),
+        default="friction_fixed_point",
+        help="block of --docs to write",
+    )
     ap.add_argument("--case", default=None, help="case TOML (default: the built-in case)")
     ap.add_argument("--docs", default=None)
     a = ap.parse_args()
