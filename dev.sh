@@ -4,7 +4,7 @@
 #   ./dev.sh run [CASE.toml] [gearfem run options]   set up .venv, run the main job (default: thesis case,
 #                                                    results/thesis, on GEARFEM_NP ranks, default 2)
 #   ./dev.sh test [pytest options]                   set up .venv, run the tests on 1 rank (2 pytest-xdist
-#                                                    workers), then the mpi-marked ones under mpirun -n 2
+#                                                    workers), then the mpi-marked ones (only) under mpirun -n 2
 #   ./dev.sh test --quick [pytest options]           the quick tier (tests not marked slow; a few minutes)
 #   ./dev.sh docs [sphinx options]                   build the documentation site into docs/_build/html
 #   ./dev.sh setup                                   only set up .venv
@@ -115,9 +115,11 @@ case "$cmd" in
     exec "$(mpirun_cmd)" -n "$np" "$VENV/bin/gearfem" run "${args[@]}"
     ;;
   test)
-    serial_mark=(); mpi_mark=(-m mpi); tier="full"
+    # Each test runs in one tier: the mpi-marked ones only under mpirun, where those comparing 1
+    # with N ranks compute on COMM_SELF as well (a 1-rank run of them repeated that computation).
+    serial_mark=(-m "not mpi"); mpi_mark=(-m mpi); tier="full"
     if [[ "${1:-}" == "--quick" ]]; then
-      shift; serial_mark=(-m "not slow"); mpi_mark=(-m "mpi and not slow"); tier="quick"
+      shift; serial_mark=(-m "not slow and not mpi"); mpi_mark=(-m "mpi and not slow"); tier="quick"
     fi
     # the full tier builds the documentation site (tests/test_docs.py): it needs the docs extra
     if [[ "$tier" == "full" ]]; then setup docs; else setup; fi
