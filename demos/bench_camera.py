@@ -56,6 +56,7 @@ from gearfem.diagnose.report import (
     winner_params,
 )
 from gearfem.pipeline import RunSummary
+from gearfem.study import parse_points
 from gearfem.uncertainty import DIAGNOSIS_CODE, provenance
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -527,12 +528,7 @@ def confirm(case_path: str | None, out: Path, comm, doc: bool, points: str) -> N
     them (needed when only one explanation stands and ``--suggest``'s information gain, which
     weighs the runner-up by its Akaike weight, has nothing left to gain). Block
     ``bench_verdict_confirm`` of docs/diagnosis.md."""
-    try:
-        pts = tuple(tuple(float(x) for x in q.split("/")) for q in points.split(","))
-    except ValueError as e:
-        raise ParameterError("--confirm", points, "'rpm/Nm,rpm/Nm,...'") from e
-    if any(len(q) != 2 for q in pts):
-        raise ParameterError("--confirm", points, "'rpm/Nm,rpm/Nm,...'")
+    pts = parse_points(points, "--confirm")
     case = design_case(load_case(case_path))
     rep = DiagnosisReport.from_json(read_json(out / "diagnosis.json"))
     d = rep.diagnosis

@@ -139,6 +139,27 @@ def case_label(speed_rpm: float, torque_Nm: float) -> str:
     return f"n{speed_rpm:g}rpm_T{torque_Nm:g}Nm"
 
 
+#: The command-line form of a list of operating points.
+POINTS_FORM = "'rpm/Nm,rpm/Nm,...' with positive numbers (e.g. '1000/8,2000/4')"
+
+
+def parse_points(text: str, parameter: str) -> tuple[tuple[float, float], ...]:
+    """Operating points (speed_rpm, torque_Nm) from their command-line form ``'1000/8,2000/4'``;
+    a malformed list or a point that is not positive is a :class:`ParameterError` naming
+    ``parameter`` (the option it came from)."""
+    points = []
+    for item in text.split(","):
+        parts = item.split("/")
+        try:
+            speed, torque = (float(x) for x in parts)
+        except ValueError as e:
+            raise ParameterError(parameter, text, POINTS_FORM) from e
+        if not (speed > 0 and torque > 0):
+            raise ParameterError(parameter, text, POINTS_FORM, f"point {item.strip()!r}")
+        points.append((speed, torque))
+    return tuple(points)
+
+
 def study_from_dict(data: dict[str, Any]) -> Study:
     data = dict(data)
     raw = data.pop("study", None)

@@ -16,7 +16,7 @@ import pytest
 from mpi4py import MPI
 
 from gearfem.core.errors import ParameterError
-from gearfem.study import StudyOptions, load_study, run_study, study_from_dict
+from gearfem.study import StudyOptions, load_study, parse_points, run_study, study_from_dict
 
 SMALL_MESH = {
     "teeth_in_model": 2,
@@ -90,6 +90,13 @@ def test_grid_and_points_give_each_operating_point_once(tmp_path):
     assert study.torques() == [4.0, 8.0]
     with pytest.raises(ParameterError, match="study file"):
         load_study(tmp_path / "missing.toml")
+
+
+def test_command_line_points_parse_or_name_the_option():
+    assert parse_points("1000/8, 2000/4.5", "--points") == ((1000.0, 8.0), (2000.0, 4.5))
+    for bad in ("1000/8,2000", "1000-8", "1000/8/2", "", "1000/0", "-5/8", "nan/8"):
+        with pytest.raises(ParameterError, match=r"--points = .*allowed: 'rpm/Nm,rpm/Nm"):
+            parse_points(bad, "--points")
 
 
 @pytest.mark.mpi

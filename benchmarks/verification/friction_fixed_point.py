@@ -51,6 +51,7 @@ from gearfem.contact.friction import FrictionOptions
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
 from gearfem.instruments.evaluate import evaluate
+from gearfem.study import parse_points
 from gearfem.uncertainty import provenance, run_uncertainty
 
 #: The bench points (speed rpm, torque N m).
@@ -164,8 +165,7 @@ def main() -> None:
     setup_logging("WARNING")
     comm = MPI.COMM_WORLD
     base = load_case(a.case)
-    # the rubbery mu stated: by default it is the cycle's mu, which the loop changes
-    points = [tuple(float(v) for v in p.split("/")) for p in a.points.split(",")]
+    points = parse_points(a.points, "--points")
     mu_r = base.contact.friction_coefficient
     t_start = time.perf_counter()
     rows = []
