@@ -245,7 +245,9 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
     )
     g = r.diagnosis.gain
     fit = r.diagnosis.chosen_fit
-    ps = ", ".join(f"{n} = {fit.params[n]:.3g}" for n in fit.candidates) or "none"
+    # the value the verdict quotes: the full-model refined one where the chosen model was refined
+    params = r.diagnosis.refined.params if r.diagnosis.refined is not None else fit.params
+    ps = ", ".join(f"{n} = {params[n]:.4g}" for n in fit.candidates) or "none"
     fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"
     text = (
         f"{table}\n\nCase {case.name!r} ({case_path}), thermal degree {case.thermal.degree}; "
