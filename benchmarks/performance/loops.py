@@ -17,7 +17,8 @@ directory; the FFCx cache of ``~/.cache/fenics`` is kept, as on any machine afte
   speed-up;
 * **bench diagnosis**: ``demos/bench_camera.py --verdict --skip-runs --no-doc`` (``gearfem
   diagnose --suggest`` of the bench against the built-in case, the whole library) with a cold
-  surrogate cache (cycles stored);
+  surrogate cache (the case's cycles at the bench torques stored by the runs before; the cycles
+  of the tip-round radius's input-uncertainty variants computed);
 * with ``--suite``: ``./dev.sh test`` and ``./dev.sh test --quick`` in a fresh clone of the
   repository's HEAD each, with an empty FFCx cache (``XDG_CACHE_HOME``) as on a CI machine
   (set-up and the forms' compilation included).
@@ -151,7 +152,12 @@ def measure(suite: bool) -> tuple[list[tuple[str, str, str]], dict]:
         )  # fmt: skip
         facts["diagnosis_s"] = r["wall_s"]
         rows.append(
-            ("bench diagnosis with --suggest (2 ranks)", f"{r['wall_s']:.0f} s", "cold surrogate")
+            (
+                "bench diagnosis with --suggest (2 ranks)",
+                f"{r['wall_s']:.0f} s",
+                "cold surrogate; the case's cycles at 4 and 8 N m stored, the tip-round "
+                "variants' (input uncertainty) computed",
+            )
         )
         if suite:
             # each tier in a fresh clone of its own with an empty FFCx cache, as on a CI machine:
