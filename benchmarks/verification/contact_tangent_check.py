@@ -98,7 +98,7 @@ def geometric_tangent(s: dict) -> np.ndarray:
     ns, nm, dn, d2n, tau, n, g, p, d = (s[k] for k in ("ns", "nm", "dn", "d2n", "tau", "n", "g",
                                                        "p", "d"))  # fmt: skip
     m = tau @ tau.T
-    x_ab = np.einsum("ij,jk->ik", d2n, s["xm_nodes"])  # x_m,11 x_m,12 x_m,22
+    x_ab = d2n @ s["xm_nodes"]  # x_m,11 x_m,12 x_m,22
     b = np.array([[x_ab[0] @ n, x_ab[1] @ n], [x_ab[1] @ n, x_ab[2] @ n]])
     a = m - g * b
     # derivative of the stationarity condition over the nodes: slave N_s τ_α, master

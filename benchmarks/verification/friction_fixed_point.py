@@ -47,7 +47,7 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
-from gearfem.contact.friction import FrictionOptions
+from gearfem.contact.friction import FrictionOptions, dma_glass_transition_C
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
 from gearfem.instruments.evaluate import evaluate
@@ -238,7 +238,8 @@ def main() -> None:
         + ("" if a.case is None else f" --case {a.case}")
     )
     note = (
-        f"\n\n{which}, glass-transition friction (T_g 143 C, rubbery mu {mu_r:g}), ambient "
+        f"\n\n{which}, glass-transition friction (T_g {dma_glass_transition_C():g} C, rubbery mu "
+        f"{mu_r:g}), ambient "
         f"{base.thermal.ambient_C:g} C; the first cycle at the {a.start} mu; each pass solves the "
         "cycle at the cycle mu, the run from "
         "ambient to 900 s and the steady state it leads to, and reads the law's effective mu, "
