@@ -7,7 +7,8 @@
   ``MPI.COMM_WORLD`` inside one run (fixture ``comms``), so 1 vs 2 ranks is checked by the single
   ``mpirun -n 2 pytest -m mpi`` invocation.
 * Off-screen plotting and a matplotlib backend without a display.
-* The longest test modules are collected first (:data:`LONGEST_MODULES`): dev.sh hands whole
+* The longest test modules are collected first (:data:`LONGEST_MODULES`, the quick tier's
+  :data:`LONGEST_QUICK_MODULES`): dev.sh hands whole
   modules to its two pytest-xdist workers in collection order (``--dist loadfile
   --no-loadscope-reorder``), and a long module started last is a tail that only one core works on.
 """
@@ -41,23 +42,38 @@ def pytest_configure(config: pytest.Config) -> None:
             reporter._tw = type(reporter._tw)(stream)  # type: ignore[attr-defined]
 
 
-#: Test modules by their serial time, longest first. The rest follow in their usual order; only the
-#: order depends on this list. xdist gives each worker one module to start (then the next in line
-#: when a worker has two tests left): the two diagnosis modules start apart, the friction one
-#: first, so that the classic one finds the coarse case's 8 N m cycle in the cache that the
-#: friction surrogate computed, instead of computing it at the same time on the other worker.
+#: Test modules by their serial time in the full tier (measured on a fresh clone: 267, 230, 185,
+#: 81 and 81 s of 1,104 s), longest first. The rest follow in their usual order; only the order
+#: depends on this list. xdist gives each worker one module to start (then the next in line when a
+#: worker has two tests left): the two diagnosis modules start apart, the friction one first, so
+#: that the classic one finds the coarse case's 8 N m cycle in the cache that the friction
+#: surrogate computed, instead of computing it at the same time on the other worker.
 LONGEST_MODULES = (
     "test_diagnose_friction.py",
     "test_cycle.py",
     "test_diagnose.py",
     "test_instruments.py",
+    "test_material_chain.py",
     "test_contact.py",
+)
+#: The same for the quick tier (``-m "not slow ..."``; measured with an empty FFCx cache: 30, 25,
+#: 17, 13, 11 and 10 s of 132 s), where the full tier's longest modules are nearly empty and the
+#: thermal verification, collected late, was a tail on one worker.
+LONGEST_QUICK_MODULES = (
+    "test_thermal_verification.py",
+    "test_instruments.py",
+    "test_diagnose.py",
+    "test_gear_mesh.py",
+    "test_friction.py",
+    "test_thermal_outputs.py",
 )
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Longest modules first (:data:`LONGEST_MODULES`), the others after them in their order."""
-    rank = {name: i for i, name in enumerate(LONGEST_MODULES)}
+    """Longest modules first (:data:`LONGEST_MODULES`, in the quick tier
+    :data:`LONGEST_QUICK_MODULES`), the others after them in their order."""
+    quick = "not slow" in (config.getoption("markexpr") or "")
+    rank = {name: i for i, name in enumerate(LONGEST_QUICK_MODULES if quick else LONGEST_MODULES)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: order within kept
 
 

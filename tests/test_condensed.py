@@ -77,7 +77,9 @@ def test_a_body_without_supports_is_reported():
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("hexahedra", [False, True], ids=["tet10", "hex27"])
+@pytest.mark.parametrize(
+    "hexahedra", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["tet10", "hex27"]
+)
 def test_condensed_patch_test_uniform_pressure(distinct_comms, hexahedra):
     """The patch test of tests/test_contact.py with the condensed solver: p = δ / (H/E + 1/ε) at
     every point to round-off on 1 and 2 ranks, and the recovered volume field equals u_c on c."""
@@ -174,6 +176,7 @@ def test_refinement_with_an_earlier_lu_solves_the_new_system_or_gives_up():
     assert CondensedContactProblem._refine(lu, sp.diags(5.0 * k).tocsr(), C, rhs) is None
 
 
+@pytest.mark.slow
 def test_condensed_hertz_reuses_factorisations_and_keeps_the_answer(monkeypatch):
     """Hertz line contact (h = 14 mm) on the condensed solver: with the refinement on the last LU
     it factorises fewer times than it takes Newton directions, and gives the force and the peak
@@ -280,6 +283,7 @@ def test_condensed_surfaces_follow_the_roll_of_the_involute():
     assert m.contact_teeth == {"pinion": [1, 2], "wheel": [1, 2]}
 
 
+@pytest.mark.slow
 def test_a_contact_outside_the_condensed_surfaces_names_the_tooth():
     """With a margin of 0.1 base pitch, the condensed surfaces of the first 3° of the cycle hold
     the pair in rigid contact there near the pitch point (pinion tooth 2, wheel tooth 1) and the
@@ -299,6 +303,7 @@ def test_a_contact_outside_the_condensed_surfaces_names_the_tooth():
     assert depth > 1e-6  # a real penetration, not round-off
 
 
+@pytest.mark.slow
 def test_compliance_store_serves_the_next_model(tmp_path):
     """A second model of the same mesh and material (another torque) takes the gears'
     compliances from the store, bit for bit, and gives the same first position as a fresh one."""

@@ -200,7 +200,9 @@ def _uniform_pressure(case) -> tuple[float, float, float]:
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("hexahedra", [False, True], ids=["tet10", "hex27"])
+@pytest.mark.parametrize(
+    "hexahedra", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["tet10", "hex27"]
+)
 def test_patch_test_uniform_pressure_non_matching(distinct_comms, hexahedra):
     """Uniaxial compression through a non-matching interface: p = δ / (H/E + 1/ε) at every point."""
     delta, E, eps, H = 1e-3, 1.0, 100.0, 1.0
@@ -519,6 +521,7 @@ def test_box_pairs_are_every_pair_of_overlapping_grown_boxes():
     np.testing.assert_array_equal(np.column_stack([si, mj]), want)  # same pairs, same order
 
 
+@pytest.mark.slow
 def test_slip_directions_settle_with_the_multipliers_held_after_max_uzawa_passes():
     """The outer loop: after ``max_uzawa`` passes with the penetration within tolerance but the
     slip directions still changing, the multipliers are held (their Uzawa update moves the

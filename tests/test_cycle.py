@@ -588,6 +588,7 @@ def test_positions_spread_over_ranks_give_the_one_rank_cycle():
     assert spread.history.num_points == pytest.approx(serial.history.num_points, rel=0.01)
 
 
+@pytest.mark.slow
 def test_a_reference_tooth_missing_the_heated_images_is_refused():
     """The revolution average collects the heat of every image on the reference tooth; collected
     on a part of it (here its tip only) the flank heat falls far below the friction power of the

@@ -35,6 +35,7 @@ def _run_demo(name: str, args: list[str], cwd: Path) -> subprocess.CompletedProc
     )
 
 
+@pytest.mark.slow
 def test_hertz_contact_demo(tmp_path):
     """Serial run on a coarse mesh (h = 0.014 m ≈ a/2.2): files complete, CSV and summary agree
     with each other and with Hertz's formulas, p0 within the discretisation's bound (h/a)²/12
@@ -89,6 +90,7 @@ def _load_demo(name: str):
     return module
 
 
+@pytest.mark.slow
 def test_thermal_gear_demo(tmp_path):
     """Serial run: files complete, heat balance closed, the gear heats above ambient."""
     out = tmp_path / "thermal"
@@ -108,6 +110,7 @@ def test_thermal_gear_demo(tmp_path):
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_demos_on_all_ranks(tmp_out):
     """The literate demos run in-process on every rank of the communicator (under
     ``mpirun -n 2`` in CI) and give the serial results' physics: Hertz p0 within (h/a)²/12 and a

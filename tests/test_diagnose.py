@@ -744,6 +744,7 @@ def test_design_probes_and_split_routing():
     assert np.array_equal(split.error(d, tuple(model)), one.error(d, tuple(model)))
 
 
+@pytest.mark.slow
 def test_suggest_measurements_path(tmp_path):
     """The --suggest path of gearfem diagnose (design case, split surrogates, full-model check of
     the top proposals) with the lumped model as the forward model: the confuser of friction and

@@ -471,6 +471,7 @@ def _involute_band(case: Case):
     return prof, prof.form_radius_m + 3e-4, prof.tip_form_radius_m - 3e-4
 
 
+@pytest.mark.slow
 def test_turning_toothed_ring_reads_the_fill_fraction_weighted_radiance(ring):
     case, _ = ring
     speed, N = 1000.0, 720

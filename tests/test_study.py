@@ -154,6 +154,7 @@ def test_study_runs_collects_and_resumes(parallel, tmp_out, comm):
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_single_task_and_collect(tmp_out, comm):
     """Cluster route: ``--index`` runs one task and writes no study.json; ``--collect`` gathers."""
     out = tmp_out / "study_index"

@@ -81,6 +81,7 @@ def test_domain_from_pair_and_single_body_meshes(cache):
         assert rec.balance.relative_imbalance < 1e-9
 
 
+@pytest.mark.slow
 def test_sector_with_adiabatic_cuts_equals_full_gear_for_symmetric_heating(cache):
     """Cuts at mid-gap are symmetry planes of the full gear when both flanks are heated alike, so
     the

@@ -41,7 +41,15 @@ def _run(comm, linear_solver):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("linear_solver", ["iterative", "direct", "multigrid"])
+# the default solver ("direct") in the quick tier, the others in the full one
+@pytest.mark.parametrize(
+    "linear_solver",
+    [
+        pytest.param("iterative", marks=pytest.mark.slow),
+        "direct",
+        pytest.param("multigrid", marks=pytest.mark.slow),
+    ],
+)
 def test_serial_and_parallel_agree(comms, linear_solver):
     serial, world = comms
     rs, n_s = _run(serial, linear_solver)
