@@ -1,5 +1,5 @@
 """How long gearfem's loops take on this machine: the main job, a further torque and speed, the
-cycle and the thermal run on 1 and 2 ranks, the bench diagnosis, and (``--suite``) the tests.
+cycle and the thermal run on 1 and 2 ranks, the bench diagnosis (the jobs), and the tests.
 
 Every figure is measured by running the command a user runs, in a subprocess, with empty caches
 where the figure is "from scratch" (``GEARFEM_CACHE`` and ``GEARFEM_MESH_CACHE`` in a temporary
@@ -19,14 +19,18 @@ directory; the FFCx cache of ``~/.cache/fenics`` is kept, as on any machine afte
   diagnose --suggest`` of the bench against the built-in case, the whole library) with a cold
   surrogate cache (the case's cycles at the bench torques stored by the runs before; the cycles
   of the tip-round radius's input-uncertainty variants computed);
-* with ``--suite``: ``./dev.sh test`` and ``./dev.sh test --quick`` in a fresh clone of the
-  repository's HEAD each, with an empty FFCx cache (``XDG_CACHE_HOME``) as on a CI machine
-  (set-up and the forms' compilation included).
+* **the tests** (``--suite``: after the jobs; ``--tests``: alone): ``./dev.sh test`` and
+  ``./dev.sh test --quick`` in a fresh clone of the repository's HEAD each, with an empty FFCx
+  cache (``XDG_CACHE_HOME``) as on a CI machine, set-up and the forms' compilation included;
+  each split into set-up (the venv), the 1-rank tier and the ``mpirun`` tier as dev.sh reports
+  them.
 
-Prints the table and, with ``--docs``, writes it into block ``loops`` of docs/performance.md and
-the one-line summary into block ``readme_timings`` of README.md.
+Prints the tables and, with ``--docs``, writes the jobs' into block ``loops`` of
+docs/performance.md and their one-line summary into block ``readme_timings`` of README.md, the
+tests' into blocks ``test_tiers`` and ``readme_test_timings``: each block says the commit it was
+measured at, so the tests can be measured again (20 min) without the jobs (an hour).
 
-    python benchmarks/performance/loops.py [--suite] [--docs]
+    python benchmarks/performance/loops.py [--suite | --tests] [--docs]
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ import datetime
 import json
 import os
 import platform
+import re
 import resource
 import shutil
 import subprocess
@@ -63,6 +68,7 @@ def _run(cmd: list[str], env: dict, cwd: Path = ROOT) -> dict:
         "user_s": after.ru_utime - before.ru_utime,
         "sys_s": after.ru_stime - before.ru_stime,
         "stdout": proc.stdout,
+        "stderr": proc.stderr,
     }
 
 
@@ -81,7 +87,8 @@ def _case(tmp: Path, name: str, **operating) -> Path:
     return path
 
 
-def measure(suite: bool) -> tuple[list[tuple[str, str, str]], dict]:
+def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
+    """The jobs' rows and figures (main job, further torque and speed, 1 vs 2 ranks, diagnosis)."""
     rows: list[tuple[str, str, str]] = []
     facts: dict = {}
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-loops-"))
@@ -159,37 +166,62 @@ def measure(suite: bool) -> tuple[list[tuple[str, str, str]], dict]:
                 "variants' (input uncertainty) computed",
             )
         )
-        if suite:
-            # each tier in a fresh clone of its own with an empty FFCx cache, as on a CI machine:
-            # set-up (the venv) and the forms' compilation included
-            senv = {k: v for k, v in os.environ.items() if not k.startswith("GEARFEM_")}
-            for key, args, label in (
-                ("suite_s", [], "./dev.sh test"),
-                ("quick_s", ["--quick"], "./dev.sh test --quick"),
-            ):
-                clone = tmp / f"clone_{key}"
-                subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
-                senv["XDG_CACHE_HOME"] = str(tmp / f"xdg_{key}")
-                r = _run(["./dev.sh", "test", *args], senv, cwd=clone)
-                facts[key] = r["wall_s"]
-                rows.append(
-                    (
-                        f"{label}, fresh clone",
-                        f"{r['wall_s'] / 60:.1f} min",
-                        "set-up and the forms' compilation included",
-                    )
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return rows, facts
+
+
+#: dev.sh's lines with the time of each tier (``[dev.sh] ... passed in N s``)
+_TIER_LINES = {
+    "one_rank_s": re.compile(r"serial tests passed in (\d+) s"),
+    "mpi_s": re.compile(r"mpirun -n \d+ tests passed in (\d+) s"),
+}
+
+
+def measure_tests() -> tuple[list[tuple[str, str, str]], dict]:
+    """``./dev.sh test`` and ``./dev.sh test --quick``, each in a fresh clone of HEAD with an empty
+    FFCx cache, as on a CI machine: set-up (the venv) and the forms' compilation included."""
+    rows: list[tuple[str, str, str]] = []
+    facts: dict = {}
+    tmp = Path(tempfile.mkdtemp(prefix="gearfem-tests-"))
+    senv = {k: v for k, v in os.environ.items() if not k.startswith("GEARFEM_")}
+    try:
+        for key, args, label in (
+            ("suite", [], "./dev.sh test"),
+            ("quick", ["--quick"], "./dev.sh test --quick"),
+        ):
+            clone = tmp / f"clone_{key}"
+            subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
+            senv["XDG_CACHE_HOME"] = str(tmp / f"xdg_{key}")
+            r = _run(["./dev.sh", "test", *args], senv, cwd=clone)
+            tiers = {}
+            for name, pattern in _TIER_LINES.items():
+                m = pattern.search(r["stderr"])
+                if m is None:
+                    raise SystemExit(f"{label}: dev.sh did not report {name} ({pattern.pattern})")
+                tiers[name] = float(m.group(1))
+            setup = r["wall_s"] - tiers["one_rank_s"] - tiers["mpi_s"]
+            facts[f"{key}_s"] = r["wall_s"]
+            rows.append(
+                (
+                    f"{label}, fresh clone",
+                    f"{r['wall_s'] / 60:.1f} min",
+                    f"set-up {setup:.0f} s, 1-rank tier {tiers['one_rank_s']:.0f} s, "
+                    f"mpirun -n 2 tier {tiers['mpi_s']:.0f} s",
                 )
+            )
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return rows, facts
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--suite", action="store_true", help="also time the tests in a fresh clone")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    what = ap.add_mutually_exclusive_group()
+    what.add_argument("--suite", action="store_true", help="the jobs, then the tests")
+    what.add_argument("--tests", action="store_true", help="only the tests (fresh clones)")
     ap.add_argument("--docs", action="store_true", help="write docs/performance.md and README.md")
     a = ap.parse_args()
-    rows, facts = measure(a.suite)
     sys.path.insert(0, str(ROOT))
     from gearfem.core.doctables import markdown_table, replace_block
 
@@ -199,28 +231,38 @@ def main() -> None:
         capture_output=True, text=True, check=False,
     ).stdout.strip()  # fmt: skip
     machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
-    table = markdown_table(("loop", "time", "note"), rows)
-    text = (
-        f"{table}\n\nMeasured by `python benchmarks/performance/loops.py"
-        f"{' --suite' if a.suite else ''}` at {commit} on {today} ({machine}; load average "
-        f"{os.getloadavg()[0]:.1f} at the end)."
-    )
-    print(text)
-    if a.docs:
-        replace_block(ROOT / "docs" / "performance.md", "loops", text)
-        parts = [f"the main job takes {facts['main_s'] / 60:.1f} min with empty caches"]
-        parts.append(f"the bench diagnosis {facts['diagnosis_s'] / 60:.1f} min")
-        if "suite_s" in facts:
-            parts.append(
-                f"the test suite {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
-                f"{facts['quick_s'] / 60:.1f} min)"
-            )
-        line = (
-            f"On this project's machine ({machine}): " + ", ".join(parts) + f". Measured at "
-            f"{commit} on {today} by `benchmarks/performance/loops.py` "
-            "([docs/performance.md](docs/performance.md))."
+
+    def measured(flag: str) -> str:
+        return (
+            f"Measured by `python benchmarks/performance/loops.py{flag}` at {commit} on {today} "
+            f"({machine}; load average {os.getloadavg()[0]:.1f} at the end)."
         )
-        replace_block(ROOT / "README.md", "readme_timings", line)
+
+    if not a.tests:
+        rows, facts = measure_jobs()
+        text = f"{markdown_table(('loop', 'time', 'note'), rows)}\n\n{measured('')}"
+        print(text)
+        if a.docs:
+            replace_block(ROOT / "docs" / "performance.md", "loops", text)
+            line = (
+                f"On this project's machine ({machine}): the main job takes "
+                f"{facts['main_s'] / 60:.1f} min with empty caches, the bench diagnosis "
+                f"{facts['diagnosis_s'] / 60:.1f} min. Measured at {commit} on {today} by "
+                "`benchmarks/performance/loops.py` ([docs/performance.md](docs/performance.md))."
+            )
+            replace_block(ROOT / "README.md", "readme_timings", line)
+    if a.suite or a.tests:
+        rows, facts = measure_tests()
+        text = f"{markdown_table(('tests', 'time', 'of which'), rows)}\n\n{measured(' --tests')}"
+        print(text)
+        if a.docs:
+            replace_block(ROOT / "docs" / "performance.md", "test_tiers", text)
+            line = (
+                f"The tests take {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
+                f"{facts['quick_s'] / 60:.1f} min), set-up included. Measured at {commit} on "
+                f"{today} by `benchmarks/performance/loops.py --tests`."
+            )
+            replace_block(ROOT / "README.md", "readme_test_timings", line)
 
 
 if __name__ == "__main__":
