@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 import pytest
+from camera_options import QUICK_CAMERA
 
 from gearfem.config import load_case
 from gearfem.core.errors import ParameterError
@@ -44,6 +45,9 @@ def _small_case():
         thermal_mesh=mesh,
         sources=dataclasses.replace(c.sources, mode="prescribed", flank_heat_per_gear_W=40.0),
         thermal=dataclasses.replace(c.thermal, duration_s=120.0, degree=1, output_times_s=()),
+        instruments=dataclasses.replace(
+            c.instruments, camera=dataclasses.replace(c.instruments.camera, **QUICK_CAMERA)
+        ),
     )
 
 

@@ -13,6 +13,7 @@ import json
 import shutil
 
 import pytest
+from camera_options import QUICK_CAMERA
 from mpi4py import MPI
 
 from gearfem.core.errors import ParameterError
@@ -36,6 +37,7 @@ def _study(points=((1000.0, 8.0), (2000.0, 4.0)), parallel="auto", duration=120.
         "mesh": dict(SMALL_MESH),
         "sources": {"mode": "prescribed", "flank_heat_per_gear_W": heat},
         "thermal": {"duration_s": duration, "degree": 1, "dt_initial_s": 1.0},
+        "instruments": {"camera": dict(QUICK_CAMERA)},
         "study": {"points": [list(p) for p in points], "parallel": parallel},
     }
 
