@@ -196,9 +196,11 @@ def main() -> None:
         "half-width (um)",
     )
     table = markdown_table(head, rows)
+    law = base.friction_law()  # T_g, width and rubbery mu as the case resolves them
     note = (
-        f"\n\nBuilt-in case, glass-transition friction with glassy mu {a.mu_glassy:g} (T_g 143 C, "
-        f"w 5 K, rubbery 0.5), ambient {AMBIENT_C:g} C; the fold scale is where each gear's cool "
+        f"\n\nBuilt-in case, glass-transition friction with glassy mu {a.mu_glassy:g} (T_g "
+        f"{law.tg_K - ZERO_CELSIUS_K:g} C, w {law.width_K:g} K, rubbery {law.mu_rubbery:g}), "
+        f"ambient {AMBIENT_C:g} C; the fold scale is where each gear's cool "
         "branch ends in the friction-heat scale (> 1: the point runs cool), the first contact to "
         "switch is the hottest at the last cool state. "
         f"`mpirun -n {comm.size} python benchmarks/verification/branch_switching.py "
