@@ -238,31 +238,32 @@ def main() -> None:
             f"({machine}; load average {os.getloadavg()[0]:.1f} at the end)."
         )
 
+    def publish(head, rows, flag: str, block: str, readme_block: str, line: str) -> None:
+        """Print the table; with --docs, write it into docs/performance.md and ``line``
+        (with the commit and date) into the README."""
+        text = f"{markdown_table(head, rows)}\n\n{measured(flag)}"
+        print(text)
+        if a.docs:
+            replace_block(ROOT / "docs" / "performance.md", block, text)
+            stamp = f" Measured at {commit} on {today} by `benchmarks/performance/loops.py{flag}`"
+            replace_block(ROOT / "README.md", readme_block, f"{line}{stamp}{readme_tail[flag]}")
+
+    readme_tail = {"": " ([docs/performance.md](docs/performance.md)).", " --tests": "."}
     if not a.tests:
         rows, facts = measure_jobs()
-        text = f"{markdown_table(('loop', 'time', 'note'), rows)}\n\n{measured('')}"
-        print(text)
-        if a.docs:
-            replace_block(ROOT / "docs" / "performance.md", "loops", text)
-            line = (
-                f"On this project's machine ({machine}): the main job takes "
-                f"{facts['main_s'] / 60:.1f} min with empty caches, the bench diagnosis "
-                f"{facts['diagnosis_s'] / 60:.1f} min. Measured at {commit} on {today} by "
-                "`benchmarks/performance/loops.py` ([docs/performance.md](docs/performance.md))."
-            )
-            replace_block(ROOT / "README.md", "readme_timings", line)
+        publish(
+            ("loop", "time", "note"), rows, "", "loops", "readme_timings",
+            f"On this project's machine ({machine}): the main job takes "
+            f"{facts['main_s'] / 60:.1f} min with empty caches, the bench diagnosis "
+            f"{facts['diagnosis_s'] / 60:.1f} min.",
+        )  # fmt: skip
     if a.suite or a.tests:
         rows, facts = measure_tests()
-        text = f"{markdown_table(('tests', 'time', 'of which'), rows)}\n\n{measured(' --tests')}"
-        print(text)
-        if a.docs:
-            replace_block(ROOT / "docs" / "performance.md", "test_tiers", text)
-            line = (
-                f"The tests take {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
-                f"{facts['quick_s'] / 60:.1f} min), set-up included. Measured at {commit} on "
-                f"{today} by `benchmarks/performance/loops.py --tests`."
-            )
-            replace_block(ROOT / "README.md", "readme_test_timings", line)
+        publish(
+            ("tests", "time", "of which"), rows, " --tests", "test_tiers", "readme_test_timings",
+            f"The tests take {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
+            f"{facts['quick_s'] / 60:.1f} min), set-up included.",
+        )  # fmt: skip
 
 
 if __name__ == "__main__":
