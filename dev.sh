@@ -133,9 +133,9 @@ case "$cmd" in
     # pytest-dev/pytest-xdist#1386), in collection order (--no-loadscope-reorder: the longest
     # modules first, tests/conftest.py LONGEST_MODULES); the 20 longest tests are listed at the end
     # (where a faster tier would come from). GEARFEM_TEST_WORKERS=0: in-process.
-    # Bytecode is written (an environment may forbid it, PYTHONDONTWRITEBYTECODE): without it each
-    # of the tiers' 4 pytest processes re-rewrote the assertions of every test module and
-    # recompiled gearfem at start (6.5 s against 2-3 s to collect the quick tier)
+    # Bytecode is written (an environment may forbid it, PYTHONDONTWRITEBYTECODE): without it
+    # every pytest process (the xdist workers, the mpirun ranks) re-rewrote the assertions of every
+    # test module and recompiled gearfem at start (6.5 s against 2-3 s to collect the quick tier)
     unset PYTHONDONTWRITEBYTECODE
     workers="${GEARFEM_TEST_WORKERS:-$(( $(nproc 2>/dev/null || echo 1) >= 2 ? 2 : 1 ))}"
     [[ "$workers" =~ ^[0-9]+$ ]] || die "GEARFEM_TEST_WORKERS=$workers is not a whole number >= 0"
