@@ -238,17 +238,16 @@ def main() -> None:
             f"({machine}; load average {os.getloadavg()[0]:.1f} at the end)."
         )
 
-    def publish(head, rows, flag: str, block: str, readme_block: str, line: str) -> None:
-        """Print the table; with --docs, write it into docs/performance.md and ``line``
-        (with the commit and date) into the README."""
+    def publish(head, rows, flag: str, block: str, readme_block: str, line: str, link: str):
+        """Print the table; with --docs, write it into block ``block`` of docs/performance.md
+        and ``line`` with the commit and date (and ``link``) into the README's ``readme_block``."""
         text = f"{markdown_table(head, rows)}\n\n{measured(flag)}"
         print(text)
         if a.docs:
             replace_block(ROOT / "docs" / "performance.md", block, text)
-            stamp = f" Measured at {commit} on {today} by `benchmarks/performance/loops.py{flag}`"
-            replace_block(ROOT / "README.md", readme_block, f"{line}{stamp}{readme_tail[flag]}")
+            stamp = f"Measured at {commit} on {today} by `benchmarks/performance/loops.py{flag}`"
+            replace_block(ROOT / "README.md", readme_block, f"{line} {stamp}{link}.")
 
-    readme_tail = {"": " ([docs/performance.md](docs/performance.md)).", " --tests": "."}
     if not a.tests:
         rows, facts = measure_jobs()
         publish(
@@ -256,6 +255,7 @@ def main() -> None:
             f"On this project's machine ({machine}): the main job takes "
             f"{facts['main_s'] / 60:.1f} min with empty caches, the bench diagnosis "
             f"{facts['diagnosis_s'] / 60:.1f} min.",
+            " ([docs/performance.md](docs/performance.md))",
         )  # fmt: skip
     if a.suite or a.tests:
         rows, facts = measure_tests()
@@ -263,6 +263,7 @@ def main() -> None:
             ("tests", "time", "of which"), rows, " --tests", "test_tiers", "readme_test_timings",
             f"The tests take {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
             f"{facts['quick_s'] / 60:.1f} min), set-up included.",
+            "",
         )  # fmt: skip
 
 
