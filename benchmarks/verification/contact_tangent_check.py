@@ -1,5 +1,6 @@
 """The contact tangent at one contact point against finite differences: what gearfem's tangent
-leaves out, and the terms that would make it consistent (a design check, not gearfem code yet).
+leaves out, and the terms that make it consistent (gearfem.contact.tangent, not yet assembled by
+the interface).
 
 One slave point on a curved P2 slave facet and its closest-point foot ζ on a curved P2 master facet
 (two sphere patches with randomly perturbed nodes; a gap of 0.1 mm with a multiplier that keeps
@@ -44,7 +45,9 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 
 # isort: split
 
+from gearfem.contact import tangent
 from gearfem.contact.kinematics import project
+from gearfem.contact.tangent import PointGeometry
 from gearfem.core.facets import FacetReference
 
 REF = FacetReference.create(basix.CellType.tetrahedron, 2)
@@ -94,33 +97,22 @@ def frozen_tangent(s: dict) -> np.ndarray:
 
 
 def geometric_tangent(s: dict) -> np.ndarray:
-    """The terms the frozen tangent leaves out (module docstring), (36, 36)."""
-    ns, nm, dn, d2n, tau, n, g, p, d = (s[k] for k in ("ns", "nm", "dn", "d2n", "tau", "n", "g",
-                                                       "p", "d"))  # fmt: skip
-    m = tau @ tau.T
-    x_ab = d2n @ s["xm_nodes"]  # x_m,11 x_m,12 x_m,22
+    """The terms the frozen tangent leaves out (module docstring), (36, 36): gearfem's
+    :func:`gearfem.contact.tangent.geometric_tangent` at this point."""
+    x_ab = s["d2n"] @ s["xm_nodes"]  # x_m,11 x_m,12 x_m,22
+    n = s["n"]
     b = np.array([[x_ab[0] @ n, x_ab[1] @ n], [x_ab[1] @ n, x_ab[2] @ n]])
-    a = m - g * b
-    # derivative of the stationarity condition over the nodes: slave N_s τ_α, master
-    # −N_m τ_α + g N_m,α n
-    df = np.zeros((2, 12, 3))
-    df[:, :6] = ns[None, :, None] * tau[:, None, :]
-    df[:, 6:] = -nm[None, :, None] * tau[:, None, :] + g * dn[:, :, None] * n[None, None, :]
-    j_zeta = np.linalg.solve(a, df.reshape(2, -1))
-    n_dtau = np.zeros((2, 12, 3))
-    n_dtau[:, 6:] = dn[:, :, None] * n[None, None, :]
-    j_n = tau.T @ -np.linalg.solve(m, n_dtau.reshape(2, -1) + b @ j_zeta)
-    mag, st, sh = np.linalg.norm(S0), s["st"], s["s_hat"]
-    dsh_dn = (
-        (mag / np.linalg.norm(st))
-        * (np.eye(3) - np.outer(sh, sh) / mag**2)
-        @ (-(S0 @ n) * np.eye(3) - np.outer(n, S0))
+    geo = PointGeometry(
+        Ns=s["ns"][None],
+        Nm=s["nm"][None],
+        dNm=s["dn"][None],
+        tau=s["tau"][None],
+        curvature=b[None],
+        normal=n[None],
+        gap=np.array([s["g"]]),
     )
-    j_d = (np.eye(3) - MU * dsh_dn) @ j_n
-    k = np.zeros((12, 3, 36))
-    k[:6] = -W * p * ns[:, None, None] * j_d[None]
-    k[6:] = W * p * (nm[:, None, None] * j_d[None] + np.einsum("d,ak,ac->kdc", d, dn, j_zeta))
-    return k.reshape(36, 36)
+    u, v = tangent.geometric_tangent(geo, np.array([W * s["p"]]), s["d"][None], MU, S0[None])
+    return u[0] @ v[0].T
 
 
 def main() -> None:
