@@ -117,3 +117,76 @@ def test_frozen_slip_jacobian():
         fd = (s_hat(n + e) - s_hat(n - e)) / 2e-7
         assert np.allclose(J[:, :, k], fd, rtol=1e-6, atol=1e-7)
     assert np.all(frozen_slip_jacobian(np.zeros_like(n), n) == 0.0)
+
+
+def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    a = axis / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+@pytest.mark.parametrize("controlled", ["slave", "master"])
+@pytest.mark.parametrize("mu", [0.0, 0.3])
+def test_torque_border_is_the_derivative_in_the_rotation(controlled, mu):
+    """One body of the point turns by ψ about an axis: its nodes move by a × (x − c) δψ, its
+    residual rows are R(ψ)ᵀ r, and the moment about the axis is W p m, m = ±a·((x − c) × d).
+    The pressure's parts (W ε ρ β, W ε m γ, W ε m β, as ``rotation_terms``) plus
+    :func:`torque_border`'s are the derivatives of these in ψ and in the nodes."""
+    from gearfem.contact.tangent import torque_border
+
+    rng = np.random.default_rng(7)
+    master = _patch(0.0, 1.0, (-0.003, -0.004), rng)
+    slave = _patch(-2e-5, -1.0, (-0.004, -0.003), rng)
+    coords = np.concatenate([slave, master])
+    ns = len(NODES_REF)
+    own = slice(0, ns) if controlled == "slave" else slice(ns, None)
+    sign = 1.0 if controlled == "slave" else -1.0
+    xi_s = np.array([0.3, 0.3])
+    s0 = np.array([0.8, 0.6, 0.0])
+    axis = np.array([0.3, 1.0, 0.2])
+    axis /= np.linalg.norm(axis)
+    centre = np.array([0.02, -0.01, 0.03])
+
+    def turned(psi):
+        c = coords.copy()
+        c[own] = centre + (c[own] - centre) @ _rotation(axis, psi).T
+        return c
+
+    def body_residual(psi):
+        r = _state(turned(psi), xi_s, s0, mu)[0].reshape(-1, 3).copy()
+        r[own] = r[own] @ _rotation(axis, psi)  # R(ψ)ᵀ r, row vectors
+        return r.ravel()
+
+    def moment(c):
+        _, geo, p, d = _state(c, xi_s, s0, mu)
+        x = geo.Ns[0] @ c[:ns]
+        return W * p * sign * axis @ np.cross(x - centre, d)
+
+    _, geo, p, d = _state(coords, xi_s, s0, mu)
+    Ns, Nm, n = geo.Ns[0], geo.Nm[0], geo.normal[0]
+    x = Ns @ coords[:ns]
+    r = _state(coords, xi_s, s0, mu)[0]
+    rho, gam = _rho(Ns, Nm, d), _rho(Ns, Nm, n)
+    v = np.zeros_like(coords)
+    v[own] = np.cross(axis, coords[own] - centre)
+    beta = gam @ v.ravel()
+    m = sign * axis @ np.cross(x - centre, d)
+    k_up, k_pu, k_pp = torque_border(
+        geo, np.array([W * p]), d[None], mu, s0[None], r[None], coords[None], x[None], axis,
+        centre, controlled,
+    )  # fmt: skip
+    step = 1e-7
+    fd_up = (body_residual(step) - body_residual(-step)) / (2 * step)
+    want = W * EPS * rho * beta + k_up[0]
+    assert np.linalg.norm(fd_up - want) < 1e-6 * np.linalg.norm(fd_up)
+    assert np.linalg.norm(fd_up - W * EPS * rho * beta) > 1e-3 * np.linalg.norm(fd_up)
+    fd_pu = np.zeros(coords.size)
+    for j in range(coords.size):
+        e = np.zeros(coords.size)
+        e[j] = step
+        fd_pu[j] = -(
+            moment(coords + e.reshape(coords.shape)) - moment(coords - e.reshape(coords.shape))
+        ) / (2 * step)
+    assert np.linalg.norm(fd_pu - (W * EPS * m * gam + k_pu[0])) < 1e-6 * np.linalg.norm(fd_pu)
+    fd_pp = -(moment(turned(step)) - moment(turned(-step))) / (2 * step)
+    assert fd_pp == pytest.approx(W * EPS * m * beta + k_pp[0], rel=1e-6)

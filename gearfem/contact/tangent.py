@@ -112,6 +112,14 @@ def frozen_slip_jacobian(frozen: np.ndarray, normal: np.ndarray) -> np.ndarray:
     return np.where(ok[:, None, None], dsh_dst @ dst_dn, 0.0)
 
 
+def _direction_tangents(geo: PointGeometry, mu: float, frozen_slip: np.ndarray | None):
+    """e_β = (I − μ ∂ŝ/∂n) τ_β (n, 2, 3): Δd = e_β G^β Δx."""
+    proj = np.broadcast_to(np.eye(3), (len(geo.gap), 3, 3))
+    if mu != 0.0 and frozen_slip is not None:
+        proj = proj - mu * frozen_slip_jacobian(frozen_slip, geo.normal)
+    return np.einsum("pij,paj->pai", proj, geo.tau)
+
+
 def geometric_tangent(
     geo: PointGeometry,
     weight_pressure: np.ndarray,
@@ -132,10 +140,7 @@ def geometric_tangent(
     n = len(geo.gap)
     ns, nm = geo.Ns.shape[1], geo.Nm.shape[1]
     Jz, G = projection_jacobians(geo)
-    proj = np.broadcast_to(np.eye(3), (n, 3, 3))
-    if mu != 0.0 and frozen_slip is not None:
-        proj = proj - mu * frozen_slip_jacobian(frozen_slip, geo.normal)
-    e = np.einsum("pij,paj->pai", proj, geo.tau)  # e_β = (I − μ ∂ŝ/∂n) τ_β
+    e = _direction_tangents(geo, mu, frozen_slip)
     wp = weight_pressure[:, None, None]
     U = np.zeros((n, ns + nm, 3, 4))
     # −W p ρ(e_β): slave rows N_s e_β, master rows −N_m e_β
@@ -149,4 +154,73 @@ def geometric_tangent(
     return U.reshape(n, -1, 4), np.moveaxis(V, 1, 2)
 
 
-__all__ = ["PointGeometry", "frozen_slip_jacobian", "geometric_tangent", "projection_jacobians"]
+def torque_border(
+    geo: PointGeometry,
+    weight_pressure: np.ndarray,
+    direction: np.ndarray,
+    mu: float,
+    frozen_slip: np.ndarray | None,
+    residual: np.ndarray,
+    nodes: np.ndarray,
+    point: np.ndarray,
+    axis: np.ndarray,
+    centre: np.ndarray,
+    controlled: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The geometric parts of the torque border of a body turning by ψ about ``axis`` through
+    ``centre`` (the interface's ``rotation_terms``), per point, in the global frame.
+
+    The body's nodes move by v = a × (x − c) δψ (``controlled``: "slave" or "master", the pass's
+    role of the body), its residual rows are R_cᵀ r, and the moment about its axis is
+    M = Σ W p m, m = ±a·((x − c) × d) (+ for the slave; x the slave point). Beside the parts
+    through the pressure (W ε ρ β, W ε m γ, W ε m β) the derivatives hold
+
+        ∂R_u/∂ψ:   U (Vᵀ v) − a × r   (the latter on the body's own nodes: its frame turns),
+        ∂(−M)/∂x:  −W p (±)[(d × a)·N_s Δx_s + (a × (x − c))·Δd],
+        ∂(−M)/∂ψ:  the same applied to v.
+
+    Args:
+        geo, weight_pressure, direction, mu, frozen_slip: as :func:`geometric_tangent`.
+        residual: (n, size) the point's residual r = −W p ρ(d) in the global frame.
+        nodes: (n, ns + nm, 3) the current positions of the point's nodes (slave, then master).
+        point: (n, 3) the slave point x.
+        axis: (3,) the unit rotation axis a; centre: (3,) a point c on it.
+
+    Returns:
+        (k_up (n, size), k_pu (n, size), k_pp (n,)).
+    """
+    if controlled not in ("slave", "master"):
+        raise ValueError(f"controlled = {controlled!r}: 'slave' or 'master'")
+    n = len(geo.gap)
+    ns, nm = geo.Ns.shape[1], geo.Nm.shape[1]
+    a = np.asarray(axis, dtype=np.float64)
+    sign = 1.0 if controlled == "slave" else -1.0
+    own = slice(0, ns) if controlled == "slave" else slice(ns, ns + nm)
+    v = np.zeros((n, ns + nm, 3))
+    v[:, own] = np.cross(a, nodes[:, own] - centre)
+    v = v.reshape(n, -1)
+    U, V = geometric_tangent(geo, weight_pressure, direction, mu, frozen_slip)
+    k_up = np.einsum("pmc,pc->pm", U, np.einsum("pmc,pm->pc", V, v))
+    frame = np.zeros((n, ns + nm, 3))
+    frame[:, own] = -np.cross(a, residual.reshape(n, ns + nm, 3)[:, own])
+    k_up = k_up + frame.reshape(n, -1)
+    # ∂m/∂x: the lever arm (the slave point) and the direction d (through ζ, n and ŝ)
+    _, G = projection_jacobians(geo)
+    e = _direction_tangents(geo, mu, frozen_slip)
+    lever = np.cross(a, point - centre)  # a × (x − c): (a × (x − c))·Δd = Δd·lever
+    dm = np.einsum("pa,pam->pm", np.einsum("pd,pad->pa", lever, e), G)
+    dm_lever = np.zeros((n, ns + nm, 3))
+    dm_lever[:, :ns] = geo.Ns[:, :, None] * np.cross(direction, a)[:, None, :]
+    dm = sign * (dm + dm_lever.reshape(n, -1))
+    k_pu = -weight_pressure[:, None] * dm
+    k_pp = np.einsum("pm,pm->p", k_pu, v)
+    return k_up, k_pu, k_pp
+
+
+__all__ = [
+    "PointGeometry",
+    "frozen_slip_jacobian",
+    "geometric_tangent",
+    "projection_jacobians",
+    "torque_border",
+]
