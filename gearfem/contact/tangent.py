@@ -64,14 +64,9 @@ class PointGeometry:
     normal: np.ndarray
     gap: np.ndarray
 
-    @property
-    def size(self) -> int:
-        """Coordinates per point: 3 (ns + nm)."""
-        return 3 * (self.Ns.shape[1] + self.Nm.shape[1])
-
 
 def projection_jacobians(geo: PointGeometry) -> tuple[np.ndarray, np.ndarray]:
-    """(J_ζ, G), each (n, 2, size): Δζ^α = J_ζ^α Δx and Δn = τ_β G^β Δx for the point's
+    """(J_ζ, G), each (n, 2, 3 (ns + nm)): Δζ^α = J_ζ^α Δx and Δn = τ_β G^β Δx for the point's
     coordinates Δx = [Δx_s; Δx_m] (node-major, 3 per node)."""
     n = len(geo.gap)
     ns = geo.Ns.shape[1]
@@ -127,8 +122,9 @@ def geometric_tangent(
     mu: float,
     frozen_slip: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Factors (U, V), each (n, size, 4), of the points' geometric tangents K_geo = U Vᵀ (module
-    docstring): the derivative of the residual r = −W p ρ(d) through ζ, n and ŝ(n).
+    """Factors (U, V), each (n, 3 (ns + nm), 4), of the points' geometric tangents K_geo = U Vᵀ
+    (module docstring): the derivative of the residual r = −W p ρ(d) through ζ, n and ŝ(n). V's
+    first two columns are Δn's rows G^β, the last two Δζ's.
 
     Args:
         geo: The points' geometry.
@@ -137,6 +133,12 @@ def geometric_tangent(
         mu: Friction coefficient.
         frozen_slip: (n, 3) the frozen s₀ (None: frictionless, or ŝ not a function of n).
     """
+    U, V, _ = _factors(geo, weight_pressure, direction, mu, frozen_slip)
+    return U, V
+
+
+def _factors(geo, weight_pressure, direction, mu, frozen_slip):
+    """(U, V) of :func:`geometric_tangent` and the e_β they were made with."""
     n = len(geo.gap)
     ns, nm = geo.Ns.shape[1], geo.Nm.shape[1]
     Jz, G = projection_jacobians(geo)
@@ -150,8 +152,8 @@ def geometric_tangent(
     U[:, ns:, :, 2:] = (
         wp[..., None] * np.moveaxis(geo.dNm, 1, 2)[:, :, None, :] * direction[:, None, :, None]
     )
-    V = np.concatenate([G, Jz], axis=1)  # (n, 4, size)
-    return U.reshape(n, -1, 4), np.moveaxis(V, 1, 2)
+    V = np.concatenate([G, Jz], axis=1)  # (n, 4, 3 (ns + nm))
+    return U.reshape(n, -1, 4), np.moveaxis(V, 1, 2), e
 
 
 def torque_border(
@@ -181,13 +183,13 @@ def torque_border(
 
     Args:
         geo, weight_pressure, direction, mu, frozen_slip: as :func:`geometric_tangent`.
-        residual: (n, size) the point's residual r = −W p ρ(d) in the global frame.
+        residual: (n, 3 (ns + nm)) the point's residual r = −W p ρ(d) in the global frame.
         nodes: (n, ns + nm, 3) the current positions of the point's nodes (slave, then master).
         point: (n, 3) the slave point x.
         axis: (3,) the unit rotation axis a; centre: (3,) a point c on it.
 
     Returns:
-        (k_up (n, size), k_pu (n, size), k_pp (n,)).
+        (k_up, k_pu) each (n, 3 (ns + nm)), and k_pp (n,).
     """
     if controlled not in ("slave", "master"):
         raise ValueError(f"controlled = {controlled!r}: 'slave' or 'master'")
@@ -199,16 +201,15 @@ def torque_border(
     v = np.zeros((n, ns + nm, 3))
     v[:, own] = np.cross(a, nodes[:, own] - centre)
     v = v.reshape(n, -1)
-    U, V = geometric_tangent(geo, weight_pressure, direction, mu, frozen_slip)
+    U, V, e = _factors(geo, weight_pressure, direction, mu, frozen_slip)
     k_up = np.einsum("pmc,pc->pm", U, np.einsum("pmc,pm->pc", V, v))
     frame = np.zeros((n, ns + nm, 3))
     frame[:, own] = -np.cross(a, residual.reshape(n, ns + nm, 3)[:, own])
     k_up = k_up + frame.reshape(n, -1)
-    # ∂m/∂x: the lever arm (the slave point) and the direction d (through ζ, n and ŝ)
-    _, G = projection_jacobians(geo)
-    e = _direction_tangents(geo, mu, frozen_slip)
+    # ∂m/∂x: the lever arm (the slave point) and the direction d (through ζ, n and ŝ):
+    # Δd = e_β G^β Δx, G^β the first two columns of V
     lever = np.cross(a, point - centre)  # a × (x − c): (a × (x − c))·Δd = Δd·lever
-    dm = np.einsum("pa,pam->pm", np.einsum("pd,pad->pa", lever, e), G)
+    dm = np.einsum("pa,pma->pm", np.einsum("pd,pad->pa", lever, e), V[:, :, :2])
     dm_lever = np.zeros((n, ns + nm, 3))
     dm_lever[:, :ns] = geo.Ns[:, :, None] * np.cross(direction, a)[:, None, :]
     dm = sign * (dm + dm_lever.reshape(n, -1))
