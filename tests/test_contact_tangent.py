@@ -119,6 +119,16 @@ def test_frozen_slip_jacobian():
     assert np.all(frozen_slip_jacobian(np.zeros_like(n), n) == 0.0)
 
 
+def test_torque_border_names_a_bad_role():
+    from gearfem.contact.tangent import torque_border
+    from gearfem.core.errors import ParameterError
+
+    with pytest.raises(
+        ParameterError, match=r"^controlled = 'wheel' is not allowed; allowed: 'slave' or 'master'"
+    ):
+        torque_border(*[None] * 10, "wheel")
+
+
 def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     a = axis / np.linalg.norm(axis)
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])

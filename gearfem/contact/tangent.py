@@ -40,6 +40,8 @@ import dataclasses
 
 import numpy as np
 
+from gearfem.core.errors import ParameterError
+
 
 @dataclasses.dataclass(frozen=True)
 class PointGeometry:
@@ -192,7 +194,7 @@ def torque_border(
         (k_up, k_pu) each (n, 3 (ns + nm)), and k_pp (n,).
     """
     if controlled not in ("slave", "master"):
-        raise ValueError(f"controlled = {controlled!r}: 'slave' or 'master'")
+        raise ParameterError("controlled", controlled, "'slave' or 'master'")
     n = len(geo.gap)
     ns, nm = geo.Ns.shape[1], geo.Nm.shape[1]
     a = np.asarray(axis, dtype=np.float64)
