@@ -14,7 +14,10 @@ stale instead of standing beside a model that no longer gives it:
   do not count, :func:`gearfem.core.provenance.code_hash`), and every block of
   :data:`QUOTED_BLOCKS` that carries no provenance at all;
 * the test suite runs it (``tests/test_claims.py``), so a change of the model cannot leave the
-  headline behind; ``gearfem claims`` prints the list with the command that regenerates each.
+  headline behind; ``gearfem claims`` prints the list with the command that regenerates each;
+* :data:`REGENERATIONS` holds those commands in the order to run them, each once for all the blocks
+  it writes (:func:`regenerations` picks the ones a list of stale blocks needs);
+  ``benchmarks/regenerate.py`` runs them and times each.
 
 This module only checks: no run or diagnosis imports it, so adding a quoted block is not a change
 of the code the quoted figures hash.
@@ -30,36 +33,73 @@ from gearfem.core.doctables import Provenance, blocks
 from gearfem.core.provenance import code_hash
 from gearfem.uncertainty import resolution_key
 
+_BENCH_POINTS = "mpirun -n 2 python demos/bench_camera.py"
+_FRICTION = "mpirun -n 2 python benchmarks/verification/"
+
+
+@dataclasses.dataclass(frozen=True)
+class Regeneration:
+    """One command, run from the repository's root, and the quoted blocks it writes: ``(page,
+    block)`` pairs, the page relative to the root."""
+
+    command: str
+    blocks: tuple[tuple[str, str], ...]
+
+
+#: The commands that write the quoted blocks, in the order to run them: the headline reads the
+#: bench points' runs that the first leaves in ``results/``, and each command is run once for
+#: all the blocks it writes (the bench diagnosis, about 40 min, writes four).
+REGENERATIONS: tuple[Regeneration, ...] = (
+    Regeneration(_BENCH_POINTS, (("docs/reproduction.md", "bench_camera"),)),
+    Regeneration(
+        "./dev.sh run && python benchmarks/headline.py results/thesis "
+        "--other results/bench_2000rpm_4Nm",
+        (("README.md", "readme_headline"),),
+    ),
+    Regeneration(
+        f"{_BENCH_POINTS} --verdict --reproduce --confirm 1000/4,1000/6,1500/6,2000/8 --skip-runs",
+        (
+            ("docs/diagnosis.md", "bench_verdict"),
+            ("README.md", "readme_verdict"),
+            ("docs/diagnosis.md", "bench_verdict_confirm"),
+        ),
+    ),
+    Regeneration(
+        "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --docs",
+        (("docs/materials.md", "vdi2736_gearfem"),),
+    ),
+    Regeneration(
+        f"{_FRICTION}friction_tractions.py --mu 0.13 --docs docs/friction.md",
+        (("docs/friction.md", "friction_tractions"),),
+    ),
+    Regeneration(
+        f"{_FRICTION}branch_switching.py --mu-glassy 0.13 --variants entry tip_radius "
+        "flash_width --docs docs/friction.md",
+        (("docs/friction.md", "branch_switching"),),
+    ),
+    Regeneration(
+        f"{_FRICTION}friction_fixed_point.py --mu-glassy 0.13 --docs docs/friction.md",
+        (("docs/friction.md", "friction_fixed_point"),),
+    ),
+    Regeneration(
+        f"{_FRICTION}friction_fixed_point.py --mu-glassy 0.13 0.17 --start glassy "
+        "--docs docs/friction.md --block friction_fixed_point_scan",
+        (("docs/friction.md", "friction_fixed_point_scan"),),
+    ),
+)
+
+
+def _by_page(steps: tuple[Regeneration, ...]) -> dict[str, dict[str, str]]:
+    out: dict[str, dict[str, str]] = {}
+    for step in steps:
+        for page, block in step.blocks:
+            out.setdefault(page, {})[block] = step.command
+    return out
+
+
 #: Blocks that quote results of the built-in case and must carry a provenance line, by page
 #: (relative to the repository root), with the command that writes them.
-QUOTED_BLOCKS: dict[str, dict[str, str]] = {
-    "README.md": {
-        "readme_headline": "./dev.sh run && python benchmarks/headline.py results/thesis "
-        "--other results/bench_2000rpm_4Nm",
-        "readme_verdict": "mpirun -n 2 python demos/bench_camera.py --verdict --reproduce",
-    },
-    "docs/diagnosis.md": {
-        "bench_verdict": "mpirun -n 2 python demos/bench_camera.py --verdict",
-        "bench_verdict_confirm": "mpirun -n 2 python demos/bench_camera.py --confirm ...",
-    },
-    "docs/reproduction.md": {
-        "bench_camera": "mpirun -n 2 python demos/bench_camera.py",
-    },
-    "docs/friction.md": {
-        "friction_tractions": "mpirun -n 2 python benchmarks/verification/friction_tractions.py "
-        "--mu 0.13 --docs docs/friction.md",
-        "branch_switching": "mpirun -n 2 python benchmarks/verification/branch_switching.py "
-        "--mu-glassy 0.13 --variants entry tip_radius flash_width --docs docs/friction.md",
-        "friction_fixed_point": "mpirun -n 2 python benchmarks/verification/"
-        "friction_fixed_point.py --mu-glassy 0.13 --docs docs/friction.md",
-        "friction_fixed_point_scan": "mpirun -n 2 python benchmarks/verification/"
-        "friction_fixed_point.py --mu-glassy 0.13 0.17 --start glassy --docs docs/friction.md "
-        "--block friction_fixed_point_scan",
-    },
-    "docs/materials.md": {
-        "vdi2736_gearfem": "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --docs",
-    },
-}
+QUOTED_BLOCKS: dict[str, dict[str, str]] = _by_page(REGENERATIONS)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -132,10 +172,20 @@ def regenerate_command(claim: StaleClaim) -> str | None:
     return QUOTED_BLOCKS.get(claim.page, {}).get(claim.block)
 
 
+def regenerations(found: list[StaleClaim]) -> list[Regeneration]:
+    """The commands of :data:`REGENERATIONS` that write the blocks of ``found``, each once, in
+    the order to run them (a stale block that no command writes is not among them)."""
+    wanted = {(c.page, c.block) for c in found}
+    return [r for r in REGENERATIONS if wanted.intersection(r.blocks)]
+
+
 __all__ = [
     "QUOTED_BLOCKS",
+    "REGENERATIONS",
+    "Regeneration",
     "StaleClaim",
     "check_block",
     "regenerate_command",
+    "regenerations",
     "stale_claims",
 ]

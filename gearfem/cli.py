@@ -58,6 +58,14 @@ def _cmd_claims(args: argparse.Namespace) -> int:
             cmd = claims.regenerate_command(c)
             print(f"{c}" + (f"\n    regenerate: {cmd}" if cmd else ""))
         print(f"{len(found)} stale quoted block(s) in {args.root}" if found else "no stale claims")
+        steps = claims.regenerations(found)
+        if steps:
+            print(
+                "to regenerate them, run from the repository's root, in this order (or "
+                "`python benchmarks/regenerate.py`, which also times each):"
+            )
+            for step in steps:
+                print(f"    {step.command}")
     return 1 if found else 0
 
 

@@ -94,3 +94,22 @@ def test_code_hash_follows_the_code_not_its_docstrings(tmp_path):
 def test_a_block_without_fields_is_not_a_provenance(text):
     prov = Provenance.parse(text)
     assert prov is None or (prov.resolution is None and prov.code == {})
+
+
+def test_each_quoted_block_has_one_command_and_the_commands_run_once_in_order():
+    written = [b for r in claims.REGENERATIONS for b in r.blocks]
+    assert len(written) == len(set(written))
+    assert {(p, b) for p, names in claims.QUOTED_BLOCKS.items() for b in names} == set(written)
+    # the verdict's three blocks stale: its one command (the diagnosis of about 40 min), once;
+    # with the headline as well: the bench points' runs first, which the headline reads
+    verdict = [claims.StaleClaim(p, b, "x") for p, b in written if "verdict" in b]
+    steps = claims.regenerations(verdict)
+    assert len(steps) == 1 and "--verdict" in steps[0].command
+    headline = claims.StaleClaim("README.md", "readme_headline", "x")
+    steps = claims.regenerations([headline, *verdict])
+    assert "benchmarks/headline.py" in steps[0].command and "--verdict" in steps[1].command
+    order = [r.command for r in claims.REGENERATIONS]
+    first = next(
+        r for r in claims.REGENERATIONS if ("docs/reproduction.md", "bench_camera") in r.blocks
+    )
+    assert order.index(first.command) < order.index(steps[0].command)
