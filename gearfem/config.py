@@ -126,8 +126,9 @@ MATERIAL_TABLES = ("material", "material_wheel")
 def _library_materials(data: dict[str, Any]) -> dict[str, Any]:
     """``data`` with each material table that names a material started from the library's
     constants (canonical name; the table's own keys override them). An unknown name raises
-    ParameterError naming the table's ``name``, the value and the library's names; a steel, or a
-    polymer without an H(T) table when the table gives none, raises likewise."""
+    ParameterError naming the table's ``name``, the value and the library's names; a polymer
+    without an H(T) table when the table gives none, or a steel given one, raises on the table's
+    ``hysteresis``."""
     out = dict(data)
     for key in MATERIAL_TABLES:
         table = data.get(key)
@@ -145,7 +146,10 @@ def _library_materials(data: dict[str, Any]) -> dict[str, Any]:
         hysteresis = table.get("hysteresis")
         if isinstance(hysteresis, list):
             hysteresis = tuple(tuple(row) for row in hysteresis)
-        base = to_dict(lib.to_material(hysteresis=hysteresis, parameter=f"{key}.name"))
+        mat = lib.to_material(hysteresis=hysteresis, parameter=f"{key}.name")
+        # every field, None included (to_dict drops it): a steel's glass_transition_C is None,
+        # not the default's 143 C
+        base = {f.name: getattr(mat, f.name) for f in dataclasses.fields(mat)}
         out[key] = base | {k: v for k, v in table.items() if k != "name"}
     return out
 

@@ -23,7 +23,14 @@ from gearfem.core.material_library import (
     library_names,
     parse_material,
 )
-from gearfem.core.materials import Material, input_ranges, peek450g_hysteresis, read_csv, read_toml
+from gearfem.core.materials import (
+    NO_HYSTERESIS,
+    Material,
+    input_ranges,
+    peek450g_hysteresis,
+    read_csv,
+    read_toml,
+)
 
 NAMES = ("PA66", "PEEK 450G", "POM", "steel")
 UNIT_OF_SUFFIX = {
@@ -209,16 +216,20 @@ def test_to_material_needs_loss_data_and_a_polymer():
         library_material("POM").to_material()
     m = library_material("POM").to_material(hysteresis=((20.0, 100.0), (0.01, 0.02)))
     assert m.youngs_modulus_Pa == 2.85e9 and m.hysteresis_table()(373.15) == pytest.approx(0.02)
-    with pytest.raises(ParameterError, match="steel gear is not yet a body"):
-        library_material("steel").to_material()
+    # a steel: an elastic body without hysteresis or glass transition; an H(T) given is refused
+    steel = library_material("steel").to_material()
+    assert steel.hysteresis == NO_HYSTERESIS and steel.glass_transition_C is None
+    assert steel.youngs_modulus_Pa == 206e9 and steel.hysteresis_table()(500.0) == 0.0
+    with pytest.raises(ParameterError, match=r"^material\.hysteresis = .*without hysteresis"):
+        library_material("steel").to_material(hysteresis=((20.0, 100.0), (0.01, 0.02)))
     # the library's PEEK 450G is the solvers' default material, H(T) by its shipped name
     assert library_material("PEEK 450G").to_material() == Material()
 
 
 def test_a_case_file_selects_library_materials_by_name():
     """``[material] name`` selects the library's constants (the table's keys override them, per
-    gear); a name not in the library, a steel and a polymer without H(T) are errors naming the key,
-    the value and what is allowed."""
+    gear); a name not in the library, a steel given H(T) and a polymer without H(T) are errors
+    naming the key, the value and what is allowed. A steel is a material of the case."""
     pa66 = library_material("PA66")
     h = [[20.0, 100.0], [0.01, 0.05]]
     case = case_from_dict(
@@ -244,8 +255,11 @@ def test_a_case_file_selects_library_materials_by_name():
     msg = str(err.value)
     assert msg.startswith("material_wheel.name = 'my PEEK' is not allowed")
     assert all(repr(n) in msg for n in NAMES) and "top-level name" in msg
-    with pytest.raises(ParameterError, match=r"^material\.name = 'steel' .*not yet a body"):
-        case_from_dict({"material": {"name": "steel"}})
+    steel = case_from_dict({"material": {"name": "steel"}, "material_wheel": {"name": "peek"}})
+    assert steel.material == library_material("steel").to_material()
+    assert steel.material.glass_transition_C is None  # not the default's 143 C
+    with pytest.raises(ParameterError, match=r"^material_wheel\.hysteresis = .*without hyst"):
+        case_from_dict({"material_wheel": {"name": "steel", "hysteresis": h}})
     with pytest.raises(ParameterError, match=r"^material_wheel\.hysteresis = None .*POM"):
         case_from_dict({"material_wheel": {"name": "POM"}})
 

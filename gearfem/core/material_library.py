@@ -26,8 +26,9 @@ the Blok heat partition by thermal effusivity, :func:`effusivity_partition` and 
 :func:`effusivity_partition_range`.
 
 In a case file, ``[material] name`` selects a material of this library (gearfem.config: the
-table's other keys override its values; an unknown name is the error above). Not yet connected
-(docs/materials.md): a steel body, profile shift in the mesh, E(T) in the cycle.
+table's other keys override its values; an unknown name is the error above); a steel is an
+elastic body without hysteresis. Not yet connected (docs/materials.md): profile shift in the
+mesh, E(T) in the cycle.
 Pure Python and numpy (tomllib); no DOLFINx.
 """
 
@@ -43,6 +44,7 @@ from typing import Any
 
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import (
+    NO_HYSTERESIS,
     Material,
     TemperatureTable,
     peek450g_hysteresis,
@@ -195,25 +197,30 @@ class LibraryMaterial:
         hysteresis: str | tuple[tuple[float, ...], tuple[float, ...]] | None = None,
         parameter: str = "material.name",
     ) -> Material:
-        """The polymer :class:`~gearfem.core.materials.Material` of these constants (the solvers'
-        material), with the library's H(T) table or ``hysteresis`` (``"peek450g"`` or
-        [[T_C...], [H...]]). The library's PEEK 450G table is the thesis's, so it comes out as
-        ``"peek450g"``: ``library_material("PEEK 450G").to_material() == Material()``.
+        """The :class:`~gearfem.core.materials.Material` of these constants (the solvers'
+        material). A polymer takes the library's H(T) table or ``hysteresis`` (``"peek450g"`` or
+        [[T_C...], [H...]]); the library's PEEK 450G table is the thesis's, so it comes out as
+        ``"peek450g"``: ``library_material("PEEK 450G").to_material() == Material()``. A steel is
+        an elastic body without hysteresis (``NO_HYSTERESIS``) and without a glass transition;
+        ``hysteresis`` may not be given for it.
 
-        Raises ParameterError naming ``parameter`` for a steel (not yet a body of the cycle and
-        thermal models, docs/materials.md) and for a polymer without an H(T) table when none is
-        given.
+        Raises ParameterError naming the table's ``hysteresis`` for a polymer without an H(T)
+        table when none is given, and for an H(T) table given to a steel.
         """
-        if self.kind != "polymer":
-            raise ParameterError(
-                parameter,
-                self.name,
-                "a polymer of the library",
-                "a steel gear is not yet a body of gearfem's cycle and thermal models",
-            )
+        table = parameter.rpartition(".")[0] or "material"
+        if self.kind == "steel":
+            if hysteresis is not None and hysteresis != NO_HYSTERESIS:
+                raise ParameterError(
+                    f"{table}.hysteresis",
+                    hysteresis,
+                    f"none (or '{NO_HYSTERESIS}')",
+                    f"{self.name} is modelled without hysteresis",
+                )
+            hysteresis, glass_transition_C = NO_HYSTERESIS, None
+        else:
+            glass_transition_C = self.value("glass_transition_C")
         if hysteresis is None:
             if "hysteresis" not in self.tables:
-                table = parameter.rpartition(".")[0] or "material"
                 raise ParameterError(
                     f"{table}.hysteresis",
                     None,
@@ -234,7 +241,7 @@ class LibraryMaterial:
             thermal_conductivity_W_mK=self.value("thermal_conductivity_W_mK"),
             specific_heat_J_kgK=self.value("specific_heat_J_kgK"),
             emissivity=self.value("emissivity"),
-            glass_transition_C=self.value("glass_transition_C"),
+            glass_transition_C=glass_transition_C,
             hysteresis=hysteresis,
         )
 

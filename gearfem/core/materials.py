@@ -24,6 +24,8 @@ from gearfem.core.errors import ParameterError
 from gearfem.core.params import require_positive, require_range
 
 ZERO_CELSIUS_K = 273.15
+#: ``Material.hysteresis`` of a body without hysteresis (a steel gear): H(T) = 0.
+NO_HYSTERESIS = "none"
 GAS_CONSTANT_J_molK = 8.314462618
 STEFAN_BOLTZMANN_W_m2K4 = 5.670374419e-8
 
@@ -191,11 +193,13 @@ class ShiftFactor:
 
 @dataclasses.dataclass(frozen=True)
 class Material:
-    """Isotropic polymer: elastic, thermal and damping properties (SI).
+    """Isotropic gear material: elastic, thermal and damping properties (SI).
 
     Defaults: PEEK 450G from ``data/peek450g/material.toml``. ``conductivity_table`` /
     ``specific_heat_table`` (pairs of lists ``[[T_C...], [value...]]``) switch on k(T) / cp(T);
-    ``hysteresis`` names the H(T) table (``"peek450g"``) or gives one as ``[[T_C...], [H...]]``.
+    ``hysteresis`` names the H(T) table (``"peek450g"``; ``"none"``, :data:`NO_HYSTERESIS`, for a
+    body without hysteresis such as a steel gear: H = 0 at every temperature) or gives one as
+    ``[[T_C...], [H...]]``. ``glass_transition_C`` is None for a material without one (steel).
     """
 
     name: str = "PEEK 450G"
@@ -205,7 +209,7 @@ class Material:
     thermal_conductivity_W_mK: float = 0.25
     specific_heat_J_kgK: float = 1340.0
     emissivity: float = 0.90
-    glass_transition_C: float = 143.0
+    glass_transition_C: float | None = 143.0
     hysteresis: str | tuple[tuple[float, ...], tuple[float, ...]] = "peek450g"
     conductivity_table: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     specific_heat_table: tuple[tuple[float, ...], tuple[float, ...]] | None = None
@@ -217,9 +221,15 @@ class Material:
         require_positive("material.thermal_conductivity_W_mK", self.thermal_conductivity_W_mK)
         require_positive("material.specific_heat_J_kgK", self.specific_heat_J_kgK)
         require_range("material.emissivity", self.emissivity, 0.0, 1.0)
-        if isinstance(self.hysteresis, str) and self.hysteresis != "peek450g":
+        if isinstance(self.hysteresis, str) and self.hysteresis not in ("peek450g", NO_HYSTERESIS):
             raise ParameterError(
-                "material.hysteresis", self.hysteresis, "'peek450g' or [[T_C...], [H...]]"
+                "material.hysteresis",
+                self.hysteresis,
+                f"'peek450g', '{NO_HYSTERESIS}' or [[T_C...], [H...]]",
+            )
+        if self.glass_transition_C is not None:
+            require_range(
+                "material.glass_transition_C", self.glass_transition_C, -150.0, 500.0, unit="C"
             )
         self.hysteresis_table()  # validates a user table
         self.conductivity()
@@ -255,6 +265,8 @@ class Material:
 
     # thermal ------------------------------------------------------------------------------
     def hysteresis_table(self) -> TemperatureTable:
+        if self.hysteresis == NO_HYSTERESIS:
+            return TemperatureTable.constant(0.0, "material.hysteresis")
         if isinstance(self.hysteresis, str):
             return peek450g_hysteresis()
         T_C, H = self.hysteresis
