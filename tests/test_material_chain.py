@@ -85,3 +85,58 @@ def test_every_library_polymer_runs_a_coarse_chain(tmp_path_factory):
     pf = [float(np.mean(got[n][1].friction_power_W_per_rad_s)) for n in by_E]
     assert all(b > a for a, b in itertools.pairwise(pf)), dict(zip(by_E, pf))
     assert pf[-1] < 1.15 * pf[0]
+
+
+@pytest.mark.slow
+def test_a_steel_pinion_against_a_pom_wheel_runs_the_chain(tmp_path):
+    """A steel gear is an elastic body without hysteresis: the cycle of a steel pinion against a
+    POM wheel passes its own revolution-average check (which the slave's own modulus in the
+    penalty failed: 1.96 of the mesh's friction power on the steel pinion's reference tooth); the
+    friction heat splits by effusivity (Blok: about 0.94 into the steel) and the two gears' heat
+    adds up to the mesh's friction power; the steel takes no hysteresis heat. The transmission
+    error follows the bodies' compliances: with teeth that bend as 1/E, steel against POM gives
+    (1/E_steel + 1/E_POM) / (2/E_POM) of POM against POM (0.507), a little less for the contact
+    that does not scale (as for the polymers above)."""
+    comm = MPI.COMM_SELF
+    pom = {"name": "POM", "hysteresis": TEST_HYSTERESIS}
+    cases = {}
+    for label, pinion in (("steel/POM", {"name": "steel"}), ("POM/POM", pom)):
+        case = case_from_dict({"name": label, "material": pinion, "material_wheel": pom})
+        cases[label] = dataclasses.replace(
+            _case("POM"), name=label, material=case.material, material_wheel=case.material_wheel
+        )
+    steel = cases["steel/POM"].material
+    assert steel.name == "steel" and steel.glass_transition_C is None
+    assert steel.hysteresis_table()(400.0) == 0.0
+    got = {}
+    for label, case in cases.items():
+        cyc, _, _ = pipeline.cycle(case, comm)
+        got[label] = cyc
+    E_steel, E_pom = steel.youngs_modulus_Pa, cases["POM/POM"].material.youngs_modulus_Pa
+    ratio = float(np.mean(got["steel/POM"].te_m)) / float(np.mean(got["POM/POM"].te_m))
+    bending = (1 / E_steel + 1 / E_pom) / (2 / E_pom)
+    assert 0.9 * bending < ratio < bending, ratio
+
+    case = cases["steel/POM"]
+    fractions = case.sources.heat_fractions(case.materials)
+    assert fractions["pinion"] == pytest.approx(
+        library_material("steel").effusivity_W_s05_m2K
+        / (
+            library_material("steel").effusivity_W_s05_m2K
+            + library_material("POM").effusivity_W_s05_m2K
+        ),
+        rel=1e-12,
+    )
+    assert 0.9 < fractions["pinion"] < 0.97
+    heat = {}
+    for body in ("pinion", "wheel"):
+        c = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, body=body))
+        summary, _, _ = pipeline.observed_thermal(
+            c, tmp_path / body, comm, got["steel/POM"], write_fields=False
+        )
+        frac = summary["model_fraction"]
+        heat[body] = {k: v / frac for k, v in summary["final_balance_W"].items()}
+        assert summary["final_temperatures_C"]["mean_bulk"] > case.thermal.ambient_C
+    assert heat["pinion"]["hysteresis_W"] == 0.0 and heat["wheel"]["hysteresis_W"] > 0.0
+    total = heat["pinion"]["friction_W"] + heat["wheel"]["friction_W"]
+    assert heat["pinion"]["friction_W"] / total == pytest.approx(fractions["pinion"], rel=1e-6)

@@ -19,7 +19,11 @@ class ContactOptions:
 
     Normal contact: penalty p = ε⟨−g⟩ or augmented Lagrangian p = ⟨λ − εg⟩ with Uzawa updates of λ
     until the largest penetration is below the tolerance. ε = ``penalty_factor`` · E / h per slave
-    facet (E: Young's modulus of the slave body, h: the facet size) unless ``penalty_Pa_m`` is set.
+    facet (E: the Young's modulus the caller gives for the slave body, h: the facet size) unless
+    ``penalty_Pa_m`` is set. The gear cycle gives both bodies the softer one's modulus
+    (:class:`gearfem.cycle.model.GearContactModel`): with each slave's own, a steel slave's pass
+    would be some 50 times stiffer than a polymer slave's and the two-pass average would split the
+    load between the passes in about that ratio.
 
     Friction: Coulomb gross sliding, traction −μ p ŝ with ŝ = v_T / sqrt(|v_T|² + v_ε²) from the
     bodies' kinematic relative velocity v_T (regularised near zero slip by v_ε =
