@@ -59,7 +59,7 @@ def headline(main: RunSummary, other: RunSummary | None) -> tuple[str, Provenanc
         (
             "hottest surface temperature (the field's maximum)",
             _pm(h.max_surface_field_C, u.get("max_surface_field_C"), ".1f", "C"),
-            f"VDI 2736 flank {b['vdi2736_flank1_C']:.0f} C",
+            f"VDI 2736 flank {h.vdi2736_flank_C:.0f} C",
         ),
     ]
     if at in cam:

@@ -290,7 +290,7 @@ def main(argv=None) -> int:
                     at_900_C=th.get("at_times_C", {}).get("900", {}).get("max_surface"),
                     friction_W=th["final_balance_W"]["friction_W"] / frac,
                     hysteresis_W=th["final_balance_W"]["hysteresis_W"] / frac,
-                    vdi2736_flank_C=s.baselines["vdi2736_flank1_C"],
+                    vdi2736_flank_C=s.headline.vdi2736_flank_C,
                     effective_contact_ratio=s.cycle.effective_contact_ratio,
                     **meta,
                 )

@@ -90,6 +90,34 @@ VDI2736_K_THETA: dict[str, tuple[float, float]] = {
     "plastic/steel": (6300.0, 895.0),
 }
 
+#: Thermal conductivity (W/(m K)) from which a gear material counts as a metal for VDI 2736's
+#: material pair: gear steels are 25-55, the polymers 0.2-0.5 (PA66 with 30 % glass fibre 0.5).
+METAL_CONDUCTIVITY_W_mK = 5.0
+
+
+def is_metal(material: Material) -> bool:
+    """Whether ``material`` is a metal gear (steel) for VDI 2736: conductivity at least
+    :data:`METAL_CONDUCTIVITY_W_mK`."""
+    return material.thermal_conductivity_W_mK >= METAL_CONDUCTIVITY_W_mK
+
+
+def vdi2736_pairing(material1: Material, material2: Material) -> str:
+    """The key of :data:`VDI2736_K_THETA` for a pair of these materials: ``"plastic/steel"`` when
+    either gear is a metal (:func:`is_metal`; VDI 2736-2 gives one k_theta pair for a plastic gear
+    against steel, whichever of the two drives), ``"plastic/plastic"`` otherwise. Two metal gears
+    raise ParameterError: VDI 2736 is a guideline for plastic gears."""
+    metal = (is_metal(material1), is_metal(material2))
+    if all(metal):
+        raise ParameterError(
+            "material_wheel",
+            material2.name,
+            "a plastic for at least one gear",
+            f"both gears are metals ({material1.name}, {material2.name}); VDI 2736 rates plastic "
+            "gears",
+        )
+    return "plastic/steel" if any(metal) else "plastic/plastic"
+
+
 #: Dry air at 25 C, 1 atm: density (kg/m^3) and isobaric specific heat (J/(kg K)), the fluid of
 #: Mao's gear-pump model. (Ideal gas: 101325 Pa / (287.05 J/(kg K) * 298.15 K) = 1.184 kg/m^3;
 #: c_p of air 1007 J/(kg K), e.g. Incropera & DeWitt, Table A.4 at 300 K.)
@@ -1301,7 +1329,7 @@ class BaselineOptions:
 
     Attributes:
         vdi_k_theta_flank, vdi_k_theta_root: VDI 2736-2 k_theta, K (m/s)^0.75 mm^1.75 / W
-            (defaults plastic/plastic, see ``VDI2736_K_THETA``).
+            (None: ``VDI2736_K_THETA`` of the pair's materials, :func:`vdi2736_pairing`).
         vdi_housing_resistance_K_m2_W: R_lambda,G (0: open drive).
         vdi_housing_area_m2: A_G (m^2), needed when R_lambda,G > 0.
         vdi_duty_cycle: ED in (0, 1].
@@ -1313,8 +1341,8 @@ class BaselineOptions:
         flash_points: Number of positions of the flash temperature curve.
     """
 
-    vdi_k_theta_flank: float = VDI2736_K_THETA["plastic/plastic"][0]
-    vdi_k_theta_root: float = VDI2736_K_THETA["plastic/plastic"][1]
+    vdi_k_theta_flank: float | None = None
+    vdi_k_theta_root: float | None = None
     vdi_housing_resistance_K_m2_W: float = 0.0
     vdi_housing_area_m2: float | None = None
     vdi_duty_cycle: float = 1.0
@@ -1325,8 +1353,9 @@ class BaselineOptions:
     flash_points: int = 201
 
     def __post_init__(self) -> None:
-        require_positive("baselines.vdi_k_theta_flank", self.vdi_k_theta_flank)
-        require_positive("baselines.vdi_k_theta_root", self.vdi_k_theta_root)
+        for name in ("vdi_k_theta_flank", "vdi_k_theta_root"):
+            if getattr(self, name) is not None:
+                require_positive(f"baselines.{name}", getattr(self, name))
         require_nonnegative(
             "baselines.vdi_housing_resistance_K_m2_W", self.vdi_housing_resistance_K_m2_W
         )
@@ -1378,7 +1407,10 @@ def baseline_summary(
     * contact: ``eps_1``, ``eps_2``, ``contact_ratio``;
     * friction: ``tooth_loss_factor_HV``, ``friction_power_W`` = mu H_V P (the heat the FE flank
       flux should integrate to for a rigid, equal load share);
-    * VDI 2736-2: ``vdi2736_flank{1,2}_C``, ``vdi2736_root{1,2}_C`` and the ``*_rise_K``;
+    * VDI 2736-2: the k_theta used, ``vdi2736_k_theta_flank``, ``vdi2736_k_theta_root`` (the
+      pair's, :func:`vdi2736_pairing`, unless given in ``options``), ``vdi2736_flank{1,2}_C``,
+      ``vdi2736_root{1,2}_C`` and the ``*_rise_K`` (None for a metal gear, which VDI 2736 does not
+      rate);
     * Mao: ``mao_bulk_rise{1,2}_K``, ``mao_bulk{1,2}_C``;
     * Hertz at the pitch point: ``hertz_pitch_half_width_m``, ``hertz_pitch_p0_Pa``,
       ``agma_pitch_sigma_H_Pa``;
@@ -1445,14 +1477,18 @@ def baseline_summary(
         housing_area_m2=opt.vdi_housing_area_m2,
         duty_cycle=opt.vdi_duty_cycle,
     )
-    for i, z, ra, r, x, T in (
-        (1, p.z1, p.ra1, p.r1, profile_shift1, T1),
-        (2, p.z2, p.ra2, p.r2, profile_shift2, T1 * p.z2 / p.z1),
+    pairing = vdi2736_pairing(m1, m2)
+    k_flank = _given_or(opt.vdi_k_theta_flank, VDI2736_K_THETA[pairing][0])
+    k_root = _given_or(opt.vdi_k_theta_root, VDI2736_K_THETA[pairing][1])
+    out["vdi2736_k_theta_flank"], out["vdi2736_k_theta_root"] = k_flank, k_root
+    for i, z, ra, r, x, T, mat in (
+        (1, p.z1, p.ra1, p.r1, profile_shift1, T1, m1),
+        (2, p.z2, p.ra2, p.r2, profile_shift2, T1 * p.z2 / p.z1, m2),
     ):
-        fl = vdi2736_temperature_C(teeth=z, k_theta=opt.vdi_k_theta_flank, **common)
-        rt = vdi2736_temperature_C(teeth=z, k_theta=opt.vdi_k_theta_root, **common)
-        out[f"vdi2736_flank{i}_C"], out[f"vdi2736_flank{i}_rise_K"] = fl, fl - ambient_C
-        out[f"vdi2736_root{i}_C"], out[f"vdi2736_root{i}_rise_K"] = rt, rt - ambient_C
+        for part, k in (("flank", k_flank), ("root", k_root)):
+            t = None if is_metal(mat) else vdi2736_temperature_C(teeth=z, k_theta=k, **common)
+            out[f"vdi2736_{part}{i}_C"] = t
+            out[f"vdi2736_{part}{i}_rise_K"] = None if t is None else t - ambient_C
         mao = mao_bulk_temperature_rise_K(
             mu=mu,
             torque_Nm=T,
@@ -1532,8 +1568,13 @@ def baseline_summary(
     )
     out["flash_max_K"], out["flash_max_at_s_m"] = curve.max_K, curve.s_at_max_m
     out["flash_min_peclet"] = curve.min_peclet
-    out["vdi_root_plus_flash_max_C"] = out["vdi2736_root1_C"] + curve.max_K
+    root1 = out["vdi2736_root1_C"]
+    out["vdi_root_plus_flash_max_C"] = None if root1 is None else root1 + curve.max_K
     return out
+
+
+def _given_or(value: float | None, default: float) -> float:
+    return default if value is None else value
 
 
 def temperature_rise_ratio(summary_a: dict[str, Any], summary_b: dict[str, Any], key: str) -> float:

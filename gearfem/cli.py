@@ -207,7 +207,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"{with_u_num(h, 'max_surface_temperature_C', 'C')} "
         f"(steady {h.steady_max_surface_temperature_C or nan:.1f} C), "
         f"mean bulk {with_u_num(h, 'mean_bulk_temperature_C', 'C')}; VDI 2736 flank "
-        f"{h.vdi2736_flank1_C or nan:.1f} C, root {h.vdi2736_root1_C or nan:.1f} C"
+        f"{h.vdi2736_flank_C or nan:.1f} C, root {h.vdi2736_root_C or nan:.1f} C"
     )
     if h.max_surface_field_C is not None:
         _say(

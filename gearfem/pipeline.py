@@ -146,9 +146,11 @@ class Headline(JsonRecord):
     at_times_max_surface_C: dict[str, float | None]
     friction_power_W: float | None = None
     effective_contact_ratio: float | None = None
-    vdi2736_flank1_C: float | None = None
-    vdi2736_root1_C: float | None = None
-    mao_bulk1_C: float | None = None
+    # the analytic baselines of the gear whose temperature is computed ([thermal] body; None for
+    # a metal gear, which VDI 2736 does not rate)
+    vdi2736_flank_C: float | None = None
+    vdi2736_root_C: float | None = None
+    mao_bulk_C: float | None = None
     flash_max_K: float | None = None
     # numerical standard uncertainty (K, W, -) of the fields above that have one, by field name,
     # from the refinement studies stored for the case's resolution (gearfem.uncertainty)
@@ -914,7 +916,9 @@ def run(
         wall_time_s=times,
         mpi_size=comm.size,
         cycle=at_speed,
-        headline=headline(th, base, at_speed, unc, case.thermal.ambient_C, readings, field_max),
+        headline=headline(
+            th, base, at_speed, unc, case.thermal.ambient_C, readings, field_max, case.thermal.body
+        ),
         numerical_uncertainty=unc,
         instruments=readings,
         thermal_other=next(iter(others.values()), None),
@@ -937,10 +941,12 @@ def headline(
     ambient_C: float | None = None,
     readings: InstrumentReadings | None = None,
     surface_field_max_C: float | None = None,
+    body: str = "pinion",
 ) -> Headline:
     """The headline numbers of a run from its stage summaries (with u_num where a refinement
     study of the case's resolution is stored); ``surface_field_max_C``: see
-    :func:`surface_field_max`."""
+    :func:`surface_field_max`; ``body``: the gear of ``thermal`` (its baselines are quoted)."""
+    gear = {"pinion": 1, "wheel": 2}[body]
     final = thermal.get("final_temperatures_C", {})
     u_num = None
     if uncertainty is not None:
@@ -975,9 +981,9 @@ def headline(
         },
         friction_power_W=cycle.friction_power_W if cycle is not None else None,
         effective_contact_ratio=cycle.effective_contact_ratio if cycle is not None else None,
-        vdi2736_flank1_C=baselines.get("vdi2736_flank1_C"),
-        vdi2736_root1_C=baselines.get("vdi2736_root1_C"),
-        mao_bulk1_C=baselines.get("mao_bulk1_C"),
+        vdi2736_flank_C=baselines.get(f"vdi2736_flank{gear}_C"),
+        vdi2736_root_C=baselines.get(f"vdi2736_root{gear}_C"),
+        mao_bulk_C=baselines.get(f"mao_bulk{gear}_C"),
         flash_max_K=baselines.get("flash_max_K"),
         u_num=u_num,
         friction_heat_per_gear_W=_per_gear(thermal, "friction_W"),

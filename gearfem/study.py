@@ -399,9 +399,9 @@ class StudyRow(JsonRecord):
             flank_max_end_C=final.get("flank_max"),
             effective_contact_ratio=s.cycle.effective_contact_ratio if s.cycle else None,
             max_contact_pressure_MPa=s.cycle.max_contact_pressure_MPa if s.cycle else None,
-            vdi2736_flank_C=b.get("vdi2736_flank1_C"),
-            vdi2736_root_C=b.get("vdi2736_root1_C"),
-            mao_bulk_C=b.get("mao_bulk1_C"),
+            vdi2736_flank_C=s.headline.vdi2736_flank_C,
+            vdi2736_root_C=s.headline.vdi2736_root_C,
+            mao_bulk_C=s.headline.mao_bulk_C,
             wall_time_s=s.wall_time_s.get("total_s"),
         )
 

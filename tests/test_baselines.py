@@ -669,3 +669,44 @@ def test_hysteresis_loss_ratio_of_pulses():
     assert short[2] == pytest.approx(short[1], rel=0.01)  # independent of the pulse's duration
     with pytest.raises(ParameterError):
         B.hysteresis_loss_ratio(-t)
+
+
+def test_vdi2736_takes_the_k_theta_of_the_pairs_materials():
+    """VDI 2736-2's heat transfer coefficients belong to the material pair: plastic/plastic for two
+    polymers, plastic/steel when either gear is steel (whichever drives; the open-source
+    implementation the issue names applied plastic/plastic to a plastic pinion against a steel
+    wheel), none for the steel gear itself, which VDI 2736 does not rate; two steels are refused.
+    The temperatures are eq. (5) of vdi2736_temperature_C with the pair's k_theta."""
+    from gearfem.core.material_library import library_material
+
+    steel = library_material("steel").to_material()
+    pom = library_material("POM").to_material(hysteresis=((20.0, 100.0), (0.01, 0.02)))
+    assert B.is_metal(steel) and not B.is_metal(pom) and not B.is_metal(Material())
+    assert B.vdi2736_pairing(Material(), pom) == "plastic/plastic"
+    assert B.vdi2736_pairing(steel, pom) == B.vdi2736_pairing(pom, steel) == "plastic/steel"
+    with pytest.raises(ParameterError, match="material_wheel.*both gears are metals"):
+        B.vdi2736_pairing(steel, steel)
+    plastic = _summary(material1=pom, material2=pom)
+    assert (plastic["vdi2736_k_theta_flank"], plastic["vdi2736_k_theta_root"]) == (9000.0, 2148.0)
+    for m1, m2, polymer, metal in ((steel, pom, 2, 1), (pom, steel, 1, 2)):
+        s = _summary(material1=m1, material2=m2)
+        assert (s["vdi2736_k_theta_flank"], s["vdi2736_k_theta_root"]) == (6300.0, 895.0)
+        assert s[f"vdi2736_flank{metal}_C"] is None and s[f"vdi2736_root{metal}_C"] is None
+        for part, k in zip(("flank", "root"), B.VDI2736_K_THETA["plastic/steel"], strict=True):
+            rise = s[f"vdi2736_{part}{polymer}_rise_K"]
+            rise_pp = plastic[f"vdi2736_{part}{polymer}_rise_K"]
+            k_pp = B.VDI2736_K_THETA["plastic/plastic"][("flank", "root").index(part)]
+            # theta - theta_0 = P mu H_V k_theta / (b z (v m)^0.75) (open drive, ED = 1)
+            assert rise / rise_pp == pytest.approx(k / k_pp, rel=1e-12)
+        # a k_theta given in [baselines] is used as given
+        given = _summary(
+            material1=m1,
+            material2=m2,
+            options=B.BaselineOptions(
+                rack_fillet_coef=B.max_rack_fillet_coef(30.0), vdi_k_theta_flank=9000.0
+            ),
+        )
+        assert given[f"vdi2736_flank{polymer}_C"] == pytest.approx(
+            plastic[f"vdi2736_flank{polymer}_C"], rel=1e-12
+        )
+    assert _summary(material1=steel, material2=pom)["vdi_root_plus_flash_max_C"] is None
