@@ -823,3 +823,37 @@ def test_a_fit_that_fails_on_the_full_model_is_not_a_verdict():
     assert f"chi2 = {rr.refined.full_chi2:.3g}" in rr.verdict.text
     assert "profile interval" not in rr.verdict.text
     assert rr.refined.full_rmse_K == pytest.approx(25.0, rel=0.5)
+
+
+def test_a_pair_of_two_materials_has_each_gears_material_inputs():
+    """Steel against POM: each gear's conductivity and emissivity from its own library entry,
+    changed on that gear only (the other keeps its material); the steel's emissivity interval is
+    the wide one of a surface-dependent estimate (0.10-0.80)."""
+    from gearfem.config import case_from_dict
+    from gearfem.core.material_library import library_material
+    from gearfem.diagnose.report import material_perturbations, uniform_step
+
+    pom = {"name": "POM", "hysteresis": [[20.0, 100.0], [0.01, 0.02]]}
+    case = case_from_dict({"material": {"name": "steel"}, "material_wheel": pom})
+    pert = material_perturbations(case)
+    assert len(pert) == 4
+    for body, name in (("pinion", "steel"), ("wheel", "POM")):
+        other = "wheel" if body == "pinion" else "pinion"
+        lib = library_material(name)
+        (k_tr, k_scale), (e_tr, _) = (
+            v for label, v in pert.items() if f"{body}: {name} library" in label
+        )
+        lo, hi = lib["thermal_conductivity_W_mK"].interval()
+        delta, scale = uniform_step(lib.value("thermal_conductivity_W_mK"), lo, hi)
+        changed = k_tr(case).materials
+        assert changed[body].thermal_conductivity_W_mK == pytest.approx(
+            case.materials[body].thermal_conductivity_W_mK + delta
+        )
+        assert changed[other] == case.materials[other] and k_scale == pytest.approx(scale)
+        e = lib["emissivity"]
+        delta, _ = uniform_step(e.value, *e.interval(), upper=1.0)
+        changed = e_tr(case)
+        assert changed.thermal.emissivity is None
+        assert changed.materials[body].emissivity == pytest.approx(e.value + delta)
+        assert changed.materials[other] == case.materials[other]
+    assert library_material("steel")["emissivity"].interval() == (0.10, 0.80)

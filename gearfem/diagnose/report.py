@@ -52,10 +52,20 @@ def _replace_geometry(**kw):
     return lambda c: dataclasses.replace(c, geometry=dataclasses.replace(c.geometry, **kw))
 
 
-def _replace_material(**kw):
-    return lambda c: dataclasses.replace(
-        c, material=dataclasses.replace(c.material, **kw), material_wheel=None
-    )
+def _replace_material(body: str | None = None, **kw):
+    """A change of the material: the case's one material (``body`` None; both gears), or that of
+    ``body`` alone in a pair of two materials."""
+
+    def change(c: Case) -> Case:
+        if body is None:
+            return dataclasses.replace(
+                c, material=dataclasses.replace(c.material, **kw), material_wheel=None
+            )
+        mats = dict(c.materials)
+        mats[body] = dataclasses.replace(mats[body], **kw)
+        return dataclasses.replace(c, material=mats["pinion"], material_wheel=mats["wheel"])
+
+    return change
 
 
 def uniform_step(value: float, lo: float, hi: float, upper: float | None = None):
@@ -75,25 +85,46 @@ def material_perturbations(case: Case) -> dict[str, tuple[Any, float]]:
     """The material inputs of the V&V 20 input uncertainty: thermal conductivity and emissivity,
     each uniform over its interval in the materials library (gearfem/data/materials, the case
     material's ``name``), shifted to the case's value where the case overrides the library's. The
-    emissivity is the thermal model's (``[thermal] emissivity`` or the material's)."""
-    mat = case.material
-    lib = library_material(mat.name, "material.name")
+    emissivity is the thermal model's (``[thermal] emissivity`` or the material's). A pair of two
+    materials (``[material_wheel]``, a steel pinion against a POM wheel, say) has each gear's
+    inputs apart, named by the gear; ``[thermal] emissivity``, which sets both gears', is one
+    input."""
+    mats = case.materials
+    pair = mats["wheel"] != mats["pinion"]
     pert = {}
-    k = lib["thermal_conductivity_W_mK"]
-    lo, hi = k.interval()
-    delta, scale = uniform_step(k.value, lo, hi)
-    pert[f"thermal_conductivity_W_mK ({lo:.3g}-{hi:.3g}, uniform; {lib.name} library)"] = (
-        _replace_material(thermal_conductivity_W_mK=mat.thermal_conductivity_W_mK + delta),
-        scale,
-    )
-    e = lib["emissivity"]
-    lo, hi = e.interval()
-    value = case.thermal.emissivity or mat.emissivity
-    delta, scale = uniform_step(value, value - (e.value - lo), value + (hi - e.value), upper=1.0)
-    pert[
-        f"emissivity ({e.value:.2f} -{e.value - lo:.2g}/+{hi - e.value:.2g}, uniform; "
-        f"{lib.name} library)"
-    ] = (_replace_thermal(emissivity=value + delta), scale)
+    for body in ("pinion", "wheel") if pair else (None,):
+        mat = mats[body or "pinion"]
+        lib = library_material(
+            mat.name, "material.name" if body != "wheel" else "material_wheel.name"
+        )
+        whose = f"{body}: {lib.name}" if pair else lib.name
+        k = lib["thermal_conductivity_W_mK"]
+        lo, hi = k.interval()
+        delta, scale = uniform_step(k.value, lo, hi)
+        pert[f"thermal_conductivity_W_mK ({lo:.3g}-{hi:.3g}, uniform; {whose} library)"] = (
+            _replace_material(
+                body, thermal_conductivity_W_mK=mat.thermal_conductivity_W_mK + delta
+            ),
+            scale,
+        )
+        if pair and case.thermal.emissivity is not None and body == "wheel":
+            continue  # one emissivity for both gears: perturbed once, below the pinion's
+        e = lib["emissivity"]
+        lo, hi = e.interval()
+        value = case.thermal.emissivity or mat.emissivity
+        delta, scale = uniform_step(
+            value, value - (e.value - lo), value + (hi - e.value), upper=1.0
+        )
+        own = pair and case.thermal.emissivity is None
+        pert[
+            f"emissivity ({e.value:.2f} -{e.value - lo:.2g}/+{hi - e.value:.2g}, uniform; "
+            f"{whose} library)"
+        ] = (
+            _replace_material(body, emissivity=value + delta)
+            if own
+            else _replace_thermal(emissivity=value + delta),
+            scale,
+        )
     return pert
 
 
