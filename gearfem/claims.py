@@ -1,7 +1,8 @@
 """Quoted results and the model they belong to: stale claims.
 
-The README and the pages in ``docs/`` quote results of the built-in case: the main job's headline,
-the bench readings, the bench verdict with its intervals and the confirmation table. Each is
+The README and the pages in ``docs/`` quote results of the built-in case (and of a demo's case,
+named in :data:`REGENERATIONS`): the main job's headline, the bench readings, the bench verdict
+with its intervals and the confirmation table, the steel/POM demo. Each is
 written between ``<!-- gearfem:begin NAME -->`` markers by the script that computes it
 (:mod:`gearfem.core.doctables`), headed by a provenance line
 (:func:`gearfem.uncertainty.provenance`): the resolution key of the case it was computed on and
@@ -40,10 +41,12 @@ _FRICTION = "mpirun -n 2 python benchmarks/verification/"
 @dataclasses.dataclass(frozen=True)
 class Regeneration:
     """One command, run from the repository's root, and the quoted blocks it writes: ``(page,
-    block)`` pairs, the page relative to the root."""
+    block)`` pairs, the page relative to the root. ``case``: the case file (relative to the root)
+    the blocks quote, when it is not the built-in case; their resolution key is that case's."""
 
     command: str
     blocks: tuple[tuple[str, str], ...]
+    case: str | None = None
 
 
 #: The commands that write the quoted blocks, in the order to run them: the headline reads the
@@ -86,6 +89,11 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         "--docs docs/friction.md --block friction_fixed_point_scan",
         (("docs/friction.md", "friction_fixed_point_scan"),),
     ),
+    Regeneration(
+        "mpirun -n 2 python demos/steel_pom.py --docs docs/materials.md",
+        (("docs/materials.md", "steel_pom_demo"),),
+        case="demos/steel_pom.toml",
+    ),
 )
 
 
@@ -114,20 +122,18 @@ class StaleClaim:
         return f"{self.page}: block {self.block!r}: {self.reason}"
 
 
-def check_block(
-    page: str, name: str, text: str, builtin_key: str, required: bool
-) -> list[StaleClaim]:
+def check_block(page: str, name: str, text: str, case_key: str, required: bool) -> list[StaleClaim]:
     """The reasons why block ``name`` of ``page`` is stale (empty: it is current)."""
     prov = Provenance.parse(text)
     if prov is None:
         return [StaleClaim(page, name, "no provenance line")] if required else []
     out = []
-    if prov.resolution is not None and prov.resolution != builtin_key:
+    if prov.resolution is not None and prov.resolution != case_key:
         out.append(
             StaleClaim(
                 page,
                 name,
-                f"computed at resolution {prov.resolution}, the built-in case's is {builtin_key}",
+                f"computed at resolution {prov.resolution}, its case's is {case_key}",
             )
         )
     for module, digest in prov.code.items():
@@ -151,6 +157,12 @@ def stale_claims(root: str | Path, builtin: Case | None = None) -> list[StaleCla
     against the built-in case (or ``builtin``)."""
     root = Path(root)
     key = resolution_key(builtin if builtin is not None else load_case(None))
+    own_case = {
+        block: resolution_key(load_case(root / step.case))
+        for step in REGENERATIONS
+        if step.case is not None and (root / step.case).is_file()
+        for block in step.blocks
+    }
     pages = [root / "README.md", *sorted((root / "docs").rglob("*.md"))]
     out: list[StaleClaim] = []
     for path in pages:
@@ -163,7 +175,8 @@ def stale_claims(root: str | Path, builtin: Case | None = None) -> list[StaleCla
             if name not in found:
                 out.append(StaleClaim(page, name, "block missing from the page"))
         for name, text in found.items():
-            out.extend(check_block(page, name, text, key, name in required))
+            block_key = own_case.get((page, name), key)
+            out.extend(check_block(page, name, text, block_key, name in required))
     return out
 
 

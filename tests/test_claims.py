@@ -113,3 +113,22 @@ def test_each_quoted_block_has_one_command_and_the_commands_run_once_in_order():
         r for r in claims.REGENERATIONS if ("docs/reproduction.md", "bench_camera") in r.blocks
     )
     assert order.index(first.command) < order.index(steps[0].command)
+
+
+def test_a_demo_block_is_checked_against_its_own_case(tmp_path):
+    """A block that quotes a demo's case (steel_pom_demo: demos/steel_pom.toml) is current at that
+    case's resolution and stale at the built-in case's, the other way round from the README's."""
+    step = next(r for r in claims.REGENERATIONS if r.case is not None)
+    (page, name), case_file = step.blocks[0], step.case
+    (tmp_path / "demos").mkdir()
+    (tmp_path / case_file).write_text((ROOT / case_file).read_text())
+    (tmp_path / "docs").mkdir()
+    doc = tmp_path / page
+    doc.write_text(f"<!-- gearfem:begin {name} -->\n<!-- gearfem:end {name} -->\n")
+    own = provenance(load_case(ROOT / case_file))
+    assert own.resolution != resolution_key(load_case(None))
+    replace_block(doc, name, "| a |\n|---|\n| 1 |", provenance=own)
+    assert [c for c in claims.stale_claims(tmp_path) if c.block == name] == []
+    replace_block(doc, name, "| a |\n|---|\n| 1 |", provenance=provenance(load_case(None)))
+    (stale,) = [c for c in claims.stale_claims(tmp_path) if c.block == name]
+    assert f"its case's is {own.resolution}" in stale.reason
