@@ -109,6 +109,36 @@ def test_thermal_gear_demo(tmp_path):
     assert s["final_temperatures_C"]["max_surface"] > s["final_temperatures_C"]["mean_bulk"] > 23.0
 
 
+@pytest.mark.slow
+def test_steel_pom_demo(tmp_path):
+    """Serial run of the steel/POM demo: the two gears' friction heat adds up to the cycle's
+    friction power (to the solver's tolerance), split by effusivity (Blok, 0.943 into the steel);
+    the steel makes no hysteresis heat, the POM some; VDI 2736 rates the POM wheel with the
+    plastic/steel k_theta and not the steel; the table is printed."""
+    from gearfem.core.material_library import effusivity_partition
+
+    out = tmp_path / "steel_pom"
+    proc = _run_demo("steel_pom.py", ["--out", str(out)], tmp_path)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "| pinion | steel | 0.943 |" in proc.stdout
+    s = json.loads((out / "summary.json").read_text())
+    assert s["thermal"]["body"] == "wheel" and s["thermal_other"]["body"] == "pinion"
+    heat = {
+        t["body"]: {k: v / t["model_fraction"] for k, v in t["final_balance_W"].items()}
+        for t in (s["thermal"], s["thermal_other"])
+    }
+    total = heat["pinion"]["friction_W"] + heat["wheel"]["friction_W"]
+    assert total == pytest.approx(s["cycle"]["friction_power_W"], rel=1e-6)
+    assert heat["pinion"]["friction_W"] / total == pytest.approx(
+        effusivity_partition("steel", "POM"), rel=1e-6
+    )
+    assert heat["pinion"]["hysteresis_W"] == 0.0 < heat["wheel"]["hysteresis_W"]
+    b = s["baselines"]
+    assert (b["vdi2736_k_theta_flank"], b["vdi2736_k_theta_root"]) == (6300.0, 895.0)
+    assert b["vdi2736_flank1_C"] is None and b["vdi2736_flank2_C"] > 23.0
+    assert s["headline"]["vdi2736_flank_C"] == b["vdi2736_flank2_C"]
+
+
 @pytest.mark.mpi
 @pytest.mark.slow
 def test_demos_on_all_ranks(tmp_out):
