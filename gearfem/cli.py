@@ -206,8 +206,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"t = {h.time_s:g} s: max surface "
         f"{with_u_num(h, 'max_surface_temperature_C', 'C')} "
         f"(steady {h.steady_max_surface_temperature_C or nan:.1f} C), "
-        f"mean bulk {with_u_num(h, 'mean_bulk_temperature_C', 'C')}; VDI 2736 flank "
-        f"{h.vdi2736_flank_C or nan:.1f} C, root {h.vdi2736_root_C or nan:.1f} C"
+        f"mean bulk {with_u_num(h, 'mean_bulk_temperature_C', 'C')}; "
+        + (
+            f"VDI 2736 flank {h.vdi2736_flank_C:.1f} C, root {h.vdi2736_root_C:.1f} C"
+            if h.vdi2736_flank_C is not None
+            else f"VDI 2736 does not rate the {case.thermal.body} (a metal gear)"
+        )
     )
     if h.max_surface_field_C is not None:
         _say(
