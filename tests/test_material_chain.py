@@ -7,8 +7,9 @@ not), so the ratio of transmission errors sits a little below the ratio of modul
 -0.9 %, PA66 -0.9 % from E_PEEK / E; the Poisson ratios, 0.35 and 0.39 against 0.40, barely
 matter). For the same reason the friction power at one torque and mu rises with the compliance:
 softer teeth share the load over a longer path of contact, further into the fast sliding near
-the tips (measured: PA66 +4.1 %, POM +5.2 %). One rank (the serial tier); a slow test: three
-cycles and six thermal runs (about 100 s).
+the tips (measured: PA66 +4.1 %, POM +5.2 %). A steel pinion against a POM wheel runs the cycle
+as a body without hysteresis. One rank (the serial tier); slow tests: four cycles and six thermal
+runs (about 100 s).
 """
 
 from __future__ import annotations
@@ -88,15 +89,15 @@ def test_every_library_polymer_runs_a_coarse_chain(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_a_steel_pinion_against_a_pom_wheel_runs_the_chain(tmp_path):
+def test_a_steel_pinion_against_a_pom_wheel_runs_the_cycle():
     """A steel gear is an elastic body without hysteresis: the cycle of a steel pinion against a
     POM wheel passes its own revolution-average check (which the slave's own modulus in the
-    penalty failed: 1.96 of the mesh's friction power on the steel pinion's reference tooth); the
-    friction heat splits by effusivity (Blok: about 0.94 into the steel) and the two gears' heat
-    adds up to the mesh's friction power; the steel takes no hysteresis heat. The transmission
-    error follows the bodies' compliances: with teeth that bend as 1/E, steel against POM gives
-    (1/E_steel + 1/E_POM) / (2/E_POM) of POM against POM (0.507), a little less for the contact
-    that does not scale (as for the polymers above)."""
+    penalty failed: 1.96 of the mesh's friction power on the steel pinion's reference tooth), and
+    its transmission error follows the bodies' compliances: with teeth that bend as 1/E, steel
+    against POM gives (1/E_steel + 1/E_POM) / (2/E_POM) of POM against POM (0.507), a little less
+    for the contact that does not scale (measured 0.477; the POM/POM cycle is the one the test
+    above stored). The friction heat splits by effusivity, about 0.94 into the steel (the heat
+    itself and its balance: tests/test_demos.py, the steel/POM demo)."""
     comm = MPI.COMM_SELF
     pom = {"name": "POM", "hysteresis": TEST_HYSTERESIS}
     cases = {}
@@ -108,35 +109,17 @@ def test_a_steel_pinion_against_a_pom_wheel_runs_the_chain(tmp_path):
     steel = cases["steel/POM"].material
     assert steel.name == "steel" and steel.glass_transition_C is None
     assert steel.hysteresis_table()(400.0) == 0.0
-    got = {}
+    te = {}
     for label, case in cases.items():
         cyc, _, _ = pipeline.cycle(case, comm)
-        got[label] = cyc
+        te[label] = float(np.mean(cyc.te_m))
     E_steel, E_pom = steel.youngs_modulus_Pa, cases["POM/POM"].material.youngs_modulus_Pa
-    ratio = float(np.mean(got["steel/POM"].te_m)) / float(np.mean(got["POM/POM"].te_m))
     bending = (1 / E_steel + 1 / E_pom) / (2 / E_pom)
-    assert 0.9 * bending < ratio < bending, ratio
+    assert 0.9 * bending < te["steel/POM"] / te["POM/POM"] < bending, te
 
     case = cases["steel/POM"]
     fractions = case.sources.heat_fractions(case.materials)
-    assert fractions["pinion"] == pytest.approx(
-        library_material("steel").effusivity_W_s05_m2K
-        / (
-            library_material("steel").effusivity_W_s05_m2K
-            + library_material("POM").effusivity_W_s05_m2K
-        ),
-        rel=1e-12,
-    )
+    b_steel = library_material("steel").effusivity_W_s05_m2K
+    b_pom = library_material("POM").effusivity_W_s05_m2K
+    assert fractions["pinion"] == pytest.approx(b_steel / (b_steel + b_pom), rel=1e-12)
     assert 0.9 < fractions["pinion"] < 0.97
-    heat = {}
-    for body in ("pinion", "wheel"):
-        c = dataclasses.replace(case, thermal=dataclasses.replace(case.thermal, body=body))
-        summary, _, _ = pipeline.observed_thermal(
-            c, tmp_path / body, comm, got["steel/POM"], write_fields=False
-        )
-        frac = summary["model_fraction"]
-        heat[body] = {k: v / frac for k, v in summary["final_balance_W"].items()}
-        assert summary["final_temperatures_C"]["mean_bulk"] > case.thermal.ambient_C
-    assert heat["pinion"]["hysteresis_W"] == 0.0 and heat["wheel"]["hysteresis_W"] > 0.0
-    total = heat["pinion"]["friction_W"] + heat["wheel"]["friction_W"]
-    assert heat["pinion"]["friction_W"] / total == pytest.approx(fractions["pinion"], rel=1e-6)
