@@ -105,8 +105,8 @@ def _by_page(steps: tuple[Regeneration, ...]) -> dict[str, dict[str, str]]:
     return out
 
 
-#: Blocks that quote results of the built-in case and must carry a provenance line, by page
-#: (relative to the repository root), with the command that writes them.
+#: Blocks that quote results of the built-in case (or of a demo's case) and must carry a
+#: provenance line, by page (relative to the repository root), with the command that writes them.
 QUOTED_BLOCKS: dict[str, dict[str, str]] = _by_page(REGENERATIONS)
 
 
