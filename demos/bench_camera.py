@@ -253,7 +253,8 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
         f"{table}\n\nCase {case.name!r} ({case_path}), thermal degree {case.thermal.degree}; "
         f"u_num: {r.vv20['u_num_method']}; u_input parts: {parts}.\n\n"
         f"**Verdict: {r.diagnosis.verdict.text}** Chosen: {fit.label} ({ps}); held-out RMS "
-        f"error {fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after. Measured by "
+        f"error {fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after"
+        f"{g.other_units_text()}. Measured by "
         f"`mpirun -n {comm.size} python demos/bench_camera.py --diagnose {case_path} --skip-runs`"
         f" (report: {_relative(out)}/report.md)."
     )
@@ -365,10 +366,12 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
             f"before, {fmt(g.loo_rmse_after_K)} after; in-sample {fmt(g.rmse_before_K)} before, "
             f"{fmt(g.rmse_after_K)} after on the surrogate"
             + (
-                f", {fmt(d.refined.full_rmse_K)} on the full model at the refined value."
+                f", {fmt(d.refined.full_rmse_K)} on the full model at the refined value"
                 if d.refined is not None and d.refined.full_rmse_K is not None
-                else "."
-            ),
+                else ""
+            )
+            + g.other_units_text()
+            + ".",
             "",
             "Single candidates, ranked (pairs have as many parameters as the bench has data and "
             "are not ranked):",
@@ -433,8 +436,8 @@ def reproduce(out: Path, comm, doc: bool) -> None:
     if not d.chosen:
         text = (
             f"**The bench diagnosis on the shipped model**: {d.verdict.text} Held-out error "
-            f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after. "
-            "Details: [docs/diagnosis.md](docs/diagnosis.md)."
+            f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after"
+            f"{g.other_units_text()}. Details: [docs/diagnosis.md](docs/diagnosis.md)."
         )
         prov = _provenance(rep.provenance)
     else:
@@ -502,7 +505,8 @@ def reproduce(out: Path, comm, doc: bool) -> None:
                 else f"The best candidate on the surrogate, {label}, is no explanation (the "
                 "verdict above); held-out error "
             )
-            + f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after; fold margins "
+            + f"{fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after"
+            f"{g.other_units_text()}; fold margins "
             f"{robust}. Each bench point reproduced with `gearfem run` on the case file the "
             f"diagnosis writes for that value:\n\n{table}\n\n"
             "Details, the ranking, the margins and what to measure next: "

@@ -441,7 +441,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     if g.loo_rmse_before_K is not None and g.loo_rmse_after_K is not None:
         _say(
             f"held-out RMS error: {g.loo_rmse_before_K:.1f} K before, "
-            f"{g.loo_rmse_after_K:.1f} K after"
+            f"{g.loo_rmse_after_K:.1f} K after{g.other_units_text()}"
         )
     if r.suggestion is not None:
         _say("what to measure next:\n" + r.suggestion.text)

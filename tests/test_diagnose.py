@@ -651,10 +651,12 @@ def test_only_the_torque_meter_separates_friction_from_convection():
     """Friction heat x 0.6 hidden: with the camera alone friction and convection read alike; with
     the torque meters beside it (which read the friction law's power, as the full model's do since
     they follow the active law) the friction is identified, its interval holds the truth, and the
-    held-out gain counts the torque readings too (N m beside K)."""
+    held-out gain counts the torque readings too (N m beside K). With the camera alone the reading
+    that would separate the rivals is a torque meter's, ranked by what each instrument resolves."""
     from diagnose_lumped import LumpedModel
 
     from gearfem.diagnose.forward import Surrogate
+    from gearfem.diagnose.report import _probes
     from gearfem.diagnose.select import diagnose
 
     pts = ((1000.0, 8.0), (2000.0, 4.0), (1500.0, 6.0))
@@ -672,13 +674,41 @@ def test_only_the_torque_meter_separates_friction_from_convection():
             rows.append(ddata.Measurement(sp, tq, None, q, v, u, amb))
     both = ddata.Dataset(tuple(rows), "camera and torque meters")
     camera = ddata.Dataset(tuple(m for m in rows if m.quantity == "camera_max"), "camera")
-    for d, kind in ((camera, "not identifiable"), (both, "identified")):
-        r = diagnose(sur.predict, d, library=lib, max_size=1, model_error=sur.error)
-        assert r.verdict.kind == kind, r.verdict.text
+    # the readings one could add, with a proposed reading's uncertainty: camera and torque meters
+    probes = _probes(sur, camera, torque_u_Nm=0.04)
+    assert {"camera_max", "torque_loss_Nm"} <= {m.quantity for m in probes.measurements}
+    r = diagnose(sur.predict, camera, library=lib, max_size=1, model_error=sur.error, probes=probes)
+    assert r.verdict.kind == "not identifiable", r.verdict.text
+    assert r.gain.other_units == () and r.gain.of_unit("N m") is None
+    # the separating readings, ranked by what each instrument resolves: a torque meter's in
+    # N m (its uncertainty 0.04 N m per meter, two meters), the thermometers' in K; the rivals'
+    # torque loss differs by the friction the convection fit lacks (about 0.14 N m, 2.5 u) where
+    # a camera pixel differs by less than its 2.8 K
+    sep = {s.measurement: s for s in r.verdict.separate_by}
+    meter = sep["1000 rpm 8 N m, torque_loss_Nm @ end"]
+    assert meter.unit == "N m" and 0.1 < meter.difference < 0.2
+    assert meter.separation_u == pytest.approx(meter.difference / (0.04 * np.sqrt(2.0)))
+    u_of = {m.label(): m.uncertainty for m in probes.measurements}
+    for s in sep.values():
+        assert s.separation_u == pytest.approx(s.difference / u_of[s.measurement])
+        assert s.unit == ("N m" if "torque_loss_Nm" in s.measurement else "K")
+    best = max(sep.values(), key=lambda s: s.separation_u)
+    assert f"{best.difference:.3g} {best.unit}, {best.separation_u:.1f} u" in r.verdict.text
+    r = diagnose(sur.predict, both, library=lib, max_size=1, model_error=sur.error)
+    assert r.verdict.kind == "identified", r.verdict.text
     assert r.chosen == ("friction_scale",)
     lo, hi = r.chosen_fit.intervals["friction_scale"]
     assert lo <= 0.6 <= hi
     assert r.gain.loo_rmse_after_K < r.gain.loo_rmse_before_K
+    # the torque readings' own gain, in N m: the friction's fit predicts the held-out meters
+    # within their noise, the baseline by the friction it lacks (the truth's x 0.6)
+    nm = r.gain.of_unit("N m")
+    assert [g.unit for g in r.gain.other_units] == ["N m"]
+    assert nm.loo_rmse_after < noise["torque_loss_Nm"] < nm.loo_rmse_before
+    assert nm.loo_rmse_after < nm.loo_rmse_before / 5.0
+    assert nm.rmse_after < nm.rmse_before
+    assert "N m before" in r.gain.other_units_text()
+    assert type(r.gain).from_json(r.gain.to_json()) == r.gain
 
 
 @pytest.mark.mpi

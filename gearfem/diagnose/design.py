@@ -161,7 +161,9 @@ class Suggestion(JsonRecord):
     text: str
 
 
-def _uncertainty(quantity: str, value: float, torque_u_Nm: float) -> float:
+def reading_uncertainty(quantity: str, value: float, torque_u_Nm: float) -> float:
+    """The measurement standard uncertainty of a proposed reading of ``quantity`` that reads
+    about ``value`` (see the module docstring; ``torque_u_Nm``: each torque meter's)."""
     if quantity == "camera_max":
         return camera_uncertainty_K(value)
     if quantity == "torque_loss_Nm":
@@ -280,7 +282,7 @@ def suggest(
         pred = {e.label: predict(rows, e.params) for e in expl}
         u = np.array(
             [
-                _uncertainty(
+                reading_uncertainty(
                     m.quantity, float(np.mean([pred[e.label][i] for e in expl])), torque_u_Nm
                 )
                 for i, m in enumerate(rows.measurements)

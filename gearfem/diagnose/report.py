@@ -23,6 +23,7 @@ from gearfem.diagnose.design import (
     Grid,
     Suggestion,
     bench_grid,
+    reading_uncertainty,
     standing_explanations,
     suggest,
 )
@@ -210,7 +211,7 @@ def run_diagnosis(
         parts["camera aim (uniform within a pixel)"] = u_aim
         u_in = np.sqrt(u_in**2 + u_aim**2)
     comp = Comparison(S=S, D=D, u_num=u_num, u_input=u_in, u_D=u_D)
-    probes = _probes(sur, data)
+    probes = _probes(sur, data, case.instruments.torque.uncertainty_Nm)
     result = diagnose(
         sur.predict,
         data,
@@ -461,18 +462,21 @@ class _Split:
         return self._route(data, lambda f, d: f.error(d, names))
 
 
-def _probes(sur: Surrogate, data: Dataset) -> Dataset:
+def _probes(sur: Surrogate, data: Dataset, torque_u_Nm: float) -> Dataset:
     """Measurements one could add at the data's operating points, every tabulated time: the
     readings of the instruments the data use (camera, probes, torque meters), and the model's
     field temperatures only when the data themselves are such (what no bench instrument reads is
-    not proposed to a bench)."""
+    not proposed to a bench). Each reads the baseline's value with the measurement uncertainty a
+    proposed reading has (:func:`~gearfem.diagnose.design.reading_uncertainty`; ``torque_u_Nm``:
+    each torque meter's)."""
     fields_in_data = any(m.quantity in FIELD_QUANTITIES for m in data.measurements)
     rows, seen = [], set()
     for m in data.measurements:
         if m.point in seen:
             continue
         seen.add(m.point)
-        base = sur.tables[(float(m.speed_rpm), float(m.torque_Nm))].base
+        table = sur.tables[(float(m.speed_rpm), float(m.torque_Nm))]
+        base = table.base
         times = sorted({r[1] for r in base}, key=lambda t: math.inf if t is None else t)
         quantities = tuple(
             q
@@ -481,8 +485,11 @@ def _probes(sur: Surrogate, data: Dataset) -> Dataset:
         )
         for q in quantities:
             for t in times:
-                v = 20.0 if unit_of(q) == "C" else 0.5
-                rows.append(Measurement(m.speed_rpm, m.torque_Nm, t, q, v, 1.0, m.ambient_C))
+                if (q, t) not in base:
+                    continue
+                v = base[(q, t)] + (table.ambient_C if unit_of(q) == "C" else 0.0)
+                u = reading_uncertainty(q, v, torque_u_Nm)
+                rows.append(Measurement(m.speed_rpm, m.torque_Nm, t, q, v, u, m.ambient_C))
     return Dataset(tuple(rows), "probes")
 
 
@@ -638,10 +645,13 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         f"before, {fmt(g.loo_rmse_after_K)} after; in-sample RMS {fmt(g.rmse_before_K)} "
         f"before, {fmt(g.rmse_after_K)} after on the surrogate"
         + (
-            f", {fmt(result.refined.full_rmse_K)} on the full model at the refined value."
+            f", {fmt(result.refined.full_rmse_K)} on the full model at the refined value"
             if result.refined is not None and result.refined.full_rmse_K is not None
-            else "."
-        ),
+            else ""
+        )
+        + g.other_units_text(held_out=True)
+        + g.other_units_text(held_out=False)
+        + ".",
     ]
     if result.refined is not None:
         c = result.refined
@@ -693,7 +703,8 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
     if v.separate_by:
         lines += ["", "## Measurements that would separate the rivals (predicted differences)", ""]
         lines += [
-            f"- {s.measurement}: {'+'.join(s.rival)} differs by {s.difference_K:.1f} K"
+            f"- {s.measurement}: {'+'.join(s.rival)} differs by {s.difference:.3g} {s.unit} "
+            f"({s.separation_u:.1f} times the reading's uncertainty)"
             for s in v.separate_by
         ]
     if report.suggestion is not None:

@@ -15,12 +15,14 @@ with k >= n cannot be tested and are left out). Verdict:
   "not identifiable" when a non-nested model lies within ``tie`` of it (and the best passes the
   chi-square test: a best fit that fails it is "partial" first, its rivals named), or when a
   parameter's profile-likelihood interval spans its whole prior; the report then names the
-  measurement (among ``probes``) where the rival fits differ most;
+  instrument readings (among ``probes``) where the rival fits differ most in units of each
+  reading's measurement uncertainty;
 * "partial": the best model beats the baseline but still fails a chi-square goodness-of-fit test
   at 1 %; "unexplained": no model beats the baseline, which fails that test.
 
 Intervals: 95 % profile likelihood (chi2 within 3.84 of the minimum, other parameter re-fitted).
-Held-out error: leave one operating point out, refit, predict it (RMS over its measurements, K).
+Held-out error: leave one operating point out, refit, predict it; RMS over its temperatures (K)
+and, apart, over each other instrument's readings in their unit (torque meters: N m).
 """
 
 from __future__ import annotations
@@ -71,11 +73,15 @@ class ModelFit(JsonRecord):
 
 @dataclasses.dataclass(frozen=True)
 class Separation(JsonRecord):
-    """A measurement that would separate the chosen model from a rival."""
+    """An instrument reading that would separate the chosen model from a rival: the fits'
+    predictions differ by ``difference`` (in ``unit``: K for a temperature, N m for a torque
+    meter), ``separation_u`` times the reading's measurement uncertainty."""
 
     rival: tuple[str, ...]
     measurement: str
-    difference_K: float
+    difference: float
+    unit: str
+    separation_u: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,13 +99,50 @@ class Verdict(JsonRecord):
 
 
 @dataclasses.dataclass(frozen=True)
+class UnitGain(JsonRecord):
+    """RMS errors of the data's readings of one unit other than temperature (``unit``: "N m"
+    for the torque meters' torque loss, "1" for an efficiency), before (baseline) and after
+    (chosen model): held out (each operating point predicted by the model fitted to the others)
+    and in-sample; None where there is nothing to compute (fewer than two operating points)."""
+
+    unit: str
+    loo_rmse_before: float | None
+    loo_rmse_after: float | None
+    rmse_before: float | None
+    rmse_after: float | None
+
+
+@dataclasses.dataclass(frozen=True)
 class Gain(JsonRecord):
-    """Errors before (baseline) and after (chosen model)."""
+    """Errors before (baseline) and after (chosen model): the temperatures' in K, and in
+    ``other_units`` those of every other instrument of the data (torque meters in N m)."""
 
     loo_rmse_before_K: float | None
     loo_rmse_after_K: float | None
     rmse_before_K: float | None
     rmse_after_K: float | None
+    other_units: tuple[UnitGain, ...] = ()
+
+    def of_unit(self, unit: str) -> UnitGain | None:
+        """The gain of the readings in ``unit`` (None: the data have none)."""
+        return next((g for g in self.other_units if g.unit == unit), None)
+
+    def other_units_text(self, held_out: bool = True) -> str:
+        """The held-out (or in-sample) errors of the other units in words, each "; X before, Y
+        after" ("" when the data are temperatures only)."""
+
+        def f(x: float | None, unit: str) -> str:
+            return "n/a" if x is None else f"{x:.3g} {unit}"
+
+        return "".join(
+            f"; {'held-out' if held_out else 'in-sample'} RMS error of the readings in {g.unit}: "
+            + (
+                f"{f(g.loo_rmse_before, g.unit)} before, {f(g.loo_rmse_after, g.unit)} after"
+                if held_out
+                else f"{f(g.rmse_before, g.unit)} before, {f(g.rmse_after, g.unit)} after"
+            )
+            for g in self.other_units
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -347,21 +390,43 @@ def leave_one_point_out(
     library: tuple[Candidate, ...] = LIBRARY,
     model_error: ModelError = None,
 ) -> float | None:
-    """RMS error (K) of each operating point predicted by the model fitted to the others."""
-    errs = []
+    """RMS error (K) of the temperatures of each operating point predicted by the model fitted
+    to the others (:func:`held_out_errors`)."""
+    return _rms(held_out_errors(predict, data, names, u_model_K, library, model_error), data, "C")
+
+
+def held_out_errors(
+    predict: Predict,
+    data: Dataset,
+    names: tuple[str, ...],
+    u_model_K: float = 1.0,
+    library: tuple[Candidate, ...] = LIBRARY,
+    model_error: ModelError = None,
+) -> np.ndarray | None:
+    """Prediction minus value of every measurement, each predicted by the model fitted to the
+    other operating points (in the measurement's unit; None: fewer than two points)."""
     if len(data.points) < 2:
         return None
+    err = np.empty(len(data))
     for pt in data.points:
+        at = np.array([m.point == pt for m in data.measurements])
         train = data.without_point(pt)
-        test = data.subset(m.point == pt for m in data.measurements)
+        test = data.subset(at)
         model, _ = (
             fit(predict, train, names, u_model_K, library, model_error=model_error)
             if names
             else ({}, 0.0)
         )
-        T = _temperatures(test)
-        errs.extend((predict(test, model) - _values(test))[T])
-    return float(np.sqrt(np.mean(np.square(errs)))) if errs else None
+        err[at] = predict(test, model) - _values(test)
+    return err
+
+
+def _rms(err: np.ndarray | None, data: Dataset, unit: str) -> float | None:
+    """RMS of ``err`` over the measurements in ``unit`` (None: no errors or no such reading)."""
+    if err is None:
+        return None
+    mask = np.array([m.unit == unit for m in data.measurements], dtype=bool)
+    return float(np.sqrt(np.mean(np.square(err[mask])))) if np.any(mask) else None
 
 
 def _criterion(c2: float, k: int, n: int, kind: str) -> float:
@@ -498,13 +563,12 @@ def diagnose(
         verdict["kind"] = "not identifiable"
         verdict["unconstrained"] = chosen["spans_prior"]
     for r in results:
-        r["loo_rmse_K"] = (
-            leave_one_point_out(
-                predict, data, tuple(r["candidates"]), u_model_K, library, model_error
-            )
+        r["loo_errors"] = (
+            held_out_errors(predict, data, tuple(r["candidates"]), u_model_K, library, model_error)
             if any(r is t for t in top)
             else None
         )
+        r["loo_rmse_K"] = _rms(r["loo_errors"], data, "C")
         r["predictions_C"] = (
             predict(data, r["params"]).tolist() if any(r is t for t in top) else None
         )
@@ -531,7 +595,13 @@ def diagnose(
             text=verdict["text"],
             unconstrained=tuple(verdict.get("unconstrained", ())),
             separate_by=tuple(
-                Separation(tuple(x["rival"]), x["measurement"], x["difference_K"])
+                Separation(
+                    tuple(x["rival"]),
+                    x["measurement"],
+                    x["difference"],
+                    x["unit"],
+                    x["separation_u"],
+                )
                 for x in verdict.get("separate_by", ())
             ),
         ),
@@ -541,6 +611,17 @@ def diagnose(
             loo_rmse_after_K=chosen["loo_rmse_K"],
             rmse_before_K=_rmse(base, data),
             rmse_after_K=_rmse(chosen, data),
+            other_units=tuple(
+                UnitGain(
+                    unit=u,
+                    loo_rmse_before=_rms(base["loo_errors"], data, u),
+                    loo_rmse_after=_rms(chosen["loo_errors"], data, u),
+                    rmse_before=_rmse(base, data, u),
+                    rmse_after=_rmse(chosen, data, u),
+                )
+                for u in dict.fromkeys(m.unit for m in data.measurements)
+                if u != "C"
+            ),
         ),
     )
 
@@ -561,28 +642,34 @@ def _model_fit(r: dict) -> ModelFit:
     )
 
 
-def _rmse(r: dict, data: Dataset) -> float | None:
+def _rmse(r: dict, data: Dataset, unit: str = "C") -> float | None:
+    """In-sample RMS error of model ``r``'s predictions of the readings in ``unit``."""
     if r.get("predictions_C") is None:
         return None
-    T = _temperatures(data)
-    if not np.any(T):
-        return None
-    err = np.array(r["predictions_C"]) - _values(data)
-    return float(np.sqrt(np.mean(err[T] ** 2)))
+    return _rms(np.array(r["predictions_C"]) - _values(data), data, unit)
 
 
 def separating_measurements(
     predict: Predict, probes: Dataset, chosen: dict, rivals: list[dict], top: int = 3
 ) -> list[dict]:
-    """The probe measurements where the fitted rivals' predictions differ most (K)."""
+    """The probe readings where the fitted rivals' predictions differ most, in units of each
+    reading's measurement uncertainty (the probes' ``uncertainty``: a torque meter's N m and a
+    camera's K are compared by what each instrument can resolve)."""
     a = predict(probes, chosen["params"])
+    u = np.array([m.uncertainty for m in probes.measurements])
     out = []
     for r in rivals:
         d = np.abs(predict(probes, r["params"]) - a)
-        for i in np.argsort(-d)[:top]:
+        for i in np.argsort(-d / u)[:top]:
             m: Measurement = probes.measurements[int(i)]
             out.append(
-                {"rival": r["candidates"], "measurement": m.label(), "difference_K": float(d[i])}
+                {
+                    "rival": r["candidates"],
+                    "measurement": m.label(),
+                    "difference": float(d[i]),
+                    "unit": "K" if m.is_temperature else m.unit,
+                    "separation_u": float(d[i] / u[i]),
+                }
             )
     return out
 
@@ -650,10 +737,10 @@ def verdict_text(verdict: dict, chosen: dict, library: tuple[Candidate, ...]) ->
         text += f" (parameter of {', '.join(verdict['unconstrained'])} spans its whole prior)"
     sep = verdict.get("separate_by")
     if sep:
-        best = max(sep, key=lambda s: s["difference_K"])
+        best = max(sep, key=lambda s: s["separation_u"])
         text += (
-            f"; measure {best['measurement']} to separate them "
-            f"(fits differ by {best['difference_K']:.1f} K)"
+            f"; measure {best['measurement']} to separate them (fits differ by "
+            f"{best['difference']:.3g} {best['unit']}, {best['separation_u']:.1f} u)"
         )
     return text
 
@@ -665,6 +752,7 @@ __all__ = [
     "ModelFit",
     "Refinement",
     "Separation",
+    "UnitGain",
     "Verdict",
     "chi2",
     "diagnose",
