@@ -448,6 +448,39 @@ def _ring_camera(ring, speed, n_phases, **kw):
     return Camera(o, {"pinion": surf}, speed, 30, target, 21.0, 21.0, ("end",)), target
 
 
+def test_the_rays_are_traced_once_per_scene(ring):
+    """A camera of the same gears and options reading other temperatures and another emissivity
+    (a diagnosis's runs) reuses the rays the first traced (``camera._VIEWS``) and reads what a
+    camera tracing them again reads, to the bit; a camera moved traces its own."""
+    from gearfem.instruments import camera as camera_module
+
+    camera_module._VIEWS.clear()
+    cam, target = _ring_camera(ring, 1000.0, 6, directional_emissivity="dielectric")
+    (first,), _ = cam.render()
+    assert len(camera_module._VIEWS) == 1
+    surf = ring[1]
+    x = surf.points_m[None, :, :, 0]
+    other = dataclasses.replace(
+        surf, temperature_K=surf.temperature_K + 60.0 * (x - x.min()) / np.ptp(x), emissivity=0.7
+    )
+
+    def reading():
+        c = Camera(cam.options, {"pinion": other}, 1000.0, 30, target, 21.0, 21.0, ("end",))
+        (th,), frames = c.render()
+        return th, frames
+
+    reused, frames_reused = reading()
+    assert len(camera_module._VIEWS) == 1  # the same scene: no rays traced
+    camera_module._VIEWS.clear()
+    traced, frames_traced = reading()
+    assert np.array_equal(frames_reused, frames_traced)
+    assert np.array_equal(reused.image_C, traced.image_C) and reused.reading == traced.reading
+    assert reused.reading.max_C > first.reading.max_C + 5.0  # it read the other temperatures
+    moved = dataclasses.replace(cam.options, distance_m=cam.options.distance_m * 1.01)
+    Camera(moved, {"pinion": other}, 1000.0, 30, target, 21.0, 21.0, ("end",)).render()
+    assert len(camera_module._VIEWS) == 2
+
+
 def _fill_fraction(prof, r: np.ndarray) -> np.ndarray:
     """Time fraction a point at radius r of the turning pinion's side face is on a tooth: the
     tooth's angular thickness over the pitch (involute part of the flank)."""

@@ -37,6 +37,7 @@ Physical model (options: :class:`gearfem.instruments.options.CameraOptions`):
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from fractions import Fraction
 
@@ -190,6 +191,34 @@ def phase_weights(options: CameraOptions, period_s: float, phases: int) -> np.nd
     return w / t
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class BodyHits:
+    """The samples of one phase that meet a body first: their flat indices in the window's
+    sample grid, the triangle of the body's surface each meets, its barycentric weights (k, 3)
+    and, for the dielectric emissivity, the cosine between the triangle's normal and the ray."""
+
+    samples: np.ndarray
+    triangles: np.ndarray
+    weights: np.ndarray
+    cosine: np.ndarray | None
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PhaseView:
+    """What the samples see at one phase, which the surfaces' temperatures and emissivities do
+    not change: per body (in the order of the camera's surfaces) its :class:`BodyHits`, and the
+    surface id of every sample (H, W; -1: background)."""
+
+    bodies: tuple[BodyHits, ...]
+    ids: np.ndarray
+
+
+#: The phase views of the scenes rendered last, by :meth:`Camera._view_key` (most recent last):
+#: a diagnosis renders one scene with many temperature fields, each run a new Camera.
+_VIEWS: dict[str, tuple[PhaseView, ...]] = {}
+_VIEWS_KEPT = 4
+
+
 @dataclasses.dataclass(frozen=True)
 class CameraReading(JsonRecord):
     """What the camera reports at one time of the run.
@@ -301,8 +330,59 @@ class Camera:
         return gear_window(self.options, self.geometry, centers, radii, zr)
 
     # --- rendering --------------------------------------------------------------------------------
-    def _phase(self, j: int):
-        """Instantaneous sampled radiance (labels, H, W) and surface ids (H, W) at phase j."""
+    def _phase(self, view: PhaseView):
+        """Instantaneous sampled radiance (labels, H, W) and surface ids (H, W) at a phase whose
+        samples see what ``view`` says."""
+        r0, r1, c0, c1 = self.window
+        n = self.options.subsamples
+        H, W = (r1 - r0) * n, (c1 - c0) * n
+        S = np.full((len(self.labels), H * W), self.S_background)
+        for surf, hit in zip(self.surfaces.values(), view.bodies, strict=True):
+            if len(hit.samples) == 0:
+                continue
+            T = np.einsum("lij,ij->li", surf.temperature_K[:, hit.triangles], hit.weights)
+            eps = (
+                surf.emissivity
+                if hit.cosine is None
+                else directional_emissivity(surf.emissivity, hit.cosine)
+            )
+            S[:, hit.samples] = eps * self.band.radiance_fast(T) + (1.0 - eps) * self.L_s
+        return S.reshape(len(self.labels), H, W), view.ids
+
+    def _views(self) -> tuple[PhaseView, ...]:
+        """What the samples of every phase see: computed once for the scene's geometry and kept
+        (:data:`_VIEWS`, keyed by :meth:`_view_key`), so that cameras of the same gears and
+        options reading other temperatures (a diagnosis' runs) do not trace the rays again."""
+        key = self._view_key()
+        views = _VIEWS.pop(key, None)
+        if views is None:
+            views = tuple(self._phase_view(j) for j in range(self.phases))
+        _VIEWS[key] = views  # the most recently used last
+        while len(_VIEWS) > _VIEWS_KEPT:
+            del _VIEWS[next(iter(_VIEWS))]
+        return views
+
+    def _view_key(self) -> str:
+        """A digest of everything the rays of :meth:`_phase_view` depend on: the options, the
+        camera's pose, the window, the phases and each surface's triangles, kinds and motion (not
+        its temperatures or emissivity)."""
+        h = hashlib.sha256()
+        g = self.geometry
+        h.update(repr((self.options, self.window, self.phases)).encode())
+        for arr in (g.position_m, g.right, g.up, g.forward):
+            h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
+        h.update(repr((g.half_u, g.half_w, g.pixels_h, g.pixels_v)).encode())
+        for name, s in self.surfaces.items():
+            h.update(repr((name, s.closed, s.rotation_sense, s.pitch_rad)).encode())
+            for arr in (s.points_m, s.center_m):
+                h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
+            h.update(np.ascontiguousarray(s.kind, dtype=np.int64).tobytes())
+        return h.hexdigest()
+
+    def _phase_view(self, j: int) -> PhaseView:
+        """The first surface each sample meets at phase j (z-buffer), the triangle and its
+        barycentric weights, the cosine between its normal and the ray (for the dielectric
+        emissivity) and the surface ids (H, W)."""
         o, g = self.options, self.geometry
         r0, r1, c0, c1 = self.window
         n = o.subsamples
@@ -322,19 +402,16 @@ class Camera:
             owners.append((b, idx, P))
         sizes = [len(sc) for sc in screens]
         hits = rasterize(np.concatenate(screens), W, H)
-        nl = len(self.labels)
-        S = np.full((nl, H * W), self.S_background)
         ids = np.full(H * W, -1, dtype=np.int16)
         starts = np.cumsum([0, *sizes])
+        bodies = []
         for (b, idx, P), lo, hi in zip(owners, starts[:-1], starts[1:]):
             sel = np.flatnonzero((hits.triangle >= lo) & (hits.triangle < hi))
-            if len(sel) == 0:
-                continue
             surf = self.surfaces[names[b]]
             local = hits.triangle[sel] - lo
             tri = idx[local]
             w = hits.weights[sel]
-            T = np.einsum("lij,ij->li", surf.temperature_K[:, tri], w)
+            cosine = None
             if o.directional_emissivity == "dielectric":
                 pts = P[local]
                 nrm = np.cross(pts[:, 1] - pts[:, 0], pts[:, 2] - pts[:, 0])
@@ -342,12 +419,10 @@ class Camera:
                 hit = np.einsum("ij,ijk->ik", w, pts)
                 ray = hit - g.position_m
                 ray /= np.linalg.norm(ray, axis=1, keepdims=True)
-                eps = directional_emissivity(surf.emissivity, np.einsum("ij,ij->i", nrm, ray))
-            else:
-                eps = surf.emissivity
-            S[:, sel] = eps * self.band.radiance_fast(T) + (1.0 - eps) * self.L_s
+                cosine = np.einsum("ij,ij->i", nrm, ray)
             ids[sel] = b * len(KINDS) + surf.kind[tri]
-        return S.reshape(nl, H, W), ids.reshape(H, W)
+            bodies.append(BodyHits(sel, tri, w, cosine))
+        return PhaseView(tuple(bodies), ids.reshape(H, W))
 
     def _prepare_culling(self) -> None:
         """Per surface: triangle centroids relative to the axis, normals (unnormalised) and the
@@ -423,8 +498,8 @@ class Camera:
         o = self.options
         r0, r1, c0, c1 = self.window
         signals, ids = [], []
-        for j in range(self.phases):
-            S, sid = self._phase(j)
+        for view in self._views():
+            S, sid = self._phase(view)
             signals.append(self._pixels(S))
             ids.append(sid)
         sig = np.stack(signals, axis=2)  # (aims, labels, phases, rows, cols)
