@@ -10,27 +10,16 @@ a moment.
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import re
-import sys
 from pathlib import Path
 
 import pytest
+from scripts import load_script
 
 from gearfem import claims
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def _script(relative: str):
-    """The benchmark script ``benchmarks/<relative>`` as a module (benchmarks/ is no package)."""
-    path = ROOT / "benchmarks" / relative
-    spec = importlib.util.spec_from_file_location(f"benchmark_{path.stem}", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_loops_reads_the_tier_times_dev_sh_reports():
@@ -43,13 +32,13 @@ def test_loops_reads_the_tier_times_dev_sh_reports():
     printed = "\n".join(
         re.sub(r"\$\(\(SECONDS - t\d\)\)", "123", s).replace("$MPI_NP", "2") for s in said
     )
-    for name, pattern in _script("performance/loops.py")._TIER_LINES.items():
+    for name, pattern in load_script("benchmarks/performance/loops.py")._TIER_LINES.items():
         m = pattern.search(printed)
         assert m is not None and m.group(1) == "123", (name, pattern.pattern, printed)
 
 
 def test_regenerate_times_a_command_and_stops_on_a_failed_one(tmp_path):
-    regenerate = _script("regenerate.py")
+    regenerate = load_script("benchmarks/regenerate.py")
     env = dict(os.environ)
     t = regenerate.run_logged("echo written; sleep 0.2", tmp_path / "1.log", env, cwd=tmp_path)
     assert (tmp_path / "1.log").read_text() == "written\n"
@@ -63,7 +52,7 @@ def test_regenerate_times_a_command_and_stops_on_a_failed_one(tmp_path):
 def test_regenerate_names_a_block_its_command_left_stale(tmp_path):
     """A command that ran without writing its block (here: the README has no provenance on it)
     is reported with the block and the reason, not counted as done."""
-    regenerate = _script("regenerate.py")
+    regenerate = load_script("benchmarks/regenerate.py")
     (tmp_path / "README.md").write_text(
         "<!-- gearfem:begin readme_headline -->\n| a |\n<!-- gearfem:end readme_headline -->\n"
     )

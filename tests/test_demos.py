@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scripts import load_script
 
 from gearfem.contact.verification import peak_pressure_bound
 
@@ -80,16 +81,6 @@ def test_hertz_contact_demo(tmp_path):
     )
 
 
-def _load_demo(name: str):
-    """The demo module (its ``main(argv)``), imported from demos/ by path."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(f"demo_{name}", ROOT / "demos" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.mark.slow
 def test_thermal_gear_demo(tmp_path):
     """Serial run: files complete, heat balance closed, the gear heats above ambient."""
@@ -149,10 +140,9 @@ def test_demos_on_all_ranks(tmp_out):
 
     comm = MPI.COMM_WORLD
     out = Path(comm.bcast(str(tmp_out / "demos_all_ranks"), root=0))
-    assert (
-        _load_demo("hertz_contact").main(["--contact-size", "0.014", "--out", str(out / "h")]) == 0
-    )
-    assert _load_demo("thermal_gear").main(["--duration-s", "300", "--out", str(out / "t")]) == 0
+    hertz, thermal = load_script("demos/hertz_contact.py"), load_script("demos/thermal_gear.py")
+    assert hertz.main(["--contact-size", "0.014", "--out", str(out / "h")]) == 0
+    assert thermal.main(["--duration-s", "300", "--out", str(out / "t")]) == 0
     comm.barrier()
     s = json.loads((out / "h" / "summary.json").read_text())
     assert s["ranks"] == comm.size
