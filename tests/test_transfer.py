@@ -216,3 +216,28 @@ def test_facet_subdivision_integrates_linear_fields_exactly(kind, n):
     assert len(w) == n * n and np.sum(w) == pytest.approx(area, rel=1e-14)
     np.testing.assert_allclose(w @ pts / area, centroid, rtol=1e-14)
     assert len(np.unique(np.round(pts, 12), axis=0)) == n * n
+
+
+@pytest.mark.parametrize("evaluation", ["reference_facets", "continuous"])
+def test_facet_sampler_is_built_once_per_inputs(evaluation):
+    """The thermal facets' sampler is kept for its inputs: the same inputs (a diagnosis's next
+    run) give the kept operator, equal to a fresh build; other sample points or another
+    reconstruction build their own."""
+    b = 12.934e-3
+    pts, area, _, _ = _rows((0.5,), 4, b)
+    rng = np.random.default_rng(5)
+    local = pts[rng.integers(0, len(pts), (30, 4))] + rng.normal(0.0, 2e-5, (30, 4, 3))
+    weight = np.full(30 * 4, 0.25)
+    rec = FluxReconstruction((0.107e-3, 1.5e-3), evaluation)
+    transfer._SAMPLERS.clear()
+    first = transfer.facet_sampler(local, weight, pts, area, rec, (0.0, b))
+    again = transfer.facet_sampler(local.copy(), weight.copy(), pts, area, rec, (0.0, b))
+    assert again is first and len(transfer._SAMPLERS) == 1
+    transfer._SAMPLERS.clear()
+    fresh = transfer.facet_sampler(local, weight, pts, area, rec, (0.0, b))
+    assert fresh is not first and (fresh != first).nnz == 0
+    np.testing.assert_allclose(first @ np.ones(len(area)), 1.0, rtol=0, atol=1e-13)
+    transfer.facet_sampler(local + 1e-6, weight, pts, area, rec, (0.0, b))
+    other = FluxReconstruction((0.2e-3, 1.5e-3), evaluation)
+    transfer.facet_sampler(local, weight, pts, area, other, (0.0, b))
+    assert len(transfer._SAMPLERS) == 3

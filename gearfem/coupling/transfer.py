@@ -59,6 +59,7 @@ weight) of :attr:`FlankTransfer.links` are the non-zeros of the facet means
 
 from __future__ import annotations
 
+import hashlib
 import math
 
 import basix
@@ -253,6 +254,79 @@ def subdivision_points(facet_type, n: int) -> tuple[np.ndarray, np.ndarray]:
     return pts, np.full(len(pts), 1.0 / n**2)
 
 
+#: The samplers built last, by the digest of their inputs (:func:`facet_sampler`; most recent
+#: last): a diagnosis builds the same gears' transfers for each of its runs.
+_SAMPLERS: dict[str, sps.csr_matrix] = {}
+_SAMPLERS_KEPT = 4
+
+
+def facet_sampler(
+    local: np.ndarray,
+    weight: np.ndarray,
+    ref_points: np.ndarray,
+    facet_area: np.ndarray,
+    reconstruction: FluxReconstruction | None,
+    planes: tuple[float, float],
+) -> sps.csr_matrix:
+    """The thermal facets' means of the reconstructed reference flux, (thermal facets x
+    reference facets): ``local`` (facets, samples, 3) the facets' sample points in the reference
+    sector, ``weight`` their normalised area weights (flat), ``ref_points`` and ``facet_area``
+    the reference facets' points and areas, ``planes`` the side faces' z. Kept for the last few
+    inputs (a digest of all of them): built once per gear for a diagnosis's runs."""
+    h = hashlib.sha256(repr((reconstruction, tuple(planes), local.shape)).encode())
+    for arr in (local, weight, ref_points, facet_area):
+        h.update(np.ascontiguousarray(arr, dtype=float).tobytes())
+    key = h.hexdigest()
+    sampler = _SAMPLERS.pop(key, None)
+    if sampler is None:
+        sampler = _facet_sampler(local, weight, ref_points, facet_area, reconstruction, planes)
+    _SAMPLERS[key] = sampler
+    while len(_SAMPLERS) > _SAMPLERS_KEPT:
+        del _SAMPLERS[next(iter(_SAMPLERS))]
+    return sampler
+
+
+def _facet_sampler(local, weight, ref_points, facet_area, reconstruction, planes):
+    nf, m = local.shape[:2]
+    n_ref = len(facet_area)
+    if reconstruction is not None and reconstruction.evaluation == "continuous":
+        # the reconstruction evaluated at the sample points (in blocks of facets: memory)
+        balanced = balanced_scaling(
+            ref_points, facet_area, reconstruction.sigma_m, planes, tapered=True
+        )  # once for all blocks
+        blocks = []
+        for f0 in range(0, nf, CONTINUOUS_BLOCK_FACETS):
+            f1 = min(nf, f0 + CONTINUOUS_BLOCK_FACETS)
+            at = continuous_operator(
+                local[f0:f1].reshape(-1, 3),
+                ref_points,
+                facet_area,
+                reconstruction.sigma_m,
+                planes,
+                balanced,
+            )
+            mean = sps.csr_matrix(
+                (
+                    weight[f0 * m : f1 * m],
+                    (np.repeat(np.arange(f1 - f0), m), np.arange((f1 - f0) * m)),
+                ),
+                shape=(f1 - f0, (f1 - f0) * m),
+            )
+            blocks.append(mean @ at)
+        return sps.vstack(blocks).tocsr() if blocks else sps.csr_matrix((0, n_ref))
+    _, j = cKDTree(ref_points).query(local.reshape(-1, 3))
+    mean = sps.csr_matrix(
+        (weight, (np.repeat(np.arange(nf), m), j)), shape=(nf, n_ref)
+    )  # duplicates summed: q_f = Σ_p w_p q(ref(x_p)) / Σ_p w_p
+    smoother = smoothing_operator(
+        ref_points,
+        facet_area,
+        None if reconstruction is None else reconstruction.sigma_m,
+        planes,
+    )
+    return (mean @ smoother).tocsr()
+
+
 class FlankTransfer:
     """The owned flank facets of one gear's thermal mesh and their reference facets (see the
     module docstring). Collective-free to build.
@@ -333,52 +407,16 @@ class FlankTransfer:
             axis=-1,
         )
         ref_points = fields.facet_points_m - fields.center_m
-        n_ref = len(fields.facet_area_m2)
         weight = (jac / jac.sum(axis=1, keepdims=True)).ravel()
         # the side faces z = 0 and z = b, in the tooth-local frame (the axis point at z = 0)
         b = gear_mesh.geometry.face_width_mm * 1e-3
         planes = (0.0 - fields.center_m[2], b - fields.center_m[2])
         self.cells, self.local_facet = cf[:, 0], cf[:, 1]
         self.area, self.centroid, self.tooth = area, xc, tooth
-        if reconstruction is not None and reconstruction.evaluation == "continuous":
-            #: (thermal facets x reference facets): the facet means of the reconstruction
-            #: evaluated at the sample points (in blocks of facets: memory)
-            balanced = balanced_scaling(
-                ref_points, fields.facet_area_m2, reconstruction.sigma_m, planes, tapered=True
-            )  # once for all blocks
-            blocks = []
-            for f0 in range(0, nf, CONTINUOUS_BLOCK_FACETS):
-                f1 = min(nf, f0 + CONTINUOUS_BLOCK_FACETS)
-                at = continuous_operator(
-                    local[f0:f1].reshape(-1, 3),
-                    ref_points,
-                    fields.facet_area_m2,
-                    reconstruction.sigma_m,
-                    planes,
-                    balanced,
-                )
-                mean = sps.csr_matrix(
-                    (
-                        weight[f0 * m : f1 * m],
-                        (np.repeat(np.arange(f1 - f0), m), np.arange((f1 - f0) * m)),
-                    ),
-                    shape=(f1 - f0, (f1 - f0) * m),
-                )
-                blocks.append(mean @ at)
-            self.sampler = sps.vstack(blocks).tocsr() if blocks else sps.csr_matrix((0, n_ref))
-        else:
-            _, j = cKDTree(ref_points).query(local.reshape(-1, 3))
-            mean = sps.csr_matrix(
-                (weight, (np.repeat(np.arange(nf), m), j)), shape=(nf, n_ref)
-            )  # duplicates summed: q_f = Σ_p w_p q(ref(x_p)) / Σ_p w_p
-            smoother = smoothing_operator(
-                ref_points,
-                fields.facet_area_m2,
-                None if reconstruction is None else reconstruction.sigma_m,
-                planes,
-            )
-            #: (thermal facets x reference facets): the facet means of the reconstructed flux
-            self.sampler = (mean @ smoother).tocsr()
+        #: (thermal facets x reference facets): the facet means of the reconstructed flux
+        self.sampler = facet_sampler(
+            local, weight, ref_points, fields.facet_area_m2, reconstruction, planes
+        )
         rows = self.sampler.tocoo()
         self.links = (rows.row.astype(np.int64), rows.col.astype(np.int64), rows.data)
         self.num_teeth = len(angles)
