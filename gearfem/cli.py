@@ -193,8 +193,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     case = load_case(args.case)
     case = case.with_operating(speed_rpm=args.speed_rpm, torque_Nm=args.torque_Nm)
     if args.duration_s is not None:
-        import dataclasses
-
         case = dataclasses.replace(
             case, thermal=dataclasses.replace(case.thermal, duration_s=args.duration_s)
         )
@@ -223,6 +221,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
         _say(
             f"friction heat of the pair {with_u_num(h, 'friction_power_W', 'W', 2)}, effective "
             f"contact ratio {with_u_num(h, 'effective_contact_ratio', '', 3)}"
+        )
+    if summary.cycle_mu is not None:
+        loop = summary.cycle_mu
+        _say(
+            f"the cycle solved at the friction law's mu: {len(loop.passes)} cycle(s), "
+            + "; ".join(
+                f"mu {p.mu_cycle:.4f} -> {p.mu_effective:.4f} ({p.change:+.4f})"
+                for p in loop.passes
+            )
+            + f"; the readings are the cycle's at mu {loop.mu:.4f} (tolerance {loop.tolerance:g})"
         )
     u = summary.numerical_uncertainty
     if u is not None:

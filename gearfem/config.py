@@ -88,8 +88,48 @@ class Case:
     instruments: InstrumentOptions = dataclasses.field(default_factory=InstrumentOptions)
 
     def __post_init__(self) -> None:
+        f = self.friction
+        if f.law == "glass_transition" and f.glass_transition_C is None:
+            # the step sits at the gears' polymer's T_g (PEEK 450G: the DMA's 143 C)
+            tg = self._polymer_glass_transition_C()
+            object.__setattr__(self, "friction", dataclasses.replace(f, glass_transition_C=tg))
+        if f.cycle_mu == "law":
+            if self.sources.mode != "cycle" or not self.sources.friction:
+                raise ParameterError(
+                    "friction.cycle_mu",
+                    f.cycle_mu,
+                    "'constant' unless [sources] mode = 'cycle' with friction heat",
+                    "the law's mu is put into the structural cycle's friction",
+                )
+            if not self.instruments.torque.enabled:
+                raise ParameterError(
+                    "friction.cycle_mu",
+                    f.cycle_mu,
+                    "'constant' unless [instruments.torque] is enabled",
+                    "the law's effective mu is what the torque meters read of both gears' heat",
+                )
         # the friction law resolved against the cycle's mu (mu within [0, 2] everywhere)
         self.friction_law()
+
+    def _polymer_glass_transition_C(self) -> float:
+        """The glass transition of the pair's polymer (the gears' T_g where they have one);
+        ParameterError naming ``friction.glass_transition_C`` when the gears have none or
+        differ."""
+        tgs = {m.glass_transition_C for m in self.materials.values()} - {None}
+        if len(tgs) != 1:
+            raise ParameterError(
+                "friction.glass_transition_C",
+                None,
+                "a temperature in C for law 'glass_transition'",
+                "the gears' materials give "
+                + (
+                    "no glass transition"
+                    if not tgs
+                    else "several: " + ", ".join(f"{t:g} C" for t in sorted(tgs))
+                )
+                + " to take it from",
+            )
+        return float(tgs.pop())
 
     def friction_law(self):
         """The ``[friction]`` law with the contact's friction coefficient as its default mu."""

@@ -169,6 +169,60 @@ class Headline(JsonRecord):
 
 
 @dataclasses.dataclass(frozen=True)
+class CycleMuPass(JsonRecord):
+    """One pass of the cycle ↔ heat fixed point in the cycle's mu (:func:`thermal_stages`): the
+    cycle solved at ``mu_cycle``, the case's thermal runs on it, and the friction law's effective
+    mu at their end value, ``mu_effective = mu_cycle P_law / P_cycle`` (the constant mu that
+    dissipates the law's friction power, as the torque meters read it)."""
+
+    mu_cycle: float
+    mu_effective: float
+    friction_power_law_W: float
+    friction_power_cycle_W: float
+    cycle_key: str
+    wall_time_s: float
+
+    @property
+    def change(self) -> float:
+        """How far the law moves the cycle's mu in this pass (mu_effective − mu_cycle)."""
+        return self.mu_effective - self.mu_cycle
+
+
+@dataclasses.dataclass(frozen=True)
+class CycleMuLoop(JsonRecord):
+    """``summary.json`` "cycle_mu": the passes of the cycle ↔ heat fixed point in the cycle's mu
+    (``[friction] cycle_mu = "law"``). The run's readings are the last pass's, whose cycle was
+    solved at ``mu``; converged: its change is below ``tolerance``."""
+
+    passes: tuple[CycleMuPass, ...]
+    tolerance: float
+
+    @property
+    def mu(self) -> float:
+        return self.passes[-1].mu_cycle
+
+
+@dataclasses.dataclass(frozen=True)
+class ThermalStages:
+    """The cycle and thermal stages of a run (:func:`thermal_stages`): the case of the last
+    cycle (its ``contact.friction_coefficient`` the mu that cycle was solved with), the cycle,
+    where it is stored and whether it came from there, the thermal summaries of ``[thermal] body``
+    and of the other gear, the fields' snapshot (rank 0), the fixed point's passes (None: the
+    cycle kept the case's mu) and the wall times (s)."""
+
+    case: Case
+    cycle: Any
+    cycle_dir: Path | None
+    cycle_cached: bool
+    thermal: dict[str, Any]
+    others: dict[str, dict[str, Any]]
+    snapshot: FieldSnapshot | None
+    cycle_mu: CycleMuLoop | None
+    cycle_s: float
+    thermal_s: float
+
+
+@dataclasses.dataclass(frozen=True)
 class RunSummary(JsonRecord):
     """What ``gearfem run`` computes for one operating point (``summary.json``, written last).
 
@@ -191,6 +245,8 @@ class RunSummary(JsonRecord):
     numerical_uncertainty: RunUncertainty | None = None
     instruments: InstrumentReadings | None = None
     thermal_other: dict[str, Any] | None = None
+    # the cycle <-> heat fixed point in the cycle's mu ([friction] cycle_mu = "law"; else None)
+    cycle_mu: CycleMuLoop | None = None
     # what the run was computed with (gearfem.uncertainty.provenance; a figure quoted from it
     # carries this, gearfem.claims checks it):
     # resolution key, code hash of the run's modules, commit, date
@@ -877,21 +933,17 @@ def run(
     out = prepare_output(out_dir, "summary.json", comm)
     times: dict[str, float] = {}
     t0 = time.perf_counter()
-    cyc = None
-    if case.sources.mode == "cycle":
-        with ProgressBar(comm) as bar:
-            cyc, cdir, cached = cycle(
-                case, comm, mesh_cache, cache_dir, progress=bar.update if progress else None
-            )
-        times["cycle_s"] = time.perf_counter() - t0
+    stages = thermal_stages(
+        case, out, comm, mesh_cache, cache_dir, progress=progress, write_fields=write_fields
+    )
+    cyc, cdir, cached = stages.cycle, stages.cycle_dir, stages.cycle_cached
+    th, others, snapshot = stages.thermal, stages.others, stages.snapshot
+    if cyc is not None:
+        times["cycle_s"] = stages.cycle_s
         if comm.rank == 0:
             write_cycle_outputs(cyc, out / "cycle")
         comm.barrier()
-    t1 = time.perf_counter()
-    th, others, snapshot = observed_thermal(
-        case, out, comm, cyc, mesh_cache, write_fields=write_fields
-    )
-    times["thermal_s"] = time.perf_counter() - t1
+    times["thermal_s"] = stages.thermal_s
     readings = None
     if comm.bcast(snapshot is not None, root=0):  # the snapshot lives on rank 0
         t2 = time.perf_counter()
@@ -923,6 +975,7 @@ def run(
         instruments=readings,
         thermal_other=next(iter(others.values()), None),
         provenance=dataclasses.asdict(provenance(case)),
+        cycle_mu=stages.cycle_mu,
     )
     vers = versions(comm)
     if comm.rank == 0:
@@ -931,6 +984,97 @@ def run(
         write_json(out / "summary.json", summary)  # last: marks a complete run
     comm.barrier()
     return summary
+
+
+def case_at_cycle_mu(case: Case, mu: float) -> Case:
+    """``case`` with its structural cycle solved at ``mu`` and the same friction law (the law's
+    defaults that follow the cycle's mu pinned to the case's, :meth:`FrictionOptions.pinned_to`)."""
+    return dataclasses.replace(
+        case,
+        contact=dataclasses.replace(case.contact, friction_coefficient=float(mu)),
+        friction=case.friction.pinned_to(case.contact.friction_coefficient),
+    )
+
+
+def thermal_stages(
+    case: Case,
+    out: Path,
+    comm: MPI.Comm,
+    mesh_cache: Path | None = None,
+    cache_dir: Path | None = None,
+    progress: bool = True,
+    write_fields: bool = True,
+    steady: bool = True,
+    write_plot: bool = True,
+    start_mu: float | None = None,
+    on_pass=None,
+) -> ThermalStages:
+    """The structural cycle (cached) and the thermal runs on it (:func:`observed_thermal`), with
+    the cycle's mu as ``[friction] cycle_mu`` says (collective).
+
+    ``"constant"``: one cycle at ``contact.friction_coefficient``. ``"law"``: the cycle ↔ heat
+    fixed point in the cycle's mu. Pass k solves the cycle at mu_k (mu_0 = ``start_mu``, default
+    the case's mu), the thermal runs on it, and reads the law's effective mu at their end value
+    (the steady state when the run computes one), mu_eff = mu_k P_law / P_cycle: P_law the
+    friction heat of both gears' models at that state (the torque meters' reading), P_cycle the
+    cycle's own friction power at mu_k. It stops when |mu_eff − mu_k| < ``cycle_mu_tolerance``
+    (the last pass is the run's) and otherwise solves again at mu_{k+1} = mu_eff; not converged
+    after ``cycle_mu_max_passes`` cycles raises ConvergenceError with the passes' mu. Each cycle
+    is stored under its own mu (the cycle's key holds the contact options). ``on_pass(k, case_k,
+    stages_k, pass_k)`` is called after every pass (a study reads more of each)."""
+    f = case.friction
+    law_mu = case.sources.mode == "cycle" and f.cycle_mu == "law"
+    mu = case.contact.friction_coefficient if start_mu is None else float(start_mu)
+    passes: list[CycleMuPass] = []
+    for k in range(f.cycle_mu_max_passes if law_mu else 1):
+        c = case_at_cycle_mu(case, mu) if law_mu else case
+        t0 = time.perf_counter()
+        cyc, cdir, cached = None, None, False
+        if c.sources.mode == "cycle":
+            with ProgressBar(comm) as bar:
+                cyc, cdir, cached = cycle(
+                    c, comm, mesh_cache, cache_dir, progress=bar.update if progress else None
+                )
+        t1 = time.perf_counter()
+        th, others, snapshot = observed_thermal(
+            c, out, comm, cyc, mesh_cache, write_fields=write_fields, steady=steady,
+            write_plot=write_plot,
+        )  # fmt: skip
+        t2 = time.perf_counter()
+        loop = None
+        if law_mu:
+            p_law = on_root(comm, lambda: snapshot.mesh_heat_W(snapshot.label_of(None))[0])
+            omega = 2.0 * math.pi * c.operating.speed_rpm / 60.0
+            p_cycle = float(np.mean(CycleTorques.of(cyc).friction_power_W_per_rad_s)) * omega
+            passes.append(
+                CycleMuPass(
+                    mu_cycle=mu,
+                    mu_effective=mu * p_law / p_cycle,
+                    friction_power_law_W=p_law,
+                    friction_power_cycle_W=p_cycle,
+                    cycle_key=case_cycle_key(c),
+                    wall_time_s=t2 - t0,
+                )
+            )
+            loop = CycleMuLoop(passes=tuple(passes), tolerance=f.cycle_mu_tolerance)
+            log.info(
+                "cycle mu pass %d: cycle mu %.4f, the law's effective mu %.4f (change %+.4f)",
+                k, mu, passes[-1].mu_effective, passes[-1].change,
+            )  # fmt: skip
+        stages = ThermalStages(c, cyc, cdir, cached, th, others, snapshot, loop, t1 - t0, t2 - t1)
+        if on_pass is not None:
+            on_pass(k, c, stages, passes[-1] if passes else None)
+        if not law_mu or abs(passes[-1].change) < f.cycle_mu_tolerance:
+            return stages
+        mu = passes[-1].mu_effective
+    raise ConvergenceError(
+        "cycle <-> heat fixed point in the cycle's mu",
+        f"the law's effective mu still moved by {passes[-1].change:+.4g} (tolerance "
+        f"{f.cycle_mu_tolerance:g}) after {len(passes)} cycles; cycle mu per pass: "
+        + ", ".join(f"{p.mu_cycle:.4f}" for p in passes),
+        step=f"{case.operating.speed_rpm:g} rpm / {case.operating.torque_Nm:g} N m",
+        iteration=len(passes),
+    )
 
 
 def headline(

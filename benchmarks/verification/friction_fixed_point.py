@@ -5,18 +5,19 @@ The structural cycle is solved with one constant mu (``[contact] friction_coeffi
 in the thesis); the heat and the torque meters follow the case's friction law at every contact
 point, at its contact temperature (gearfem.coupling.friction_heat). docs/friction.md (block
 ``friction_tractions``) shows that a cycle at a glassy mu differs from one at 0.5 by more than
-u_num. This script closes the loop in the one number the cycle takes, at each bench point
+u_num. This script runs the loop ``gearfem run`` runs with ``[friction] cycle_mu = "law"``
+(gearfem.pipeline.thermal_stages), in the one number the cycle takes, at each bench point
 (1000 rpm / 8 N m, 2000 rpm / 4 N m) of the built-in case under the glass-transition law:
 
 1. solve the cycle at mu_c (first the case's 0.5, or with ``--start glassy`` the glassy mu: the mu
    of every contact of a gear at ambient, where a run from ambient starts);
-2. on it, the run under the law from ambient to 900 s and the steady state it leads to
-   (gearfem.thermal.branches: the lowest branch, by continuation);
+2. on it, the law's steady state (gearfem.thermal.branches: the lowest branch, by continuation),
+   and beside it the run from ambient to 900 s;
 3. read the law's effective mu as the torque meters read it, mu_eff = mu_c · P_law / P_cycle (the
-   law's friction power at that state over the cycle's own at mu_c: the mu of a constant-mu cycle
-   that dissipates what the law does);
+   law's friction power at the steady state over the cycle's own at mu_c: the mu of a
+   constant-mu cycle that dissipates what the law does);
 4. mu_c <- mu_eff and repeat until mu_c changes by less than ``--tol`` (at most ``--max-iter``
-   cycles).
+   cycles; not converged is an error).
 
 Per iteration it prints mu_c, mu_eff, each gear's heat-weighted mu (its branch: above the glassy
 and rubbery mean, the gear runs hot), the law's friction heat, the torque loss, the transmission
@@ -47,7 +48,7 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
-from gearfem.contact.friction import FrictionOptions, dma_glass_transition_C
+from gearfem.contact.friction import FrictionOptions
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
 from gearfem.instruments.evaluate import evaluate
@@ -78,60 +79,81 @@ class Iterate:
     wall_s: float
 
 
-def _observe(case, cyc, comm, steady: bool):
-    """The thermal runs of ``case`` on ``cyc`` and their readings at the end value (collective):
-    (main summary, other summaries, camera reading (C), torque reading; rank 0's, broadcast)."""
+def _camera_at(case, cyc, comm):
+    """The camera's reading (C) of the thermal runs of ``case`` on ``cyc`` at their end value
+    (collective; rank 0's, broadcast)."""
     name = tempfile.mkdtemp(prefix="gearfem-fixed-point-") if comm.rank == 0 else None
     out = Path(comm.bcast(name, root=0))
-    main, others, snap = pipeline.observed_thermal(
-        case, out, comm, cyc, write_fields=False, steady=steady, write_plot=False
+    _, _, snap = pipeline.observed_thermal(
+        case, out, comm, cyc, write_fields=False, steady=False, write_plot=False
     )
-    got = None
-    if comm.rank == 0:
-        r = evaluate(case.instruments, snap)
-        label = snap.label_of(None)
-        got = (r.camera[label].max_C, r.torque_at.get(label, r.torque))
-    cam, torque = comm.bcast(got, root=0)
-    return main, others, cam, torque
+    return pipeline.on_root(
+        comm, lambda: evaluate(case.instruments, snap).camera[snap.label_of(None)].max_C
+    )
 
 
-def one_pass(case, mu_c: float, comm) -> Iterate:
-    """The cycle at ``mu_c``, the law's steady state on it and what it reads, and the camera at
-    900 s from ambient (collective)."""
-    t0 = time.perf_counter()
-    c = dataclasses.replace(
-        case, contact=dataclasses.replace(case.contact, friction_coefficient=mu_c)
+def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
+    """The passes of the cycle ↔ heat fixed point of ``case`` (``[friction] cycle_mu = "law"``,
+    steady) from ``start_mu`` (gearfem.pipeline.thermal_stages), each with the camera at 900 s
+    from ambient on its cycle (collective)."""
+    rows: list[Iterate] = []
+    name = tempfile.mkdtemp(prefix="gearfem-fixed-point-") if comm.rank == 0 else None
+    out = Path(comm.bcast(name, root=0))
+
+    def on_pass(k, c, stages, p):
+        # the camera of the steady state the pass's cycle leads to, each gear's heat-weighted mu
+        snap = stages.snapshot
+        cam = pipeline.on_root(
+            comm, lambda: evaluate(c.instruments, snap).camera[snap.label_of(None)].max_C
+        )
+        # from ambient to 900 s, when the bench camera was read
+        bench = dataclasses.replace(
+            c.thermal,
+            mode="transient",
+            duration_s=BENCH_TIME_S,
+            output_times_s=(BENCH_TIME_S,),
+            dt_initial_s=min(c.thermal.dt_initial_s, BENCH_TIME_S),
+        )
+        cam_900 = _camera_at(dataclasses.replace(c, thermal=bench), stages.cycle, comm)
+        mu_of = {c.thermal.body: stages.thermal["friction"]["mu_heat_weighted"]}
+        for body, summ in stages.others.items():
+            mu_of[body] = summ["friction"]["mu_heat_weighted"]
+        loads = np.array([v for v in stages.cycle.tooth_load_N.values()])
+        omega = 2.0 * np.pi * c.operating.speed_rpm / 60.0
+        rows.append(
+            Iterate(
+                mu_cycle=p.mu_cycle,
+                mu_effective=p.mu_effective,
+                mu_pinion=float(mu_of["pinion"]),
+                mu_wheel=float(mu_of["wheel"]),
+                friction_heat_W=p.friction_power_law_W,
+                torque_loss_Nm=comm.bcast(
+                    sum(snap.mesh_heat_W(snap.label_of(None))) / omega if comm.rank == 0 else None,
+                    root=0,
+                ),
+                te_mean_um=float(np.mean(stages.cycle.te_m)) * 1e6,
+                largest_load_N=float(loads.max()),
+                camera_C=cam,
+                camera_900_C=cam_900,
+                wall_s=p.wall_time_s,
+            )
+        )
+        if comm.rank == 0:
+            print(f"{c.operating.speed_rpm:g} rpm / {c.operating.torque_Nm:g} N m, pass {k}: "
+                  f"{rows[-1]}", flush=True)  # fmt: skip
+
+    steady = dataclasses.replace(case.thermal, mode="steady", output_times_s=())
+    pipeline.thermal_stages(
+        dataclasses.replace(case, thermal=steady),
+        out,
+        comm,
+        progress=False,
+        write_fields=False,
+        write_plot=False,
+        start_mu=start_mu,
+        on_pass=on_pass,
     )
-    cyc, _, _ = pipeline.cycle(c, comm)
-    # the steady state a run from ambient reaches (the lowest branch, by continuation)
-    steady = dataclasses.replace(c.thermal, mode="steady", output_times_s=())
-    main, others, cam, tq = _observe(dataclasses.replace(c, thermal=steady), cyc, comm, True)
-    # from ambient to 900 s, when the bench camera was read
-    bench = dataclasses.replace(
-        c.thermal,
-        mode="transient",
-        duration_s=BENCH_TIME_S,
-        output_times_s=(BENCH_TIME_S,),
-        dt_initial_s=min(c.thermal.dt_initial_s, BENCH_TIME_S),
-    )
-    _, _, cam_900, _ = _observe(dataclasses.replace(c, thermal=bench), cyc, comm, False)
-    mu_of = {c.thermal.body: main["friction"]["mu_heat_weighted"]}
-    for body, summ in others.items():
-        mu_of[body] = summ["friction"]["mu_heat_weighted"]
-    loads = np.array([v for v in cyc.tooth_load_N.values()])
-    return Iterate(
-        mu_cycle=mu_c,
-        mu_effective=mu_c * tq.friction_power_W / tq.cycle_friction_power_W,
-        mu_pinion=float(mu_of["pinion"]),
-        mu_wheel=float(mu_of["wheel"]),
-        friction_heat_W=tq.friction_power_W,
-        torque_loss_Nm=tq.torque_loss_Nm,
-        te_mean_um=float(np.mean(cyc.te_m)) * 1e6,
-        largest_load_N=float(loads.max()),
-        camera_C=cam,
-        camera_900_C=cam_900,
-        wall_s=time.perf_counter() - t0,
-    )
+    return rows
 
 
 def main() -> None:
@@ -169,24 +191,24 @@ def main() -> None:
     mu_r = base.contact.friction_coefficient
     t_start = time.perf_counter()
     rows = []
+    tg_C = dataclasses.replace(
+        base, friction=FrictionOptions(law="glass_transition", mu_glassy=0.1)
+    ).friction.glass_transition_C  # the pair's polymer's
     for mu_g in a.mu_glassy:
-        # the rubbery mu stated: by default it is the cycle's mu, which the loop changes
-        law = FrictionOptions(law="glass_transition", mu_glassy=mu_g, mu_rubbery=mu_r)
+        law = FrictionOptions(
+            law="glass_transition",
+            mu_glassy=mu_g,
+            cycle_mu="law",
+            cycle_mu_tolerance=a.tol,
+            cycle_mu_max_passes=a.max_iter,
+        )
         for speed, torque in points:
             case = dataclasses.replace(
                 base.with_operating(speed_rpm=speed, torque_Nm=torque), friction=law
             )
-            mu_c = mu_r if a.start == "rubbery" else mu_g
-            for k in range(a.max_iter):
-                it = one_pass(case, mu_c, comm)
+            start = mu_r if a.start == "rubbery" else mu_g
+            for k, it in enumerate(fixed_point(case, start, comm)):
                 rows.append((mu_g, speed, torque, k, it))
-                if comm.rank == 0:
-                    print(
-                        f"mu_g {mu_g:g}, {speed:g} rpm / {torque:g} N m, pass {k}: {it}", flush=True
-                    )
-                if abs(it.mu_effective - mu_c) < a.tol:
-                    break
-                mu_c = it.mu_effective
     # u_num of the case's resolution, for the quantities its filed studies follow
     first = rows[0][4]
     unc = run_uncertainty(
@@ -238,7 +260,7 @@ def main() -> None:
         + ("" if a.case is None else f" --case {a.case}")
     )
     note = (
-        f"\n\n{which}, glass-transition friction (T_g {dma_glass_transition_C():g} C, rubbery mu "
+        f"\n\n{which}, glass-transition friction (T_g {tg_C:g} C, rubbery mu "
         f"{mu_r:g}), ambient "
         f"{base.thermal.ambient_C:g} C; the first cycle at the {a.start} mu; each pass solves the "
         "cycle at the cycle mu, the run from "

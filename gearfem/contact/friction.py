@@ -45,10 +45,17 @@ the mesh.
 
 How the law is used: the structural cycle is solved with the constant
 ``contact.friction_coefficient`` and records its contact history (:mod:`gearfem.cycle.history`); the
-friction heat of any law is recomputed from that history with the pressures of the cycle (first
-order: the law's effect on the pressures is neglected) and, when the law depends on temperature, at
-every thermal step and Newton iteration (:mod:`gearfem.coupling.friction_heat`). Numpy only (no
-DOLFINx): ``config`` reads it.
+friction heat of any law is recomputed from that history with the pressures of the cycle and, when
+the law depends on temperature, at every thermal step and Newton iteration
+(:mod:`gearfem.coupling.friction_heat`). ``cycle_mu`` says which mu the cycle is solved with:
+``"constant"`` (default), the case's ``contact.friction_coefficient`` (the law's effect on the
+pressures is neglected); ``"law"``, the cycle ↔ heat fixed point in the cycle's one mu
+(:func:`gearfem.pipeline.cycle_mu_fixed_point`): the cycle is solved again at the law's effective
+mu at the run's thermal state, mu_eff = mu_c P_law / P_cycle (the constant mu that dissipates what
+the law does, as the torque meters read it), until mu_c moves by less than ``cycle_mu_tolerance``
+(at most ``cycle_mu_max_passes`` cycles; not converged raises ConvergenceError). One effective mu
+is a first-order coupling: the law's mu differs between contacts and the cycle takes one value for
+all of them. Numpy only (no DOLFINx): ``config`` reads it.
 
 **A new friction law** is a new value of ``law`` (or of a factor's form) here: its parameters as
 fields with units in their names, validated in ``__post_init__``, its value and temperature
@@ -74,6 +81,8 @@ FACTOR_FORMS = ("none", "power", "table")
 CONTACT_TEMPERATURES = ("flash", "flank")
 #: Contact half-widths the flash temperature of a band can be computed with (``flash_width``).
 FLASH_WIDTHS = ("hertz", "profile")
+#: Which mu the structural cycle is solved with (``cycle_mu``, see the module docstring).
+CYCLE_MUS = ("constant", "law")
 MU_MAX = 2.0
 #: Width of the glass-transition step used by default (K): the DMA loss peak of PEEK 450G rises
 #: from H = 0.014 at 129 C to 0.047 at 144 C (data/peek450g/hysteresis.csv), about 11 K for the
@@ -156,9 +165,24 @@ class FrictionOptions:
     speed_table_m_s: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     contact_temperature: str = "flash"
     flash_width: str = "hertz"
+    cycle_mu: str = "constant"
+    cycle_mu_tolerance: float = 0.005
+    cycle_mu_max_passes: int = 4
 
     def __post_init__(self) -> None:
         require_choice("friction.law", self.law, LAWS)
+        require_choice("friction.cycle_mu", self.cycle_mu, CYCLE_MUS)
+        require_range(
+            "friction.cycle_mu_tolerance", self.cycle_mu_tolerance, 0.0, 0.1, lo_open=True
+        )
+        if (
+            not isinstance(self.cycle_mu_max_passes, int)
+            or isinstance(self.cycle_mu_max_passes, bool)
+            or not 1 <= self.cycle_mu_max_passes <= 10
+        ):
+            raise ParameterError(
+                "friction.cycle_mu_max_passes", self.cycle_mu_max_passes, "an integer in [1, 10]"
+            )
         require_choice("friction.pressure", self.pressure, FACTOR_FORMS)
         require_choice("friction.sliding_speed", self.sliding_speed, FACTOR_FORMS)
         require_choice(
@@ -294,6 +318,16 @@ class FrictionOptions:
             raise ParameterError(name, self.table_C, f"mu within [0, {MU_MAX:g}]")
 
     # -- the law --------------------------------------------------------------------------------
+    def pinned_to(self, cycle_mu: float) -> FrictionOptions:
+        """These options with the defaults that follow the cycle's mu (``mu`` of the constant
+        law, ``mu_rubbery`` of the glass transition) set to ``cycle_mu``: the same law whatever
+        mu a later cycle is solved with."""
+        if self.law == "constant" and self.mu is None:
+            return dataclasses.replace(self, mu=float(cycle_mu))
+        if self.law == "glass_transition" and self.mu_rubbery is None:
+            return dataclasses.replace(self, mu_rubbery=float(cycle_mu))
+        return self
+
     def law_for(self, cycle_mu: float) -> FrictionLaw:
         """The law with its defaults resolved against the cycle's friction coefficient
         (validates mu <= 2 everywhere)."""

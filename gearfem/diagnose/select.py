@@ -382,19 +382,6 @@ def profile_interval(
     return p.from_unit(lo_u), p.from_unit(hi_u), whole
 
 
-def leave_one_point_out(
-    predict: Predict,
-    data: Dataset,
-    names: tuple[str, ...],
-    u_model_K: float = 1.0,
-    library: tuple[Candidate, ...] = LIBRARY,
-    model_error: ModelError = None,
-) -> float | None:
-    """RMS error (K) of the temperatures of each operating point predicted by the model fitted
-    to the others (:func:`held_out_errors`)."""
-    return _rms(held_out_errors(predict, data, names, u_model_K, library, model_error), data, "C")
-
-
 def held_out_errors(
     predict: Predict,
     data: Dataset,
@@ -759,7 +746,6 @@ __all__ = [
     "fit",
     "gof_p_value",
     "interval_scale",
-    "leave_one_point_out",
     "profile_interval",
     "ranking_error",
     "refine",
