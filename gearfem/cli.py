@@ -222,6 +222,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"friction heat of the pair {with_u_num(h, 'friction_power_W', 'W', 2)}, effective "
             f"contact ratio {with_u_num(h, 'effective_contact_ratio', '', 3)}"
         )
+    if summary.heat_split is not None:
+        split = summary.heat_split
+        _say(
+            f"friction heat split by contact temperature: the pinion takes "
+            f"{split.fraction_pinion:.4f} after {len(split.passes)} runs of both gears ("
+            + "; ".join(f"{p.fraction_pinion:.4f}: {p.difference_K:+.2f} K" for p in split.passes)
+            + f"; tolerance {split.tolerance_K:g} K)"
+        )
     if summary.cycle_mu is not None:
         loop = summary.cycle_mu
         _say(

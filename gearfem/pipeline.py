@@ -247,6 +247,9 @@ class RunSummary(JsonRecord):
     thermal_other: dict[str, Any] | None = None
     # the cycle <-> heat fixed point in the cycle's mu ([friction] cycle_mu = "law"; else None)
     cycle_mu: CycleMuLoop | None = None
+    # the friction heat's split by contact temperature ([sources] heat_partition =
+    # "contact_temperature"; else None)
+    heat_split: HeatSplit | None = None
     # what the run was computed with (gearfem.uncertainty.provenance; a figure quoted from it
     # carries this, gearfem.claims checks it):
     # resolution key, code hash of the run's modules, commit, date
@@ -473,10 +476,141 @@ def observed_thermal(
     """The thermal runs the instruments need: ``[thermal] body`` into ``out/thermal`` and, when
     the instruments read the other gear too, that gear into ``out/thermal_<body>``. Returns the
     main summary, the other summaries by body, and the fields' snapshot (rank 0; None on the other
-    ranks and when no instrument reads a field). ``branch_search``: see :func:`thermal_field`."""
+    ranks and when no instrument reads a field). ``branch_search``: see :func:`thermal_field`.
+
+    With ``[sources] heat_partition = "contact_temperature"`` both gears are run, again, with
+    the pinion's share f of the friction heat solved for (:func:`split_by_contact_temperature`);
+    the main summary then holds the passes under ``"heat_split"`` (a :class:`HeatSplit`)."""
+    args = (comm, cycle_result, mesh_cache, write_fields, steady, write_plot, branch_search)
+    if case.sources.mode != "cycle" or case.sources.heat_partition != "contact_temperature":
+        return _observed_once(case, out, *args)
+    return split_by_contact_temperature(case, out, *args)
+
+
+@dataclasses.dataclass(frozen=True)
+class HeatSplitPass(JsonRecord):
+    """One pass of :func:`split_by_contact_temperature`: the pinion's share of the friction heat
+    and each gear's heat-weighted mean contact temperature (flank + flash, C) with it."""
+
+    fraction_pinion: float
+    contact_pinion_C: float
+    contact_wheel_C: float
+
+    @property
+    def difference_K(self) -> float:
+        return self.contact_pinion_C - self.contact_wheel_C
+
+
+@dataclasses.dataclass(frozen=True)
+class HeatSplit(JsonRecord):
+    """The friction heat's split that equates the gears' contact temperatures: the passes, the
+    last one the run's (its ``difference_K`` below ``tolerance_K``)."""
+
+    passes: tuple[HeatSplitPass, ...]
+    tolerance_K: float
+
+    @property
+    def fraction_pinion(self) -> float:
+        return self.passes[-1].fraction_pinion
+
+
+#: Thermal runs of both gears :func:`split_by_contact_temperature` may take.
+SPLIT_PASSES = 12
+#: The pinion's share is kept within [SPLIT_MARGIN, 1 − SPLIT_MARGIN] while it is searched.
+SPLIT_MARGIN = 1e-3
+
+
+def split_by_contact_temperature(
+    case: Case, out: Path, comm: MPI.Comm, *args
+) -> tuple[dict[str, Any], dict[str, dict[str, Any]], FieldSnapshot | None]:
+    """Both gears' thermal runs with the friction heat split so that their contact temperatures
+    agree (collective; arguments after ``out`` and ``comm`` as :func:`observed_thermal`'s).
+
+    Blok's postulate holds at the contact: the two surfaces touching there have one temperature.
+    The fixed split (the effusivities' ratio) and Blok's band partition equate the two flashes
+    only; where the gears' bulk temperatures differ (a steel gear against a polymer one: the
+    steel takes most of the heat and, adiabatic at its bore, runs hotter) the contact
+    temperatures, flank + flash, do not. Here the pinion's share f (one number for the pair,
+    the wheel's 1 − f) is solved for so that the gears' heat-weighted mean contact temperatures
+    at the run's end value (the state the friction report describes: the transient's end, or the
+    steady state in steady mode) agree within ``[sources] contact_temperature_tolerance_K``:
+    r(f) = T_c,pinion(f) − T_c,wheel(f) rises with f. The first step is Newton's with the flashes'
+    share of the slope, dr/df ≈ θ_pinion/f + θ_wheel/(1 − f); then secant steps, kept inside the
+    bracket once r has changed sign (a step that leaves it bisects). Not converged after
+    :data:`SPLIT_PASSES` runs raises ConvergenceError with the passes. One share for the pair is
+    a first-order split: the contact temperatures then agree on average, not at every contact."""
+    src = case.sources
+    tol = src.contact_temperature_tolerance_K
+    f = src.heat_fractions(case.materials)["pinion"]
+    passes: list[HeatSplitPass] = []
+    lo = hi = None  # the shares with r < 0 and with r > 0
+    for _ in range(SPLIT_PASSES):
+        c = dataclasses.replace(
+            case,
+            sources=dataclasses.replace(src, heat_partition="fixed", heat_fraction_pinion=f),
+        )
+        th, others, snapshot = _observed_once(c, out, comm, *args, both=True, friction_report=True)
+        by_body = {case.thermal.body: th, **others}
+        fr = {b: by_body[b]["friction"] for b in BODIES}
+        passes.append(
+            HeatSplitPass(
+                fraction_pinion=f,
+                contact_pinion_C=float(fr["pinion"]["contact_C_heat_weighted"]),
+                contact_wheel_C=float(fr["wheel"]["contact_C_heat_weighted"]),
+            )
+        )
+        r = passes[-1].difference_K
+        log.info("heat split: pinion share %.4f, contact temperatures differ by %+.2f K", f, r)
+        if abs(r) < tol:
+            split = HeatSplit(passes=tuple(passes), tolerance_K=tol)
+            th = dict(th) | {"heat_split": split.to_json()}
+            return th, others, snapshot
+        if r < 0.0:  # r rises with f: the tightest bracket
+            lo = f if lo is None else max(lo, f)
+        else:
+            hi = f if hi is None else min(hi, f)
+        if len(passes) >= 2 and passes[-1].difference_K != passes[-2].difference_K:
+            x, y = passes[-2], passes[-1]  # secant of the last two runs
+            f = y.fraction_pinion - r * (y.fraction_pinion - x.fraction_pinion) / (
+                y.difference_K - x.difference_K
+            )
+        else:  # the first step: the flashes' part of the slope
+            slope = fr["pinion"]["flash_K_heat_weighted"] / f + fr["wheel"][
+                "flash_K_heat_weighted"
+            ] / (1.0 - f)
+            f = f - r / slope
+        if lo is not None and hi is not None and not min(lo, hi) < f < max(lo, hi):
+            f = 0.5 * (lo + hi)  # bracketed, and the secant left the bracket: bisect
+        f = min(max(f, SPLIT_MARGIN), 1.0 - SPLIT_MARGIN)
+    raise ConvergenceError(
+        "friction heat split by contact temperature",
+        f"the gears' contact temperatures still differ by {passes[-1].difference_K:+.3g} K "
+        f"(tolerance {tol:g} K) after {len(passes)} runs; pinion share per run: "
+        + ", ".join(f"{p.fraction_pinion:.4f}" for p in passes),
+        step=f"{case.operating.speed_rpm:g} rpm / {case.operating.torque_Nm:g} N m",
+        iteration=len(passes),
+    )
+
+
+def _observed_once(
+    case: Case,
+    out: Path,
+    comm: MPI.Comm,
+    cycle_result=None,
+    mesh_cache: Path | None = None,
+    write_fields: bool = True,
+    steady: bool = True,
+    write_plot: bool = True,
+    branch_search: bool = True,
+    both: bool = False,
+    friction_report: bool = False,
+) -> tuple[dict[str, Any], dict[str, dict[str, Any]], FieldSnapshot | None]:
+    """:func:`observed_thermal` with the case's split; ``both``: run both gears whatever the
+    instruments read; ``friction_report``: the friction report in every summary."""
     record = needs_fields(case.instruments)
     main = case.thermal.body
-    bodies = [main] + ([b for b in instrument_bodies(case) if b != main] if record else [])
+    others = [b for b in (BODIES if both else instrument_bodies(case)) if b != main]
+    bodies = [main] + (others if record or both else [])
 
     def one_gear(body: str, sub: MPI.Comm):
         c = case
@@ -493,6 +627,7 @@ def observed_thermal(
             write_plot=write_plot,
             record=record,
             branch_search=branch_search,
+            friction_report=friction_report,
         )
 
     # the gears' thermal models are independent and small (about 10^4 unknowns): on several
@@ -686,13 +821,15 @@ def thermal_field(
     write_plot: bool = True,
     record: bool = False,
     branch_search: bool = True,
+    friction_report: bool = False,
 ) -> tuple[dict[str, Any], BodyField | None]:
     """:func:`thermal`, and with ``record`` the body's field at the reported times gathered for
     the instruments (a :class:`~gearfem.instruments.snapshot.BodyField` on rank 0, None on the
     other ranks and without ``record``). ``branch_search=False`` skips the search for other steady
     states of a friction law whose heat may rise with temperature (:func:`friction_branches`;
     the temperatures, taken before it, are the same): a caller that needs only the branch the
-    transient reached, such as the diagnosis surrogate, saves its three extra steady solves."""
+    transient reached, such as the diagnosis surrogate, saves its three extra steady solves.
+    ``friction_report``: the friction report (contact temperatures) even without plots."""
 
     setup = thermal_problem(case, comm, cycle_result, mesh_cache)
     problem, gm, domain, boundary = setup.problem, setup.gear_mesh, setup.domain, setup.boundary
@@ -737,7 +874,7 @@ def thermal_field(
         if (
             cycle_result is not None
             and src.friction
-            and (write_plot or not case.friction.is_default)
+            and (write_plot or friction_report or not case.friction.is_default)
         ):
             friction = friction_outputs(problem, gm, case, cycle_result, out_dir, write_plot)
         if case.thermal.mode == "transient" and steady:
@@ -976,6 +1113,7 @@ def run(
         thermal_other=next(iter(others.values()), None),
         provenance=dataclasses.asdict(provenance(case)),
         cycle_mu=stages.cycle_mu,
+        heat_split=HeatSplit.from_json(th["heat_split"]) if "heat_split" in th else None,
     )
     vers = versions(comm)
     if comm.rank == 0:

@@ -22,6 +22,7 @@ from gearfem.config import Case, load_case
 from gearfem.contact.friction import FrictionOptions
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.material_library import library_material
+from gearfem.coupling.options import SourceOptions
 from gearfem.instruments.options import TorqueMeterOptions
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -98,13 +99,17 @@ def test_a_fixed_point_not_reached_is_an_error_without_a_summary(tmp_path_factor
     assert not (out / "summary.json").exists()
 
 
-def test_cycle_mu_options_are_checked_by_name():
+def test_cycle_mu_and_heat_split_options_are_checked_by_name():
     with pytest.raises(ParameterError, match="friction.cycle_mu"):
         FrictionOptions(cycle_mu="sometimes")
     with pytest.raises(ParameterError, match="friction.cycle_mu_tolerance"):
         FrictionOptions(cycle_mu_tolerance=0.0)
     with pytest.raises(ParameterError, match="friction.cycle_mu_max_passes"):
         FrictionOptions(cycle_mu_max_passes=0)
+    with pytest.raises(ParameterError, match="sources.contact_temperature_tolerance_K"):
+        SourceOptions(heat_partition="contact_temperature", contact_temperature_tolerance_K=0.0)
+    with pytest.raises(ParameterError, match="sources.heat_partition"):
+        SourceOptions(mode="prescribed", heat_partition="contact_temperature")
     # the law's mu is read by the torque meters from both gears' heat
     no_meters = dataclasses.replace(Case().instruments, torque=TorqueMeterOptions(enabled=False))
     with pytest.raises(ParameterError, match=r"friction.cycle_mu.*instruments.torque"):

@@ -15,6 +15,7 @@ import pytest
 from scripts import load_script
 
 from gearfem.contact.verification import peak_pressure_bound
+from gearfem.core.material_library import effusivity_partition
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -103,27 +104,34 @@ def test_thermal_gear_demo(tmp_path):
 @pytest.mark.slow
 def test_steel_pom_demo(tmp_path):
     """Serial run of the steel/POM demo: the two gears' friction heat adds up to the cycle's
-    friction power (to the solver's tolerance), split by effusivity (Blok, 0.943 into the steel);
-    the steel makes no hysteresis heat, the POM some; VDI 2736 rates the POM wheel with the
-    plastic/steel k_theta and not the steel; the table is printed."""
-    from gearfem.core.material_library import effusivity_partition
-
+    friction power (to the solver's tolerance) under both splits: by effusivity (Blok, 0.943 into
+    the steel) and by contact temperature (the steel's share lower, the gears' contact
+    temperatures within the tolerance); the steel makes no hysteresis heat, the POM some; VDI 2736
+    rates the POM wheel with the plastic/steel k_theta and not the steel; the table is printed."""
     out = tmp_path / "steel_pom"
     proc = _run_demo("steel_pom.py", ["--out", str(out)], tmp_path)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "| pinion | steel | 0.943 |" in proc.stdout
-    s = json.loads((out / "summary.json").read_text())
-    assert s["thermal"]["body"] == "wheel" and s["thermal_other"]["body"] == "pinion"
-    heat = {
-        t["body"]: {k: v / t["model_fraction"] for k, v in t["final_balance_W"].items()}
-        for t in (s["thermal"], s["thermal_other"])
-    }
-    total = heat["pinion"]["friction_W"] + heat["wheel"]["friction_W"]
-    assert total == pytest.approx(s["cycle"]["friction_power_W"], rel=1e-6)
-    assert heat["pinion"]["friction_W"] / total == pytest.approx(
-        effusivity_partition("steel", "POM"), rel=1e-6
-    )
-    assert heat["pinion"]["hysteresis_W"] == 0.0 < heat["wheel"]["hysteresis_W"]
+    assert "| effusivities | pinion | steel | 0.943 |" in proc.stdout
+    effusivity = effusivity_partition("steel", "POM")
+    for run, split in ((out, "contact temperatures"), (out / "effusivity_split", "effusivities")):
+        s = json.loads((run / "summary.json").read_text())
+        assert s["thermal"]["body"] == "wheel" and s["thermal_other"]["body"] == "pinion"
+        heat = {
+            t["body"]: {k: v / t["model_fraction"] for k, v in t["final_balance_W"].items()}
+            for t in (s["thermal"], s["thermal_other"])
+        }
+        total = heat["pinion"]["friction_W"] + heat["wheel"]["friction_W"]
+        assert total == pytest.approx(s["cycle"]["friction_power_W"], rel=1e-6), split
+        share = heat["pinion"]["friction_W"] / total
+        assert heat["pinion"]["hysteresis_W"] == 0.0 < heat["wheel"]["hysteresis_W"]
+        if split == "effusivities":
+            assert s["heat_split"] is None
+            assert share == pytest.approx(effusivity, rel=1e-6)
+        else:
+            last = s["heat_split"]["passes"][-1]
+            assert abs(last["contact_pinion_C"] - last["contact_wheel_C"]) < 0.5
+            assert share == pytest.approx(last["fraction_pinion"], rel=1e-6)
+            assert 0.5 < share < effusivity - 0.1  # the hotter steel takes less
     b = s["baselines"]
     assert (b["vdi2736_k_theta_flank"], b["vdi2736_k_theta_root"]) == (6300.0, 895.0)
     assert b["vdi2736_flank1_C"] is None and b["vdi2736_flank2_C"] > 23.0

@@ -123,3 +123,42 @@ def test_a_steel_pinion_against_a_pom_wheel_runs_the_cycle():
     b_pom = library_material("POM").effusivity_W_s05_m2K
     assert fractions["pinion"] == pytest.approx(b_steel / (b_steel + b_pom), rel=1e-12)
     assert 0.9 < fractions["pinion"] < 0.97
+
+
+@pytest.mark.slow
+def test_the_heat_split_by_contact_temperature_equates_the_gears_contact_temperatures(
+    tmp_path_factory,
+):
+    """``[sources] heat_partition = "contact_temperature"`` on the steel/POM pair: at the
+    effusivities' split the steel pinion takes about 0.94 of the friction heat and its contact
+    temperature (flank + flash, heat-weighted) is the higher; the split that equates them gives
+    the steel less; both gears' friction heat still adds up to the cycle's friction power, each its
+    share of it."""
+    comm = MPI.COMM_SELF
+    pom = {"name": "POM", "hysteresis": TEST_HYSTERESIS}
+    steel = case_from_dict({"material": {"name": "steel"}, "material_wheel": pom})
+    case = dataclasses.replace(
+        _case("POM"), name="steel/POM", material=steel.material, material_wheel=steel.material_wheel
+    )
+    case = dataclasses.replace(
+        case, sources=dataclasses.replace(case.sources, heat_partition="contact_temperature")
+    )
+    effusivity_share = case.sources.heat_fractions(case.materials)["pinion"]
+    cyc, _, _ = pipeline.cycle(case, comm)
+    out = Path(tmp_path_factory.mktemp("split"))
+    main, others, _ = pipeline.observed_thermal(case, out, comm, cyc, write_fields=False)
+    split = pipeline.HeatSplit.from_json(main["heat_split"])
+    first, last = split.passes[0], split.passes[-1]
+    assert first.fraction_pinion == pytest.approx(effusivity_share, rel=1e-12)
+    assert first.difference_K > 10.0 * split.tolerance_K  # the steel runs hotter at contact
+    assert abs(last.difference_K) < split.tolerance_K and len(split.passes) >= 2
+    assert 0.0 < last.fraction_pinion < effusivity_share
+    # the friction heat of both gears is the cycle's friction power, each gear its share
+    omega = 2.0 * np.pi * case.operating.speed_rpm / 60.0
+    power = float(np.mean(cyc.friction_power_W_per_rad_s)) * omega
+    heat = {main["body"]: main, **others}
+    share = {"pinion": last.fraction_pinion, "wheel": 1.0 - last.fraction_pinion}
+    for body, summ in heat.items():
+        assert summ["friction_heat_fraction"] == pytest.approx(share[body], rel=1e-12)
+        whole_gear = summ["friction"]["friction_W_model"] / summ["model_fraction"]
+        assert whole_gear == pytest.approx(share[body] * power, rel=1e-6), body

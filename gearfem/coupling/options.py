@@ -10,7 +10,7 @@ from gearfem.core.materials import Material
 from gearfem.core.params import require_choice, require_nonnegative, require_range
 from gearfem.thermal.options import LOADING_FREQUENCIES, PrescribedSources
 
-HEAT_PARTITIONS = ("fixed", "blok")
+HEAT_PARTITIONS = ("fixed", "blok", "contact_temperature")
 #: How a thermal flank facet takes the reconstructed flux (:mod:`gearfem.coupling.transfer`).
 FLUX_EVALUATIONS = ("reference_facets", "continuous")
 #: Keys of earlier versions and what replaces them (a case file that has them is refused by name).
@@ -63,7 +63,11 @@ class SourceOptions:
             temperatures equal, Blok's postulate: f1 = (k1/g1)/(k1/g1 + k2/g2), with g the band
             source solution at each flank's Peclet number; at high Peclet numbers
             b1 sqrt(v1)/(b1 sqrt(v1) + b2 sqrt(v2)), so the faster-rolling flank takes more).
-            Mode "cycle" only (:mod:`gearfem.coupling.friction_heat`).
+            Mode "cycle" only (:mod:`gearfem.coupling.friction_heat`). ``"contact_temperature"``:
+            one share for the pair, solved for so that both gears' heat-weighted mean contact
+            temperatures (flank + flash) agree within ``contact_temperature_tolerance_K`` (K)
+            (:func:`gearfem.pipeline.split_by_contact_temperature`: both gears' thermal runs,
+            repeated; ``heat_fraction_pinion`` is where the search starts).
         hysteresis_scale, flux_scale: Multipliers (model-discrepancy hooks).
         flux_smoothing_profile_mm, flux_smoothing_axial_mm: Standard deviations (mm) of the
             Gaussian with which the cycle's friction flux, a value per structural facet summed
@@ -100,6 +104,7 @@ class SourceOptions:
     flux_smoothing_profile_mm: float = 0.1
     flux_smoothing_axial_mm: float = 1.5
     flux_evaluation: str = "reference_facets"
+    contact_temperature_tolerance_K: float = 0.5
 
     def __post_init__(self) -> None:
         require_choice("sources.mode", self.mode, ("cycle", "prescribed"))
@@ -125,6 +130,14 @@ class SourceOptions:
                 "the continuous evaluation is the smoothing kernel's",
             )
         require_choice("sources.heat_partition", self.heat_partition, HEAT_PARTITIONS)
+        require_range(
+            "sources.contact_temperature_tolerance_K",
+            self.contact_temperature_tolerance_K,
+            0.0,
+            10.0,
+            lo_open=True,
+            unit="K",
+        )
         if self.mode == "prescribed" and self.heat_partition != "fixed":
             raise ParameterError(
                 "sources.heat_partition",
