@@ -272,6 +272,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"torque meters ({what}): torque loss {q.torque_loss_Nm:.4f} +- "
             f"{q.u_torque_loss_Nm:.4f} N m, efficiency {q.efficiency:.4f}{cyc}"
         )
+        mu_c = case.contact.friction_coefficient
+        if q.source == "law" and summary.cycle_mu is None and q.cycle_friction_power_W > 0.0:
+            mu_eff = mu_c * q.friction_power_W / q.cycle_friction_power_W
+            if abs(mu_eff - mu_c) >= case.friction.cycle_mu_tolerance:
+                _say(
+                    f"note: the friction law's effective mu is {mu_eff:.4f} at the end value, "
+                    f"the cycle's {mu_c:g}: the pressures, loads and U_max are the cycle's at "
+                    f'{mu_c:g}; [friction] cycle_mu = "law" solves the cycle at the law\'s mu '
+                    "(docs/friction.md)"
+                )
     _say(
         f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/"
         + (", instruments/ (snapshot.npz, thermograms)" if summary.instruments else "")
