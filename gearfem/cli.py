@@ -140,6 +140,25 @@ def _cmd_thermal(args: argparse.Namespace) -> int:
     return 0
 
 
+def cycle_mu_note(case, torque, loop) -> str | None:
+    """What ``gearfem run`` says when the friction law's effective mu at the end value (the
+    torque meters' law friction power over the cycle's, times the cycle's mu) differs from the
+    constant mu the cycle was solved with by ``[friction] cycle_mu_tolerance`` or more (None:
+    it does not, the meters read the cycle, or the cycle was solved at the law's mu already,
+    ``loop``)."""
+    if torque.source != "law" or loop is not None or not torque.cycle_friction_power_W > 0.0:
+        return None
+    mu_c = case.contact.friction_coefficient
+    mu_eff = mu_c * torque.friction_power_W / torque.cycle_friction_power_W
+    if abs(mu_eff - mu_c) < case.friction.cycle_mu_tolerance:
+        return None
+    return (
+        f"note: the friction law's effective mu is {mu_eff:.4f} at the end value, the cycle's "
+        f"{mu_c:g}: the pressures, loads and U_max are the cycle's at {mu_c:g}; [friction] "
+        'cycle_mu = "law" solves the cycle at the law\'s mu (docs/friction.md)'
+    )
+
+
 def with_u_num(headline: pipeline.Headline, field: str, unit: str, digits: int = 1) -> str:
     """The headline's ``field`` with its u_num where a study gives one: "284.9 ± 16.3 C"."""
     value = getattr(headline, field)
@@ -272,16 +291,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             f"torque meters ({what}): torque loss {q.torque_loss_Nm:.4f} +- "
             f"{q.u_torque_loss_Nm:.4f} N m, efficiency {q.efficiency:.4f}{cyc}"
         )
-        mu_c = case.contact.friction_coefficient
-        if q.source == "law" and summary.cycle_mu is None and q.cycle_friction_power_W > 0.0:
-            mu_eff = mu_c * q.friction_power_W / q.cycle_friction_power_W
-            if abs(mu_eff - mu_c) >= case.friction.cycle_mu_tolerance:
-                _say(
-                    f"note: the friction law's effective mu is {mu_eff:.4f} at the end value, "
-                    f"the cycle's {mu_c:g}: the pressures, loads and U_max are the cycle's at "
-                    f'{mu_c:g}; [friction] cycle_mu = "law" solves the cycle at the law\'s mu '
-                    "(docs/friction.md)"
-                )
+        note = cycle_mu_note(case, q, summary.cycle_mu)
+        if note:
+            _say(note)
     _say(
         f"results in {args.out}: summary.json, case.toml, versions.json, cycle/, thermal/"
         + (", instruments/ (snapshot.npz, thermograms)" if summary.instruments else "")

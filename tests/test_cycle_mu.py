@@ -18,12 +18,14 @@ import pytest
 from mpi4py import MPI
 
 from gearfem import pipeline
+from gearfem.cli import cycle_mu_note
 from gearfem.config import Case, load_case
 from gearfem.contact.friction import FrictionOptions
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.material_library import library_material
 from gearfem.coupling.options import SourceOptions
 from gearfem.instruments.options import TorqueMeterOptions
+from gearfem.instruments.torque import TorqueReading
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -145,3 +147,21 @@ def test_the_glass_step_sits_at_the_pairs_polymers_glass_transition():
         Case(material_wheel=pom, friction=glass)
     with pytest.raises(ParameterError, match="friction.glass_transition_C.*no glass"):
         Case(material=steel, friction=glass)
+
+
+def test_gearfem_run_says_when_the_law_runs_at_another_mu_than_the_cycle():
+    """The note of ``gearfem run``: the law's effective mu from the torque meters' two friction
+    powers, said when it differs from the cycle's by the fixed point's tolerance or more."""
+
+    def reading(p_law: float, source: str = "law") -> TorqueReading:
+        return TorqueReading(8.2, 8.0, 0.2, 0.97, p_law, 60.0, 0.057, 0.001, 0.04, source=source)
+
+    case = Case()  # the cycle's mu 0.5, tolerance 0.005
+    note = cycle_mu_note(case, reading(15.6), None)
+    assert note is not None and "effective mu is 0.1300" in note and 'cycle_mu = "law"' in note
+    assert cycle_mu_note(case, reading(60.0 * 0.996), None) is None  # within the tolerance
+    assert cycle_mu_note(case, reading(15.6, source="cycle"), None) is None
+    loop = pipeline.CycleMuLoop(
+        passes=(pipeline.CycleMuPass(0.13, 0.13, 15.6, 15.6, "k", 1.0),), tolerance=0.005
+    )
+    assert cycle_mu_note(case, reading(15.6), loop) is None  # solved at the law's mu already
