@@ -12,6 +12,7 @@ at 0.3 outright. A loop allowed one pass raises ConvergenceError and leaves no s
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
 
 import pytest
@@ -19,23 +20,28 @@ from mpi4py import MPI
 
 from gearfem import pipeline
 from gearfem.cli import cycle_mu_note
-from gearfem.config import Case, load_case
+from gearfem.config import Case
 from gearfem.contact.friction import FrictionOptions
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.material_library import library_material
 from gearfem.coupling.options import SourceOptions
+from gearfem.cycle.options import CycleOptions
 from gearfem.instruments.options import TorqueMeterOptions
 from gearfem.instruments.torque import TorqueReading
+from gearfem.thermal.options import ThermalOptions
 
-ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).parent))
+from test_cycle import TINY  # the cycle tests' small pair mesh
 
 
-def _coarse_steady() -> Case:
-    """The coarse thesis pair, steady, without the camera (the torque meters read both gears)."""
-    case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
+def _small_steady() -> Case:
+    """The thesis pair on the small mesh of the material tests (the cycle of
+    tests/test_material_chain.py's PEEK pair), steady, without the camera (the torque meters read
+    both gears)."""
+    case = Case(mesh=TINY, cycle=CycleOptions(positions_per_pitch=6, check_periodicity=False))
     return dataclasses.replace(
         case,
-        thermal=dataclasses.replace(case.thermal, mode="steady", output_times_s=()),
+        thermal=ThermalOptions(mode="steady", degree=1, output_times_s=()),
         instruments=dataclasses.replace(
             case.instruments, camera=dataclasses.replace(case.instruments.camera, enabled=False)
         ),
@@ -49,7 +55,7 @@ def _out(comm: MPI.Comm, factory, name: str) -> Path:
 @pytest.mark.slow
 def test_the_cycle_is_solved_again_at_the_laws_effective_mu(tmp_path_factory):
     comm = MPI.COMM_WORLD
-    base = _coarse_steady()
+    base = _small_steady()
     law = dataclasses.replace(base, friction=FrictionOptions(mu=0.3, cycle_mu="law"))
     out = _out(comm, tmp_path_factory, "law")
     got = pipeline.run(law, out, comm, progress=False)
@@ -90,7 +96,7 @@ def test_the_cycle_is_solved_again_at_the_laws_effective_mu(tmp_path_factory):
 @pytest.mark.slow
 def test_a_fixed_point_not_reached_is_an_error_without_a_summary(tmp_path_factory):
     comm = MPI.COMM_WORLD
-    base = _coarse_steady()
+    base = _small_steady()
     one = dataclasses.replace(
         base, friction=FrictionOptions(mu=0.3, cycle_mu="law", cycle_mu_max_passes=1)
     )
