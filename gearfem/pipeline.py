@@ -208,7 +208,7 @@ class ThermalStages:
     cycle (its ``contact.friction_coefficient`` the mu that cycle was solved with), the cycle,
     where it is stored and whether it came from there, the thermal summaries of ``[thermal] body``
     and of the other gear, the fields' snapshot (rank 0), the fixed point's passes (None: the
-    cycle kept the case's mu) and the wall times (s)."""
+    cycle kept the case's mu) and the wall times (s) of all passes together."""
 
     case: Case
     cycle: Any
@@ -482,7 +482,8 @@ def observed_thermal(
     the pinion's share f of the friction heat solved for (:func:`split_by_contact_temperature`);
     the main summary then holds the passes under ``"heat_split"`` (a :class:`HeatSplit`)."""
     args = (comm, cycle_result, mesh_cache, write_fields, steady, write_plot, branch_search)
-    if case.sources.mode != "cycle" or case.sources.heat_partition != "contact_temperature":
+    src = case.sources
+    if src.mode != "cycle" or not src.friction or src.heat_partition != "contact_temperature":
         return _observed_once(case, out, *args)
     return split_by_contact_temperature(case, out, *args)
 
@@ -1164,6 +1165,7 @@ def thermal_stages(
     law_mu = case.sources.mode == "cycle" and f.cycle_mu == "law"
     mu = case.contact.friction_coefficient if start_mu is None else float(start_mu)
     passes: list[CycleMuPass] = []
+    cycle_s = thermal_s = 0.0  # over every pass
     for k in range(f.cycle_mu_max_passes if law_mu else 1):
         c = case_at_cycle_mu(case, mu) if law_mu else case
         t0 = time.perf_counter()
@@ -1179,6 +1181,7 @@ def thermal_stages(
             write_plot=write_plot,
         )  # fmt: skip
         t2 = time.perf_counter()
+        cycle_s, thermal_s = cycle_s + (t1 - t0), thermal_s + (t2 - t1)
         loop = None
         if law_mu:
             p_law = on_root(comm, lambda: snapshot.mesh_heat_W(snapshot.label_of(None))[0])
@@ -1199,7 +1202,7 @@ def thermal_stages(
                 "cycle mu pass %d: cycle mu %.4f, the law's effective mu %.4f (change %+.4f)",
                 k, mu, passes[-1].mu_effective, passes[-1].change,
             )  # fmt: skip
-        stages = ThermalStages(c, cyc, cdir, cached, th, others, snapshot, loop, t1 - t0, t2 - t1)
+        stages = ThermalStages(c, cyc, cdir, cached, th, others, snapshot, loop, cycle_s, thermal_s)
         if on_pass is not None:
             on_pass(k, c, stages, passes[-1] if passes else None)
         if not law_mu or abs(passes[-1].change) < f.cycle_mu_tolerance:
