@@ -79,17 +79,27 @@ class Iterate:
     wall_s: float
 
 
+def _end_reading(case, snap, comm):
+    """The camera's reading (C) and the torque meters' reading of ``snap`` at its end value
+    (collective; rank 0's, broadcast)."""
+
+    def read():
+        r = evaluate(case.instruments, snap)
+        label = snap.label_of(None)
+        return r.camera[label].max_C, r.torque_at.get(label, r.torque)
+
+    return pipeline.on_root(comm, read)
+
+
 def _camera_at(case, cyc, comm):
     """The camera's reading (C) of the thermal runs of ``case`` on ``cyc`` at their end value
-    (collective; rank 0's, broadcast)."""
+    (collective)."""
     name = tempfile.mkdtemp(prefix="gearfem-fixed-point-") if comm.rank == 0 else None
     out = Path(comm.bcast(name, root=0))
     _, _, snap = pipeline.observed_thermal(
         case, out, comm, cyc, write_fields=False, steady=False, write_plot=False
     )
-    return pipeline.on_root(
-        comm, lambda: evaluate(case.instruments, snap).camera[snap.label_of(None)].max_C
-    )
+    return _end_reading(case, snap, comm)[0]
 
 
 def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
@@ -102,10 +112,7 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
 
     def on_pass(k, c, stages, p):
         # the camera of the steady state the pass's cycle leads to, each gear's heat-weighted mu
-        snap = stages.snapshot
-        cam = pipeline.on_root(
-            comm, lambda: evaluate(c.instruments, snap).camera[snap.label_of(None)].max_C
-        )
+        cam, torque = _end_reading(c, stages.snapshot, comm)
         # from ambient to 900 s, when the bench camera was read
         bench = dataclasses.replace(
             c.thermal,
@@ -119,7 +126,6 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
         for body, summ in stages.others.items():
             mu_of[body] = summ["friction"]["mu_heat_weighted"]
         loads = np.array([v for v in stages.cycle.tooth_load_N.values()])
-        omega = 2.0 * np.pi * c.operating.speed_rpm / 60.0
         rows.append(
             Iterate(
                 mu_cycle=p.mu_cycle,
@@ -127,10 +133,7 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
                 mu_pinion=float(mu_of["pinion"]),
                 mu_wheel=float(mu_of["wheel"]),
                 friction_heat_W=p.friction_power_law_W,
-                torque_loss_Nm=comm.bcast(
-                    sum(snap.mesh_heat_W(snap.label_of(None))) / omega if comm.rank == 0 else None,
-                    root=0,
-                ),
+                torque_loss_Nm=torque.torque_loss_Nm,
                 te_mean_um=float(np.mean(stages.cycle.te_m)) * 1e6,
                 largest_load_N=float(loads.max()),
                 camera_C=cam,

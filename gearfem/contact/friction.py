@@ -50,7 +50,7 @@ the law depends on temperature, at every thermal step and Newton iteration
 (:mod:`gearfem.coupling.friction_heat`). ``cycle_mu`` says which mu the cycle is solved with:
 ``"constant"`` (default), the case's ``contact.friction_coefficient`` (the law's effect on the
 pressures is neglected); ``"law"``, the cycle ↔ heat fixed point in the cycle's one mu
-(:func:`gearfem.pipeline.cycle_mu_fixed_point`): the cycle is solved again at the law's effective
+(:func:`gearfem.pipeline.thermal_stages`): the cycle is solved again at the law's effective
 mu at the run's thermal state, mu_eff = mu_c P_law / P_cycle (the constant mu that dissipates what
 the law does, as the torque meters read it), until mu_c moves by less than ``cycle_mu_tolerance``
 (at most ``cycle_mu_max_passes`` cycles; not converged raises ConvergenceError). One effective mu
