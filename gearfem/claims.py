@@ -81,6 +81,11 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/friction.md", "branch_switching"),),
     ),
     Regeneration(
+        f"{_FRICTION}branch_switching.py --mu-glassy 0.13 --variants entry --flash-width profile "
+        "--docs docs/friction.md --block branch_switching_profile_flash",
+        (("docs/friction.md", "branch_switching_profile_flash"),),
+    ),
+    Regeneration(
         f"{_FRICTION}friction_fixed_point.py --mu-glassy 0.13 --docs docs/friction.md",
         (("docs/friction.md", "friction_fixed_point"),),
     ),

@@ -149,7 +149,7 @@ def cycle_mu_note(case, torque, loop) -> str | None:
     if torque.source != "law" or loop is not None or not torque.cycle_friction_power_W > 0.0:
         return None
     mu_c = case.contact.friction_coefficient
-    mu_eff = mu_c * torque.friction_power_W / torque.cycle_friction_power_W
+    mu_eff = torque.effective_mu(mu_c)
     if abs(mu_eff - mu_c) < case.friction.cycle_mu_tolerance:
         return None
     return (

@@ -60,6 +60,7 @@ from gearfem.instruments.evaluate import INSTRUMENTS, InstrumentReadings, evalua
 from gearfem.instruments.gather import FieldRecorder
 from gearfem.instruments.options import InstrumentOptions
 from gearfem.instruments.snapshot import BodyField, CycleTorques, FieldSnapshot
+from gearfem.instruments.torque import read_torque
 from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.branches import steady_states
 from gearfem.thermal.domain import ThermalDomain
@@ -773,11 +774,21 @@ def thermal_problem(
     body = case.thermal.body
     if body not in ("pinion", "wheel"):
         raise ParameterError("thermal.body", body, "'pinion' or 'wheel'")
+    src = case.sources
+    if src.mode == "cycle" and src.friction and src.heat_partition == "contact_temperature":
+        # the split is solved over both gears' runs (split_by_contact_temperature), each of
+        # which is a problem of this function with the split's share as a fixed fraction
+        raise ParameterError(
+            "sources.heat_partition",
+            src.heat_partition,
+            "'fixed' or 'blok' in a thermal problem of one gear (gearfem thermal, the fold "
+            "margins)",
+            "the split by contact temperature solves both gears' runs together: gearfem run",
+        )
     # the thermal model meshes only its body: balanced over the ranks
     gm = build_gear_mesh(
         case.geometry, case.thermal_mesh_options, comm, cache_dir=mesh_cache, bodies=(body,)
     )
-    src = case.sources
     domain = ThermalDomain.from_gear_mesh(
         gm, body, flux_flanks=src.flanks if src.mode == "prescribed" else "drive"
     )
@@ -1184,15 +1195,21 @@ def thermal_stages(
         cycle_s, thermal_s = cycle_s + (t1 - t0), thermal_s + (t2 - t1)
         loop = None
         if law_mu:
-            p_law = on_root(comm, lambda: snapshot.mesh_heat_W(snapshot.label_of(None))[0])
-            omega = 2.0 * math.pi * c.operating.speed_rpm / 60.0
-            p_cycle = float(np.mean(CycleTorques.of(cyc).friction_power_W_per_rad_s)) * omega
+            reading = on_root(
+                comm,
+                lambda: read_torque(
+                    c.instruments.torque,
+                    CycleTorques.of(cyc),
+                    c.operating.speed_rpm,
+                    heat=snapshot.mesh_heat_W(snapshot.label_of(None)),
+                ),
+            )
             passes.append(
                 CycleMuPass(
                     mu_cycle=mu,
-                    mu_effective=mu * p_law / p_cycle,
-                    friction_power_law_W=p_law,
-                    friction_power_cycle_W=p_cycle,
+                    mu_effective=reading.effective_mu(mu),
+                    friction_power_law_W=reading.friction_power_W,
+                    friction_power_cycle_W=reading.cycle_friction_power_W,
                     cycle_key=case_cycle_key(c),
                     wall_time_s=t2 - t0,
                 )

@@ -26,6 +26,7 @@ from mpi4py import MPI
 import gearfem  # noqa: F401
 from gearfem import pipeline
 from gearfem.config import case_from_dict
+from gearfem.core.errors import ParameterError
 from gearfem.core.material_library import library_material, library_names
 from gearfem.cycle.options import CycleOptions
 from gearfem.thermal.options import ThermalOptions
@@ -146,6 +147,9 @@ def test_the_heat_split_by_contact_temperature_equates_the_gears_contact_tempera
     effusivity_share = case.sources.heat_fractions(case.materials)["pinion"]
     cyc, _, _ = pipeline.cycle(case, comm)
     out = Path(tmp_path_factory.mktemp("split"))
+    # one gear's thermal run cannot solve a split over both gears: it says where it is solved
+    with pytest.raises(ParameterError, match=r"sources\.heat_partition.*gearfem run"):
+        pipeline.thermal(case, out / "one_gear", comm, cyc, write_fields=False)
     main, others, _ = pipeline.observed_thermal(case, out, comm, cyc, write_fields=False)
     split = pipeline.HeatSplit.from_json(main["heat_split"])
     first, last = split.passes[0], split.passes[-1]

@@ -142,13 +142,21 @@ def main() -> None:
         "--variants", nargs="*", default=["entry", "tip_radius", "flash_width"],
         choices=["entry", "tip_radius", "flash_width"],
     )  # fmt: skip
-    ap.add_argument("--docs", default=None, help="write block branch_switching into this page")
+    ap.add_argument(
+        "--flash-width", choices=["hertz", "profile"], default="hertz",
+        help="the width every variant's flash temperature is computed on ([friction] flash_width)",
+    )  # fmt: skip
+    ap.add_argument("--docs", default=None, help="write the table into this page")
+    ap.add_argument("--block", default="branch_switching", help="the page's block to write")
     a = ap.parse_args()
     setup_logging("WARNING")
     comm = MPI.COMM_WORLD
     base = load_case(None)
     base = dataclasses.replace(
-        base, friction=FrictionOptions(law="glass_transition", mu_glassy=a.mu_glassy)
+        base,
+        friction=FrictionOptions(
+            law="glass_transition", mu_glassy=a.mu_glassy, flash_width=a.flash_width
+        ),
     )
     rows = []
     t0 = time.perf_counter()
@@ -204,12 +212,15 @@ def main() -> None:
         "branch ends in the friction-heat scale (> 1: the point runs cool), the first contact to "
         "switch is the hottest at the last cool state. "
         f"`mpirun -n {comm.size} python benchmarks/verification/branch_switching.py "
-        f"--mu-glassy {a.mu_glassy:g}`, {time.perf_counter() - t0:.0f} s."
+        f"--mu-glassy {a.mu_glassy:g}"
+        + (f" --flash-width {a.flash_width}" if a.flash_width != "hertz" else "")
+        + (f" --variants {' '.join(a.variants)}" if len(a.variants) < 3 else "")
+        + f"`, {time.perf_counter() - t0:.0f} s."
     )
     if comm.rank == 0:
         print(table + note)
         if a.docs:
-            replace_block(a.docs, "branch_switching", table + note, provenance(base))
+            replace_block(a.docs, a.block, table + note, provenance(base))
 
 
 if __name__ == "__main__":

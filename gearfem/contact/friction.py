@@ -74,7 +74,7 @@ import numpy as np
 
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import ZERO_CELSIUS_K, read_toml
-from gearfem.core.params import require_choice, require_positive, require_range
+from gearfem.core.params import require_choice, require_int, require_positive, require_range
 
 LAWS = ("constant", "table", "glass_transition")
 FACTOR_FORMS = ("none", "power", "table")
@@ -175,14 +175,11 @@ class FrictionOptions:
         require_range(
             "friction.cycle_mu_tolerance", self.cycle_mu_tolerance, 0.0, 0.1, lo_open=True
         )
-        if (
-            not isinstance(self.cycle_mu_max_passes, int)
-            or isinstance(self.cycle_mu_max_passes, bool)
-            or not 1 <= self.cycle_mu_max_passes <= 10
-        ):
-            raise ParameterError(
-                "friction.cycle_mu_max_passes", self.cycle_mu_max_passes, "an integer in [1, 10]"
-            )
+        object.__setattr__(
+            self,
+            "cycle_mu_max_passes",
+            require_int("friction.cycle_mu_max_passes", self.cycle_mu_max_passes, 1, 10),
+        )
         require_choice("friction.pressure", self.pressure, FACTOR_FORMS)
         require_choice("friction.sliding_speed", self.sliding_speed, FACTOR_FORMS)
         require_choice(

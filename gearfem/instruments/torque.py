@@ -64,6 +64,12 @@ class TorqueReading(JsonRecord):
     hysteresis_power_W: float = 0.0
     cycle_torque_loss_Nm: float | None = None
 
+    def effective_mu(self, mu_cycle: float) -> float:
+        """The constant mu at which the structural cycle, solved at ``mu_cycle``, would dissipate
+        the friction power this reading gives: ``mu_cycle`` P_f / P_cycle (``mu_cycle`` itself
+        for a reading of the cycle's torques)."""
+        return mu_cycle * self.friction_power_W / self.cycle_friction_power_W
+
 
 def read_torque(
     options: TorqueMeterOptions,
