@@ -59,9 +59,11 @@ from gearfem.core.params import (
     require_positive,
     to_dict,
 )
+from gearfem.core.provenance import code_hash
 from gearfem.core.results import JsonRecord
 from gearfem.geometry.mesh import build_gear_mesh
 from gearfem.pipeline import RunSummary
+from gearfem.uncertainty import RUN_CODE
 
 log = logging.getLogger(__name__)
 
@@ -189,14 +191,21 @@ def parallel_mode(option: str, n_tasks: int, size: int) -> str:
     return "cases" if size > 1 and n_tasks >= size else "mpi"
 
 
-def is_done(case: Case, directory: Path) -> bool:
-    """A finished case: summary.json present and the stored case equal to this one."""
+def is_done(case: Case, directory: Path, code: dict[str, str] | None = None) -> bool:
+    """A finished case: summary.json present, the stored case equal to this one and, with
+    ``code`` (module -> code hash, :data:`gearfem.uncertainty.RUN_CODE`), computed by that code
+    (its summary's provenance): a case finished by other code is not finished for this one."""
     summ, stored = directory / "summary.json", directory / "case.toml"
     if not (summ.exists() and stored.exists()):
         return False
     try:
-        return tomllib.loads(stored.read_text()) == json.loads(json.dumps(case_to_dict(case)))
-    except (tomllib.TOMLDecodeError, OSError):
+        if tomllib.loads(stored.read_text()) != json.loads(json.dumps(case_to_dict(case))):
+            return False
+        if code is None:
+            return True
+        prov = json.loads(summ.read_text()).get("provenance") or {}
+        return prov.get("code") == code
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError, OSError):
         return False
 
 
@@ -235,8 +244,9 @@ def run_study(
         # which points are finished is decided on rank 0 from its files and broadcast: ranks
         # reading the files each on their own could disagree (a file being written) and then
         # wait in different collectives
+        code = {m: code_hash(m) for m in RUN_CODE}  # a case of other code is run again
         done = comm.bcast(
-            [is_done(c, out / "cases" / lab) for lab, c in cases] if comm.rank == 0 else None,
+            [is_done(c, out / "cases" / lab, code) for lab, c in cases] if comm.rank == 0 else None,
             root=0,
         )
         todo = [

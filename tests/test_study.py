@@ -1,6 +1,6 @@
 """Studies (``gearfem study``): validation of the study file, the operating-point grid, running the
-cases side by side or on all ranks, resuming (a finished case is not recomputed, a changed one is),
-and the collected table.
+cases side by side or on all ranks, resuming (a finished case is not recomputed, a changed one or
+one finished by other code is), and the collected table.
 
 The cases use prescribed flank heat on a small mesh (no structural cycle), so a study of two
 operating points costs seconds; the cycle cache is covered by tests/test_cycle.py.
@@ -143,6 +143,14 @@ def test_study_runs_collects_and_resumes(parallel, tmp_out, comm):
     comm.barrier()
     third = run_study(study, out, comm)
     assert third.ran == (labels[1],)
+    # a case finished by other code (its summary's provenance) is recomputed, and only that one
+    if comm.rank == 0:
+        path = out / "cases" / labels[0] / "summary.json"
+        summ = json.loads(path.read_text())
+        summ["provenance"]["code"] = {"gearfem.pipeline": "0" * 12}
+        path.write_text(json.dumps(summ))
+    comm.barrier()
+    assert run_study(study, out, comm).ran == (labels[0],)
     # a changed case (more heat) is recomputed in full, and its result changes accordingly
     hotter = study_from_dict(_study(parallel=parallel, heat=4.0))
     fourth = run_study(hotter, out, comm)
