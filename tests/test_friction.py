@@ -477,6 +477,37 @@ def test_lowest_steady_state_is_where_the_transient_from_ambient_ends():
         assert prob.temperatures_K()["mean_bulk"] == pytest.approx(hot, abs=0.5)
 
 
+def test_a_continuation_that_passed_a_fold_is_lowered_to_the_state_from_ambient(monkeypatch):
+    """A continuation whose steps passed a small fold (a part of the contacts switching, the
+    states a per cent apart in heat) ends above the state the transient reaches; the state Newton
+    reaches from ambient, below it everywhere, is taken instead. Here the continuation is made to
+    end on the 0-D model's hot state (423 C): the cool one (103.0 C) is returned."""
+    from gearfem.thermal import branches as br
+
+    prob, law, _ = _lumped(prefix="zd_lower_")
+    _, states = _analytic(law)
+
+    def ends_hot(problem, settle_s, max_settles):
+        problem.set_initial(states[2] + 50.0)
+        return problem.solve_steady(), br.LowestState("lowest", None, 1)
+
+    monkeypatch.setattr(br, "_continued_lowest_state", ends_hot)
+    with prob:
+        rec, how = br.lowest_steady_state(prob)
+        assert how.branch == "from ambient, below the continuation's" and how.solves == 2
+        assert rec.temperatures_K["mean_bulk"] == pytest.approx(states[0], abs=2e-3)
+        assert prob.temperatures_K()["mean_bulk"] == pytest.approx(states[0], abs=2e-3)
+        # a continuation that ends on the state from ambient keeps it (and its label)
+        monkeypatch.setattr(
+            br,
+            "_continued_lowest_state",
+            lambda p, *a: (p.solve_steady(), br.LowestState("lowest", None, 1)),
+        )
+        rec, how = br.lowest_steady_state(prob)
+        assert how.branch == "lowest" and how.solves == 3
+        assert rec.temperatures_K["mean_bulk"] == pytest.approx(states[0], abs=2e-3)
+
+
 def test_steady_runs_of_a_rising_law_take_the_lowest_steady_state(tmp_path):
     """``[thermal] mode = "steady"`` with a flux that may rise (gearfem.thermal.outputs): the
     run's steady state is the lowest one, not Newton's from the initial field, and the summary

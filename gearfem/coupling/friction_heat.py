@@ -346,13 +346,26 @@ class _Volterra:
 _VOLTERRA = _Volterra.build()
 
 
+#: :meth:`FlashTable.of` builds a law's table to the next multiple of this flash per unit mu (K):
+#: a table 1-128 K further than asked for (32 rows of about 160 for a reach of 500 K) is
+#: reused by every evaluation of the law whose bands' flashes fall under the same multiple.
+FLASH_TABLE_REACH_K = 128.0
+#: How many laws' tables :meth:`FlashTable.of` keeps (about 4 MB each at a reach of 500 K).
+KEPT_FLASH_TABLES = 8
+_FLASH_TABLES: dict[tuple, FlashTable] = {}
+
+
 @dataclasses.dataclass(frozen=True)
 class FlashTable:
     """The Volterra solution tabulated once per law: the profile-mean mu_T and the largest flash
     temperature of a band as functions of its flank temperature T (uniform grid) and its flash
-    temperature per unit mu, theta0 (0, a geometric grid to 10 K, then steps of 4 K up to the
-    largest band's), bilinear interpolation; flank temperatures 200-1000 K in 0.5 K steps (constant
-    beyond). A constant mu_T is reproduced exactly (every entry equals it)."""
+    temperature per unit mu, theta0, bilinear interpolation; flank temperatures 200-1000 K in
+    0.5 K steps (constant beyond). theta0 lies on a fixed lattice, 0, 12 geometric steps from
+    0.01 to 10 K, then 10 + 4 k K up to the largest band's, so the rows of a table do not depend
+    on how far it reaches: :meth:`of` keeps the tables of the last :data:`KEPT_FLASH_TABLES` laws
+    (each reaching a multiple of :data:`FLASH_TABLE_REACH_K`) and a law evaluated again (another
+    operating point, a refinement of the diagnosis) reuses its table. A constant mu_T is
+    reproduced exactly (every entry equals it)."""
 
     T_K: np.ndarray
     theta0_K: np.ndarray
@@ -369,16 +382,35 @@ class FlashTable:
         dtheta0_K: float = 4.0,
     ) -> FlashTable:
         T = np.arange(T_range_K[0], T_range_K[1] + 0.5 * dT_K, dT_K)
-        top = max(float(theta0_max_K), 1e-2) * 1.001
-        # geometric near 0, then steps of at most dtheta0_K (a flash theta0 mu changes mu_T over
-        # a few kelvin in a steep law)
-        small = np.geomspace(1e-2, min(top, 10.0), 12)
-        big = np.linspace(10.0, top, max(2, int(np.ceil((top - 10.0) / dtheta0_K)) + 1))
-        th = np.unique(np.concatenate([[0.0], small, big[big > 10.0] if top > 10.0 else []]))
+        # geometric near 0, then steps of dtheta0_K (a flash theta0 mu changes mu_T over a few
+        # kelvin in a steep law), on a lattice that does not depend on theta0_max_K
+        small = np.geomspace(1e-2, 10.0, 12)
+        steps = max(math.ceil((float(theta0_max_K) - 10.0) / dtheta0_K), 0)
+        th = np.concatenate([[0.0], small, 10.0 + dtheta0_K * np.arange(1, steps + 1)])
         Tg = np.tile(T, len(th))
         f0 = np.repeat(th, len(T))
         mbar, theta = _profile(law, Tg, f0)
         return cls(T, th, mbar.reshape(len(th), len(T)), theta.reshape(len(th), len(T)))
+
+    @classmethod
+    def of(cls, law: FrictionLaw, theta0_max_K: float) -> FlashTable:
+        """The table of ``law`` reaching at least ``theta0_max_K``: built up to the next multiple
+        of :data:`FLASH_TABLE_REACH_K` and kept by the law's options and the cycle's mu (what
+        mu_T depends on) and that reach, for the last :data:`KEPT_FLASH_TABLES` laws. The same
+        law and reach give the same table, whichever was asked for first."""
+        reach = FLASH_TABLE_REACH_K * max(math.ceil(theta0_max_K / FLASH_TABLE_REACH_K), 1)
+        key = (law.options, law.cycle_mu, reach)
+        try:
+            hash(key)
+        except TypeError:  # options built in code with lists: not kept
+            return cls.build(law, reach)
+        table = _FLASH_TABLES.pop(key, None)
+        if table is None:
+            table = cls.build(law, reach)
+        _FLASH_TABLES[key] = table  # the most recent last
+        while len(_FLASH_TABLES) > KEPT_FLASH_TABLES:
+            _FLASH_TABLES.pop(next(iter(_FLASH_TABLES)))
+        return table
 
     def weights(self, theta0_K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Row index and weight of each theta0 in the table."""
@@ -441,7 +473,8 @@ class FrictionFlux:
     :class:`FlashTable`. A target's flux then depends on its own temperature only, and its
     derivative is exact (up to the table's interpolation). ``comm``: the communicator across which
     the instances are distributed (the group sums of the pressure/speed factors are reduced over
-    it once, at construction).
+    it once, at construction). ``pairs``: the (target, group) pairs of ``inst`` as another
+    instance's :attr:`pairs` gives them (they do not depend on the law: :meth:`with_law`).
     """
 
     def __init__(
@@ -452,6 +485,7 @@ class FrictionFlux:
         contact_temperature: str = "flash",
         comm: MPI.Comm | None = None,
         num_groups: int | None = None,
+        pairs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     ) -> None:
         self.law, self.bands, self.inst = law, bands, inst
         self.flash = contact_temperature == "flash"
@@ -472,20 +506,39 @@ class FrictionFlux:
         # flash temperature per unit mu_T of each group (the band's mean pressure/speed factor)
         self._flash0 = bands.flash_per_flux_K_m2_W[gb] * bands.q0_W_m2[gb] * fg
         # the (target, group) pairs: mu_T and the flash temperature are evaluated per pair
-        stride = max(ng, 1)
-        key = inst.target.astype(np.int64) * stride + inst.group
-        pairs, self._pair = np.unique(key, return_inverse=True)
-        self._pair = self._pair.ravel()
-        self._pair_target, self._pair_group = np.divmod(pairs, stride)
+        if pairs is None:
+            stride = max(ng, 1)
+            key = inst.target.astype(np.int64) * stride + inst.group
+            unique, pair = np.unique(key, return_inverse=True)
+            pairs = (pair.ravel(), *np.divmod(unique, stride))
+        self._pair, self._pair_target, self._pair_group = pairs
         self._pair_weight = np.bincount(
-            self._pair, weights=self._hw * self._fpv, minlength=len(pairs)
+            self._pair, weights=self._hw * self._fpv, minlength=len(self._pair_target)
         )
         self.table = None
         if self.flash and law.depends_on_temperature:
             top = float(np.max(self._flash0)) if len(self._flash0) else 0.0
-            self.table = FlashTable.build(law, top)
+            self.table = FlashTable.of(law, top)
             a, s = self.table.weights(self._flash0)
             self._row, self._sw = a[self._pair_group], s[self._pair_group]
+
+    @property
+    def pairs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The instances' (target, group) pairs: each instance's pair, each pair's target and
+        group."""
+        return self._pair, self._pair_target, self._pair_group
+
+    def with_law(self, law: FrictionLaw) -> FrictionFlux:
+        """The flux of another law on the same instances (the pairs kept; collective)."""
+        return FrictionFlux(
+            law,
+            self.bands,
+            self.inst,
+            "flash" if self.flash else "flank",
+            self.comm,
+            self.num_groups,
+            pairs=self.pairs,
+        )
 
     def _reduce(self, a: np.ndarray) -> np.ndarray:
         if self.comm is None or self.comm.size == 1:
@@ -608,7 +661,6 @@ class ThermalFrictionFlux:
             group_band=np.repeat(np.arange(bands.num_bands), nt),
             num_targets=transfer.num_cells,
         )
-        self._inst, self._contact_temperature = inst, contact_temperature
         self.flux = FrictionFlux(
             law, bands, inst, contact_temperature, transfer.comm, bands.num_bands * nt
         )
@@ -632,14 +684,7 @@ class ThermalFrictionFlux:
                 "one like the model's (the thermal solver was chosen for it)",
             )
         self.law = law
-        self.flux = FrictionFlux(
-            law,
-            self.bands,
-            self._inst,
-            self._contact_temperature,
-            self.transfer.comm,
-            self.flux.num_groups,
-        )
+        self.flux = self.flux.with_law(law)
 
     def update(self, surface_mean_K: np.ndarray) -> None:
         tr = self.transfer

@@ -341,8 +341,50 @@ def lowest_steady_state(problem, settle_s: float = 1800.0, max_settles: int = 4)
     state's hottest node finds; it is taken when it lies above the fold state everywhere (the
     order the transient keeps). Otherwise the transient from the fold state is integrated
     (``settle_s``, doubled while the steady solve from its end fails, ``max_settles`` times).
-    Returns the steady record (as :meth:`ThermalProblem.solve_steady`) and how it was found; the
-    friction scale is restored to 1."""
+    The continuation's steps can pass a small fold where only a part of the contacts switches
+    (states a per cent apart in heat, below the step's jump criterion): the state Newton reaches
+    from ambient at the full heat is therefore solved as well and taken when it lies below the
+    continuation's everywhere (:func:`_lower_from_ambient`). Returns the steady record (as
+    :meth:`ThermalProblem.solve_steady`) and how it was found; the friction scale is restored to
+    1."""
+    rec, how = _continued_lowest_state(problem, settle_s, max_settles)
+    return _lower_from_ambient(problem, rec, how)
+
+
+#: :func:`_lower_from_ambient` takes the state from ambient when it lies below the continuation's
+#: everywhere within this (K) and somewhere by more.
+BELOW_K = 0.5
+
+
+def _lower_from_ambient(problem, rec, how: LowestState):
+    """``rec`` (the problem at that state), or the steady state Newton reaches from ambient at
+    the full heat when that one lies below it at every node (by :data:`BELOW_K`, and somewhere
+    by more): a transient from ambient stays below every steady state above its start
+    (comparison principle), so it cannot end on ``rec`` then (collective)."""
+    found = problem.state_vector()
+    n = problem.V.dofmap.index_map.size_local
+    above = problem.T.x.array[:n].copy()
+    try:
+        problem.set_initial(problem.initial_K)
+        try:
+            cold = problem.solve_steady()
+        except ConvergenceError:
+            cold = None
+        if cold is not None:
+            d = problem.T.x.array[:n] - above
+            up = problem.comm.allreduce(float(np.max(d)) if n else -np.inf, op=_max())
+            down = problem.comm.allreduce(float(np.min(d)) if n else np.inf, op=_min())
+            if up <= BELOW_K and down < -BELOW_K:
+                return cold, LowestState("from ambient, below the continuation's", None,
+                                         how.solves + 1)  # fmt: skip
+        problem.set_state(found)  # back to the continuation's state, the flux model with it
+        return problem.solve_steady(), dataclasses.replace(how, solves=how.solves + 2)
+    finally:
+        found.destroy()
+
+
+def _continued_lowest_state(problem, settle_s: float, max_settles: int):
+    """:func:`lowest_steady_state` by continuation alone."""
     # the fold is bracketed only as far as the next state up needs a start near it
     fold, x = cool_at_full_heat(problem, tolerance=LOWEST_TOLERANCE)
     solves = fold.solves
@@ -397,6 +439,12 @@ def _min():
     from mpi4py import MPI
 
     return MPI.MIN
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX
 
 
 @dataclasses.dataclass(frozen=True)
