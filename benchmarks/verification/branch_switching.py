@@ -147,7 +147,12 @@ def main() -> None:
         help="the width every variant's flash temperature is computed on ([friction] flash_width)",
     )  # fmt: skip
     ap.add_argument("--docs", default=None, help="write the table into this page")
-    ap.add_argument("--block", default="branch_switching", help="the page's block to write")
+    ap.add_argument(
+        "--block",
+        choices=("branch_switching", "branch_switching_profile_flash"),
+        default="branch_switching",
+        help="the page's block to write",
+    )
     a = ap.parse_args()
     setup_logging("WARNING")
     comm = MPI.COMM_WORLD
