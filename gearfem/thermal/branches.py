@@ -33,6 +33,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.materials import ZERO_CELSIUS_K
@@ -148,7 +149,7 @@ def steady_states(
         same = None
         for other, a in fields:
             d = float(np.max(np.abs(arr[:n] - a[:n]))) if n else 0.0
-            if problem.comm.allreduce(d, op=_max()) < same_tolerance_K:
+            if problem.comm.allreduce(d, op=MPI.MAX) < same_tolerance_K:
                 same = other
                 break
         st = _record(problem, name, rec.newton_iterations)
@@ -178,12 +179,6 @@ def _crossing(problem, T_prev, lam_prev: float, lam: float, target: float, k: in
     problem.set_state(keep)
     keep.destroy()
     return out
-
-
-def _max():
-    from mpi4py import MPI
-
-    return MPI.MAX
 
 
 #: A continuation step whose friction heat grows by more than this factor has left the cool
@@ -372,8 +367,8 @@ def _lower_from_ambient(problem, rec, how: LowestState):
             cold = None
         if cold is not None:
             d = problem.T.x.array[:n] - above
-            up = problem.comm.allreduce(float(np.max(d)) if n else -np.inf, op=_max())
-            down = problem.comm.allreduce(float(np.min(d)) if n else np.inf, op=_min())
+            up = problem.comm.allreduce(float(np.max(d)) if n else -np.inf, op=MPI.MAX)
+            down = problem.comm.allreduce(float(np.min(d)) if n else np.inf, op=MPI.MIN)
             if up <= BELOW_K and down < -BELOW_K:
                 return cold, LowestState("from ambient, below the continuation's", None,
                                          how.solves + 1)  # fmt: skip
@@ -404,7 +399,7 @@ def _continued_lowest_state(problem, settle_s: float, max_settles: int):
             rec = problem.solve_steady()
             n = problem.V.dofmap.index_map.size_local
             gap = float(np.min(problem.T.x.array[:n] - below[:n])) if n else 0.0
-            if problem.comm.allreduce(gap, op=_min()) >= -0.5:
+            if problem.comm.allreduce(gap, op=MPI.MIN) >= -0.5:
                 return rec, LowestState("above the fold", fold.fold, solves + 1)
         except ConvergenceError:
             pass
@@ -433,18 +428,6 @@ def _continued_lowest_state(problem, settle_s: float, max_settles: int):
         if x is not None:
             x.destroy()
         problem.set_friction_scale(1.0)
-
-
-def _min():
-    from mpi4py import MPI
-
-    return MPI.MIN
-
-
-def _max():
-    from mpi4py import MPI
-
-    return MPI.MAX
 
 
 @dataclasses.dataclass(frozen=True)
