@@ -86,6 +86,10 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/friction.md", "branch_switching_profile_flash"),),
     ),
     Regeneration(
+        "python benchmarks/verification/flash_convergence.py --docs docs/friction.md",
+        (("docs/friction.md", "flash_convergence"),),
+    ),
+    Regeneration(
         f"{_FRICTION}friction_fixed_point.py --mu-glassy 0.13 --docs docs/friction.md",
         (("docs/friction.md", "friction_fixed_point"),),
     ),

@@ -949,6 +949,7 @@ def friction_outputs(
         case.friction.contact_temperature,
         src.flux_reconstruction,
         case.friction.flash_width,
+        case.friction.flash_half_width_m,
     )
     state = evaluate_at(problem, model)
     out = friction_summary(model, state)

@@ -438,6 +438,23 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         hm = np.where(bands.hertz_width_used, 0.0, hw)
         ratio = np.sum(hm * bands.half_width_m / bands.hertz_half_width_m) / np.sum(hm)
         assert 0.6 < ratio < 1.4, ratio
+        # a stated half-width for every band: the band's flash is its heat over that width,
+        # q_bar a g(L) / k = heat g(L) / (2 dz k), g ~ L^(-1/2) at high Peclet numbers: a width
+        # four times larger halves every band's flash there
+        narrow, wide = (
+            reference_flux(r, b, law, mats, speed, 300.0, flash_width="stated",
+                           flash_half_width_m=w)[2]
+            for w in (1e-4, 4e-4)
+        )  # fmt: skip
+        assert np.all(narrow.half_width_m == 1e-4) and not np.any(narrow.hertz_width_used)
+        fast = (narrow.peclet > 200) & (hw > 0)
+        assert np.count_nonzero(fast) > 10
+        np.testing.assert_allclose(
+            (narrow.q0_W_m2 * narrow.flash_per_flux_K_m2_W)[fast]
+            / (wide.q0_W_m2 * wide.flash_per_flux_K_m2_W)[fast],
+            2.0,
+            rtol=0.01,
+        )
         # Peclet numbers of a gear at 1000 rpm: high (Blok's regime) wherever heat is made
         pe = np.minimum(bands.peclet, bands.mate_peclet)
         assert np.sum(hw[pe > 5.0]) > 0.999 * np.sum(hw)

@@ -111,6 +111,10 @@ def test_law_values():
             "friction.pressure",
         ),  # (1 MPa / 100 MPa)^-0.5 = 10: mu = 5
         ({"contact_temperature": "bulk"}, "friction.contact_temperature"),
+        ({"flash_width": "stated"}, "friction.flash_half_width_um"),  # no width stated
+        ({"flash_width": "stated", "flash_half_width_um": 0.5}, "friction.flash_half_width_um"),
+        ({"flash_width": "stated", "flash_half_width_um": 6e3}, "friction.flash_half_width_um"),
+        ({"flash_half_width_um": 100.0}, "friction.flash_half_width_um"),  # ignored by "hertz"
     ],
 )
 def test_bad_laws_name_the_key(kw, key):

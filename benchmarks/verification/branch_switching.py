@@ -24,6 +24,9 @@ for these variants of the model, each a structural cycle per torque:
 * ``flash width``: the flash temperature on the Hertz width of each band's load (``"hertz"``, the
   default) or on its pressure profile's width (``"profile"``), on the case's cycle.
 
+``--flash-width`` sets the width every variant's flash is computed on; ``stated`` with
+``--flash-half-width-um`` takes one half-width for every band, a length no refinement changes.
+
 Prints the table and, with ``--docs PAGE``, writes it into block ``branch_switching`` of PAGE.
 
     mpirun -n 2 python benchmarks/verification/branch_switching.py --mu-glassy 0.14 \
@@ -73,7 +76,7 @@ def variants(case, which: tuple[str, ...]):
                 (f"tip round {c * g.module_mm:.2f} mm", dataclasses.replace(case, geometry=geo))
             )
     if "flash_width" in which:
-        fr = dataclasses.replace(case.friction, flash_width="profile")
+        fr = dataclasses.replace(case.friction, flash_width="profile", flash_half_width_um=None)
         out.append(("flash on the profile width", dataclasses.replace(case, friction=fr)))
     return out
 
@@ -143,13 +146,21 @@ def main() -> None:
         choices=["entry", "tip_radius", "flash_width"],
     )  # fmt: skip
     ap.add_argument(
-        "--flash-width", choices=["hertz", "profile"], default="hertz",
+        "--flash-width", choices=["hertz", "profile", "stated"], default="hertz",
         help="the width every variant's flash temperature is computed on ([friction] flash_width)",
+    )  # fmt: skip
+    ap.add_argument(
+        "--flash-half-width-um", type=float, default=None,
+        help="the stated half-width ([friction] flash_half_width_um; with --flash-width stated)",
     )  # fmt: skip
     ap.add_argument("--docs", default=None, help="write the table into this page")
     ap.add_argument(
         "--block",
-        choices=("branch_switching", "branch_switching_profile_flash"),
+        choices=(
+            "branch_switching",
+            "branch_switching_profile_flash",
+            "branch_switching_stated_flash",
+        ),
         default="branch_switching",
         help="the page's block to write",
     )
@@ -160,7 +171,10 @@ def main() -> None:
     base = dataclasses.replace(
         base,
         friction=FrictionOptions(
-            law="glass_transition", mu_glassy=a.mu_glassy, flash_width=a.flash_width
+            law="glass_transition",
+            mu_glassy=a.mu_glassy,
+            flash_width=a.flash_width,
+            flash_half_width_um=a.flash_half_width_um,
         ),
     )
     rows = []
@@ -219,6 +233,11 @@ def main() -> None:
         f"`mpirun -n {comm.size} python benchmarks/verification/branch_switching.py "
         f"--mu-glassy {a.mu_glassy:g}"
         + (f" --flash-width {a.flash_width}" if a.flash_width != "hertz" else "")
+        + (
+            f" --flash-half-width-um {a.flash_half_width_um:g}"
+            if a.flash_half_width_um is not None
+            else ""
+        )
         + (f" --variants {' '.join(a.variants)}" if len(a.variants) < 3 else "")
         + f"`, {time.perf_counter() - t0:.0f} s."
     )

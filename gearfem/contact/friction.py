@@ -41,7 +41,9 @@ lies on the round), which converges with the mesh because the load is an integra
 ``"profile"``, the half-width of the band's pressure profile, which resolves a smooth flank contact
 but shrinks with the mesh where a tip round enters (a corner, whose pressure peak does not
 converge), so that the flash there, growing as the inverse square root of the width, is set by
-the mesh.
+the mesh; or ``"stated"``, one half-width for every band, ``flash_half_width_um`` (a length the
+mesh does not change: the flash of a band is then its heat over that width, an integral of the
+pressure, whatever the shape of its peak).
 
 How the law is used: the structural cycle is solved with the constant
 ``contact.friction_coefficient`` and records its contact history (:mod:`gearfem.cycle.history`); the
@@ -80,7 +82,9 @@ LAWS = ("constant", "table", "glass_transition")
 FACTOR_FORMS = ("none", "power", "table")
 CONTACT_TEMPERATURES = ("flash", "flank")
 #: Contact half-widths the flash temperature of a band can be computed with (``flash_width``).
-FLASH_WIDTHS = ("hertz", "profile")
+FLASH_WIDTHS = ("hertz", "profile", "stated")
+#: Range of a stated flash half-width (um): from a tip round's Hertz width to a wide flank contact.
+FLASH_HALF_WIDTH_RANGE_UM = (1.0, 5000.0)
 #: Which mu the structural cycle is solved with (``cycle_mu``, see the module docstring).
 CYCLE_MUS = ("constant", "law")
 MU_MAX = 2.0
@@ -165,6 +169,7 @@ class FrictionOptions:
     speed_table_m_s: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     contact_temperature: str = "flash"
     flash_width: str = "hertz"
+    flash_half_width_um: float | None = None
     cycle_mu: str = "constant"
     cycle_mu_tolerance: float = 0.005
     cycle_mu_max_passes: int = 4
@@ -186,6 +191,26 @@ class FrictionOptions:
             "friction.contact_temperature", self.contact_temperature, CONTACT_TEMPERATURES
         )
         require_choice("friction.flash_width", self.flash_width, FLASH_WIDTHS)
+        if self.flash_width == "stated":
+            if self.flash_half_width_um is None:
+                lo, hi = FLASH_HALF_WIDTH_RANGE_UM
+                raise ParameterError(
+                    "friction.flash_half_width_um",
+                    None,
+                    f"[{lo:g}, {hi:g}] um for flash_width 'stated'",
+                )
+            require_range(
+                "friction.flash_half_width_um",
+                self.flash_half_width_um,
+                *FLASH_HALF_WIDTH_RANGE_UM,
+                unit="um",
+            )
+        elif self.flash_half_width_um is not None:
+            raise ParameterError(
+                "friction.flash_half_width_um",
+                self.flash_half_width_um,
+                "absent unless flash_width = 'stated' (it would be ignored)",
+            )
         own = {
             "constant": ("mu",),
             "table": ("table_file", "table_C"),
@@ -330,6 +355,11 @@ class FrictionOptions:
         (validates mu <= 2 everywhere)."""
         require_range("contact.friction_coefficient", cycle_mu, 0.0, MU_MAX)
         return FrictionLaw(self, float(cycle_mu))
+
+    @property
+    def flash_half_width_m(self) -> float | None:
+        """The stated flash half-width in metres (``flash_width = "stated"``), else None."""
+        return None if self.flash_half_width_um is None else self.flash_half_width_um * 1e-6
 
     @property
     def is_default(self) -> bool:

@@ -163,15 +163,23 @@ def contact_bands(
     fixed_fraction: float = 0.5,
     negligible: float = 0.0,
     flash_width: str = "hertz",
+    flash_half_width_m: float | None = None,
 ) -> ContactBands:
     """The contact points of ``body``'s pass and its bands at pinion speed ``speed_rpm``; points
     carrying less than ``negligible`` of the gear's heat are left out (0: only those carrying
     none). ``flash_width``: the bands' half-width a (flux q̄ = heat / (2 a dz), flash ∝ q̄ a g(L)):
     ``"hertz"``, the Hertz half-width of the band's load on the local radii (tip rounds
-    included), or ``"profile"``, the width of its pressure profile (the Hertz width where the
-    profile has none): see :class:`~gearfem.contact.friction.FrictionOptions`."""
+    included), ``"profile"``, the width of its pressure profile (the Hertz width where the
+    profile has none), or ``"stated"``, ``flash_half_width_m`` for every band: see
+    :class:`~gearfem.contact.friction.FrictionOptions`."""
     if flash_width not in FLASH_WIDTHS:
         raise ParameterError("friction.flash_width", flash_width, f"one of {FLASH_WIDTHS}")
+    if (flash_width == "stated") != (flash_half_width_m is not None):
+        raise ParameterError(
+            "friction.flash_half_width_um",
+            flash_half_width_m,
+            "a half-width exactly when flash_width is 'stated'",
+        )
     if partition not in PARTITIONS:
         raise ParameterError("sources.heat_partition", partition, f"one of {PARTITIONS}")
     h = cycle.history
@@ -197,8 +205,12 @@ def contact_bands(
     first[band[::-1]] = np.arange(len(band))[::-1]
     a_hertz = h.hertz_half_width_m[ev][first]
     a = h.half_width_m[ev][first]
-    unresolved = ~(a > 0.0) if flash_width == "profile" else np.ones(nb, dtype=bool)
-    a = np.where(unresolved, a_hertz, a)
+    if flash_width == "stated":
+        unresolved = np.zeros(nb, dtype=bool)
+        a = np.full(nb, float(flash_half_width_m))
+    else:
+        unresolved = ~(a > 0.0) if flash_width == "profile" else np.ones(nb, dtype=bool)
+        a = np.where(unresolved, a_hertz, a)
     q0 = hb / (2.0 * a * h.z_bin_m)
     mate = BODIES[1 - BODIES.index(body)]
     ms, mm = materials[body], materials[mate]
@@ -347,7 +359,7 @@ _VOLTERRA = _Volterra.build()
 
 
 #: :meth:`FlashTable.of` builds a law's table to the next multiple of this flash per unit mu (K):
-#: a table 1-128 K further than asked for (32 rows of about 160 for a reach of 500 K) is
+#: a table 1-128 K further than asked for (32 rows of about 160 for a reach of 512 K) is
 #: reused by every evaluation of the law whose bands' flashes fall under the same multiple.
 FLASH_TABLE_REACH_K = 128.0
 #: How many laws' tables :meth:`FlashTable.of` keeps (about 4 MB each at a reach of 500 K).
@@ -578,15 +590,24 @@ def reference_flux(
     fixed_fraction: float = 1.0,
     contact_temperature: str = "flash",
     flash_width: str = "hertz",
+    flash_half_width_m: float | None = None,
 ) -> tuple[np.ndarray, FluxState, ContactBands]:
     """Revolution-averaged friction flux (W/m²) into ``body`` on the sector facets of its reference
     tooth (``cycle.fields[body]``) at pinion speed ``speed_rpm`` for the law ``law``, with the flank
     temperature ``flank_K`` (one value, or one per sector facet) and the contact temperature
-    ``contact_temperature`` (flash on the bands' ``flash_width``). ``fixed_fraction = 1`` gives
+    ``contact_temperature`` (flash on the bands' ``flash_width``, ``flash_half_width_m`` when
+    stated). ``fixed_fraction = 1`` gives
     the heat generated (the cycle's ``generated_flux_W_m2_per_rad_s`` times omega for its own
     constant mu)."""
     bands = contact_bands(
-        cycle, body, materials, speed_rpm, partition, fixed_fraction, flash_width=flash_width
+        cycle,
+        body,
+        materials,
+        speed_rpm,
+        partition,
+        fixed_fraction,
+        flash_width=flash_width,
+        flash_half_width_m=flash_half_width_m,
     )
     inst = reference_instances(cycle, bands)
     model = FrictionFlux(law, bands, inst, contact_temperature)
@@ -622,6 +643,7 @@ class ThermalFrictionFlux:
         fixed_fraction: float,
         contact_temperature: str,
         flash_width: str = "hertz",
+        flash_half_width_m: float | None = None,
     ) -> None:
         from dolfinx import fem
 
@@ -635,6 +657,7 @@ class ThermalFrictionFlux:
             fixed_fraction,
             NEGLIGIBLE_HEAT,
             flash_width,
+            flash_half_width_m,
         )
         self.bands = bands
         ref = reference_instances(cycle, bands)

@@ -36,6 +36,7 @@ def friction_model(
     problem, gear_mesh, body: str, cycle, law: FrictionLaw, materials, speed_rpm: float,
     partition: str, fixed_fraction: float, contact_temperature: str,
     reconstruction: FluxReconstruction | None = None, flash_width: str = "hertz",
+    flash_half_width_m: float | None = None,
 ) -> ThermalFrictionFlux:  # fmt: skip
     """The temperature-dependent friction flux of ``law`` on ``problem``'s mesh (the sources' own
     model when they have one; collective)."""
@@ -56,6 +57,7 @@ def friction_model(
         fixed_fraction,
         contact_temperature,
         flash_width,
+        flash_half_width_m,
     )
 
 

@@ -158,6 +158,7 @@ def cycle_heat_sources(
                 fraction,
                 "flank",
                 friction.flash_width,  # the bands' widths set Blok's partition
+                friction.flash_half_width_m,
             )
             flux, names = friction_flux_function(
                 domain,
@@ -182,6 +183,7 @@ def cycle_heat_sources(
                 fraction,
                 friction.contact_temperature,
                 friction.flash_width,
+                friction.flash_half_width_m,
             )
     return HeatSources(**kw)
 

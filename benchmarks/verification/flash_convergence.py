@@ -1,0 +1,247 @@
+"""Does the contact temperature that decides a glass-transition branch converge with the mesh?
+
+Under a friction law that steps at the glass transition, a gear switches to its hot branch where
+its contacts' temperature (flank + flash) crosses T_g. This script takes the structural cycles of
+the built-in case at the three entry refinements of the branch study (``[mesh] size_entry_mm``
+x 1.5, x 1, / 1.5) and evaluates, with the flank held at one temperature (``--flank-C``, the
+same for every mesh, so that only the cycle's pressures differ), per bench point and gear and per
+flash width (``[friction] flash_width``: the Hertz width of each band's load, its pressure
+profile's width, or stated half-widths):
+
+* the largest contact temperature of any contact point, and the heat-weighted 99th percentile;
+* the share of the gear's friction heat generated above T_g (the contacts already rubbery);
+* the friction heat the gear's flanks take (W).
+
+A quantity that decides a branch should move less between the two finer meshes than between the
+two coarser ones, and by less than its distance to T_g. No thermal solve: the cycles are read
+from the cache (or solved).
+
+    python benchmarks/verification/flash_convergence.py [--stated-um 100 300] [--docs PAGE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
+from gearfem import pipeline
+from gearfem.baselines import effective_modulus_Pa, hertz_line_contact
+from gearfem.config import load_case
+from gearfem.contact.friction import FrictionOptions
+from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.gci import convergence
+from gearfem.core.log import setup_logging
+from gearfem.core.materials import ZERO_CELSIUS_K
+from gearfem.coupling.friction_heat import (
+    NEGLIGIBLE_HEAT,
+    FrictionFlux,
+    contact_bands,
+    reference_instances,
+)
+from gearfem.geometry.options import BODIES
+from gearfem.uncertainty import provenance
+
+POINTS = ((1000.0, 8.0), (2000.0, 4.0))
+ENTRY_FACTORS = (1.5, 1.0, 1.0 / 1.5)
+#: The tip-round radii of the branch study, in modules (0.1 and 0.3 mm for m = 2 mm).
+TIP_ROUND_COEFFICIENTS = (0.05, 0.15)
+
+
+def nominal_half_width_m(case, torque_Nm: float) -> float:
+    """Hertz half-width of the nominal normal load (torque over the pinion's base radius, over
+    the face width) on the two involutes' radii of curvature at the pitch point (m)."""
+    g, mats = case.geometry, case.materials
+    alpha = math.radians(g.pressure_angle_deg)
+    r1 = 0.5 * g.module_mm * 1e-3 * g.teeth_pinion
+    r2 = 0.5 * g.module_mm * 1e-3 * g.teeth_wheel
+    load = torque_Nm / (r1 * math.cos(alpha)) / (g.face_width_mm * 1e-3)
+    e_star = effective_modulus_Pa(
+        mats["pinion"].youngs_modulus_Pa,
+        mats["pinion"].poissons_ratio,
+        mats["wheel"].youngs_modulus_Pa,
+        mats["wheel"].poissons_ratio,
+    )
+    a, _ = hertz_line_contact(load, r1 * math.sin(alpha), r2 * math.sin(alpha), e_star)
+    return float(a)
+
+
+class GearFriction:
+    """One gear's friction heat under the case's law at a uniform flank temperature."""
+
+    def __init__(self, case, cyc, speed: float, body: str) -> None:
+        f = case.friction
+        self.law = case.friction_law()
+        self.bands = contact_bands(
+            cyc,
+            body,
+            case.materials,
+            speed,
+            case.sources.heat_partition,
+            case.sources.heat_fractions(case.materials)[body],
+            NEGLIGIBLE_HEAT,
+            f.flash_width,
+            f.flash_half_width_m,
+        )
+        self.inst = reference_instances(cyc, self.bands)
+        self.model = FrictionFlux(self.law, self.bands, self.inst, f.contact_temperature)
+        self.area = cyc.fields[body].facet_area_m2
+        self.teeth = 2.0 * np.pi / cyc.pitch_angle_rad
+
+    def at(self, flank_K: float) -> tuple[float, float, float]:
+        """(largest contact temperature C, share of the heat above T_g, the gear's heat W)."""
+        state = self.model.evaluate(np.full(self.inst.num_targets, flank_K))
+        heat = self.bands.heat[self.inst.point] * self.inst.weight * state.mu
+        tc = state.contact_K
+        above = float(np.sum(heat[tc > self.law.tg_K]) / np.sum(heat))
+        watts = float(self.teeth * np.sum(state.flux_W_m2 * self.area))
+        return float(np.max(tc)) - ZERO_CELSIUS_K, above, watts
+
+    def switching_flank_C(self, share: float) -> float:
+        """The uniform flank temperature (C) at which ``share`` of the heat is generated above
+        T_g (bisection to 0.05 K between ambient and T_g; NaN: outside)."""
+        lo, hi = 0.0 + ZERO_CELSIUS_K, self.law.tg_K
+        if self.at(lo)[1] >= share:
+            return float("nan")
+        while hi - lo > 0.05:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if self.at(mid)[1] >= share else (mid, hi)
+        return 0.5 * (lo + hi) - ZERO_CELSIUS_K
+
+
+def gear_rows(case, comm, mu_glassy: float, widths, flank_K: float) -> dict:
+    """Per (width, half-width, speed, torque, body): the figures of :class:`GearFriction` on this
+    case's cycles (collective: the cycles)."""
+    out = {}
+    for speed, torque in POINTS:
+        c0 = case.with_operating(speed_rpm=speed, torque_Nm=torque)
+        cyc, _, _ = pipeline.cycle(c0, comm)
+        for width, half in widths:
+            fr = FrictionOptions(
+                law="glass_transition",
+                mu_glassy=mu_glassy,
+                flash_width=width,
+                flash_half_width_um=half,
+            )
+            c = dataclasses.replace(c0, friction=fr)
+            for body in BODIES:
+                g = GearFriction(c, cyc, speed, body)
+                tmax, _, watts = g.at(flank_K)
+                out[(width, half, speed, torque, body)] = (
+                    tmax,
+                    watts,
+                    g.switching_flank_C(0.1),
+                    g.switching_flank_C(0.5),
+                )
+    return out
+
+
+def _join(values, fmt: str) -> str:
+    return " / ".join(format(x, fmt) for x in values)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mu-glassy", type=float, default=0.13)
+    ap.add_argument("--flank-C", type=float, default=60.0, help="the flank temperature (C)")
+    ap.add_argument("--stated-um", type=float, nargs="*", default=[100.0, 300.0])
+    ap.add_argument("--docs", default=None, help="write the table into this page")
+    a = ap.parse_args()
+    setup_logging("WARNING")
+    comm = MPI.COMM_WORLD
+    base = load_case(None)
+    widths = [("hertz", None), ("profile", None)] + [("stated", s) for s in a.stated_um]
+    flank_K = a.flank_C + ZERO_CELSIUS_K
+    t0 = time.perf_counter()
+    m, g = base.mesh, base.geometry
+    entry = [round(m.size_entry_mm * f, 6) for f in ENTRY_FACTORS]
+    levels = [
+        gear_rows(
+            dataclasses.replace(base, mesh=dataclasses.replace(m, size_entry_mm=e)),
+            comm,
+            a.mu_glassy,
+            widths,
+            flank_K,
+        )
+        for e in entry
+    ]
+    rounds = {
+        c: gear_rows(
+            dataclasses.replace(base, geometry=dataclasses.replace(g, tip_round_coefficient=c)),
+            comm,
+            a.mu_glassy,
+            widths,
+            flank_K,
+        )
+        for c in TIP_ROUND_COEFFICIENTS
+    }
+    rows = []
+    for key in levels[0]:
+        width, half, speed, torque, body = key
+        v = np.array([lv[key] for lv in levels])  # coarse to fine
+        conv = convergence(v[:, 2], entry)
+        tip = [
+            rounds[c][key][2] if c != g.tip_round_coefficient else v[1, 2]
+            for c in sorted(rounds | {g.tip_round_coefficient: None})
+        ]
+        rows.append(
+            (
+                f"stated {half:g} um" if width == "stated" else width,
+                f"{speed:g} rpm, {torque:g} N m",
+                body,
+                _join(v[:, 0], ".0f"),
+                _join(v[:, 1], ".2f"),
+                _join(v[:, 2], ".1f"),
+                f"{conv.values[0]:.1f} ± {conv.u_num:.1f}"
+                + ("" if conv.asymptotic else " (not asymptotic)"),
+                _join(tip, ".1f"),
+                _join(v[:, 3], ".1f"),
+            )
+        )
+    radii = sorted(set(TIP_ROUND_COEFFICIENTS) | {g.tip_round_coefficient})
+    head = (
+        "flash width",
+        "bench point",
+        "gear",
+        f"largest contact at {a.flank_C:g} C flank (C)",
+        f"friction heat at {a.flank_C:g} C flank (W)",
+        "flank where 10 % of the heat is rubbery (C)",
+        "finest ± u_num (C)",
+        "10 %, tip round " + " / ".join(f"{c * g.module_mm:.1f}" for c in radii) + " mm (C)",
+        "50 % (C)",
+    )
+    law = dataclasses.replace(
+        base, friction=FrictionOptions(law="glass_transition", mu_glassy=a.mu_glassy)
+    ).friction_law()
+    sizes = " / ".join(f"{e * 1e3:.1f}" for e in entry)
+    nominal = ", ".join(
+        f"{nominal_half_width_m(base, t) * 1e6:.0f} um at {t:g} N m" for _, t in POINTS
+    )
+    note = (
+        f"\n\nBuilt-in case; three entries per cell: entry elements {sizes} um (the entry "
+        f"refinement of the branch study); glass-transition friction, glassy mu {a.mu_glassy:g} "
+        f"(T_g {law.tg_K - ZERO_CELSIUS_K:g} C); every flank at one temperature (no thermal "
+        "solve: only the cycles' pressures differ). The Hertz half-width of the nominal load "
+        f"at the pitch point: {nominal}. u_num: GCI of the finest entry size / 1.15 "
+        "(gearfem.core.gci). `python benchmarks/verification/flash_convergence.py"
+        + (
+            f" --stated-um {' '.join(f'{s:g}' for s in a.stated_um)}"
+            if a.stated_um != [100.0, 300.0]
+            else ""
+        )
+        + f"`, {time.perf_counter() - t0:.0f} s."
+    )
+    table = markdown_table(head, rows)
+    if comm.rank == 0:
+        print(table + note)
+        if a.docs:
+            replace_block(a.docs, "flash_convergence", table + note, provenance(base))
+
+
+if __name__ == "__main__":
+    main()
