@@ -90,6 +90,12 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/friction.md", "flash_convergence"),),
     ),
     Regeneration(
+        f"{_FRICTION}branch_switching.py --mu-glassy 0.13 --variants entry tip_radius "
+        "--flash-width stated --flash-half-width-um 100 --pass-balance tooth "
+        "--docs docs/friction.md --block branch_switching_balanced",
+        (("docs/friction.md", "branch_switching_balanced"),),
+    ),
+    Regeneration(
         f"{_FRICTION}friction_fixed_point.py --mu-glassy 0.13 --docs docs/friction.md",
         (("docs/friction.md", "friction_fixed_point"),),
     ),

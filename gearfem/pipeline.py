@@ -948,8 +948,7 @@ def friction_outputs(
         src.heat_fractions(case.materials)[body],
         case.friction.contact_temperature,
         src.flux_reconstruction,
-        case.friction.flash_width,
-        case.friction.flash_half_width_m,
+        case.friction.band_model,
     )
     state = evaluate_at(problem, model)
     out = friction_summary(model, state)

@@ -23,11 +23,11 @@ from mpi4py import MPI
 from gearfem import pipeline
 from gearfem.config import Case, load_case
 from gearfem.contact import ContactOptions, ContactSurface
-from gearfem.contact.friction import FrictionOptions
+from gearfem.contact.friction import BandModel, FrictionOptions
 from gearfem.contact.problem import fixed_mask
 from gearfem.core.errors import GearfemError, ParameterError
 from gearfem.core.materials import ZERO_CELSIUS_K
-from gearfem.coupling.friction_heat import reference_flux
+from gearfem.coupling.friction_heat import reference_flux, tooth_balance
 from gearfem.coupling.heat_sources import AREA_QUADRATURE_DEGREE, cycle_heat_sources
 from gearfem.coupling.options import SourceOptions
 from gearfem.coupling.transfer import FlankTransfer
@@ -412,7 +412,7 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         assert np.all(hertz.hertz_width_used)
         np.testing.assert_array_equal(hertz.half_width_m, hertz.hertz_half_width_m)
         # the pressure profile's widths, checked below
-        _, _, bands = reference_flux(r, b, law, mats, speed, 300.0, flash_width="profile")
+        _, _, bands = reference_flux(r, b, law, mats, speed, 300.0, band_model=BandModel("profile"))
         ref = f.generated_flux_W_m2_per_rad_s * omega
         assert np.max(np.abs(q - ref)) <= 1e-12 * np.max(ref)
         # each gear's flanks carry the friction power generated in the mesh (30 teeth)
@@ -427,7 +427,7 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         # bands had an infinite mean flux and a NaN flash temperature): one band of the cycle
         # cut down to its most loaded point
         cut = _one_point_band(r, b)
-        _, _, one = reference_flux(cut, b, law, mats, speed, 300.0, flash_width="profile")
+        _, _, one = reference_flux(cut, b, law, mats, speed, 300.0, band_model=BandModel("profile"))
         unresolved += int(np.count_nonzero(one.hertz_width_used))
         assert np.all(one.half_width_m > 0) and np.all(np.isfinite(one.q0_W_m2))
         assert np.all(np.isfinite(one.flash_per_flux_K_m2_W))
@@ -442,8 +442,7 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         # q_bar a g(L) / k = heat g(L) / (2 dz k), g ~ L^(-1/2) at high Peclet numbers: a width
         # four times larger halves every band's flash there
         narrow, wide = (
-            reference_flux(r, b, law, mats, speed, 300.0, flash_width="stated",
-                           flash_half_width_m=w)[2]
+            reference_flux(r, b, law, mats, speed, 300.0, band_model=BandModel("stated", w))[2]
             for w in (1e-4, 4e-4)
         )  # fmt: skip
         assert np.all(narrow.half_width_m == 1e-4) and not np.any(narrow.hertz_width_used)
@@ -459,13 +458,55 @@ def test_history_recomputes_the_cycle_flux_for_any_law(loaded):
         pe = np.minimum(bands.peclet, bands.mate_peclet)
         assert np.sum(hw[pe > 5.0]) > 0.999 * np.sum(hw)
         # Blok's partition at high Peclet numbers: b1 sqrt(v1) / (b1 sqrt(v1) + b2 sqrt(v2))
-        blok = reference_flux(r, b, law, mats, speed, 300.0, "blok", flash_width="profile")[2]
+        blok = reference_flux(
+            r, b, law, mats, speed, 300.0, "blok", band_model=BandModel("profile")
+        )[2]
         hi = (blok.peclet > 200) & (blok.mate_peclet > 200)
         v1, v2 = blok.peclet[hi], blok.mate_peclet[hi]  # equal materials: b equal, L ~ v
         np.testing.assert_allclose(
             blok.fraction[hi], np.sqrt(v1) / (np.sqrt(v1) + np.sqrt(v2)), rtol=5e-3
         )
     assert unresolved > 0  # the finiteness checks above met such bands
+
+
+@pytest.mark.slow
+def test_tooth_balance_carries_each_pairs_load(loaded):
+    """pass_balance = "tooth": each gear's pass, scaled, integrates at every position to the load
+    of each tooth pair that the cycle reports (both passes' weighted sum), where the pass alone
+    is off by its share of the two passes' disagreement; the gear's heat stays the mesh's
+    friction power (constant mu: exactly the cycle's total, redistributed)."""
+    r = loaded
+    h = r.history
+    s = tooth_balance(h, 0.5 * r.base_pitch_m)
+    own = h.pressure_Pa * h.weight_m2
+    off = 0.0
+    for i in range(len(r.phi_rad)):
+        total = sum(float(v[i]) for v in r.tooth_load_N.values())
+        for bi in range(len(BODIES)):
+            sel = (h.position == i) & (h.body == bi)
+            # the balanced pass carries the position's load (to the history's summation order,
+            # 1e-7); the raw pass is off by its share of the passes' disagreement
+            assert np.sum((own * s)[sel]) == pytest.approx(total, rel=1e-6, abs=1e-9)
+            if total > 0:
+                off = max(off, abs(np.sum(own[sel]) / total - 1.0))
+        # the pinion's pass, tooth by tooth: the cycle's tooth loads (but a contact only the
+        # other pass saw, a micronewton at the edge of the engagement)
+        for k, tooth in r.tooth_load_N.items():
+            sel = (h.position == i) & (h.body == 0) & (h.tooth == k)
+            assert np.sum((own * s)[sel]) == pytest.approx(float(tooth[i]), abs=1e-6 * total)
+    assert off > 1e-3  # the two passes do disagree somewhere (else this test checks nothing)
+    mats, speed = Case().materials, 1000.0
+    omega = 2 * math.pi * speed / 60
+    law = FrictionOptions().law_for(0.5)
+    for b in BODIES:
+        q, _, bands = reference_flux(
+            r, b, law, mats, speed, 300.0, band_model=BandModel(pass_balance="tooth")
+        )
+        # (its scale summed over the history's points, in another order than the cycle's: 1e-8)
+        assert 30 * np.sum(q * r.fields[b].facet_area_m2) == pytest.approx(
+            r.mean_friction_power_W_per_rad_s() * omega, rel=1e-7
+        )
+        assert bands.heat_norm != 1.0
 
 
 def _thermal_tiny(cycle, friction: FrictionOptions, comm=MPI.COMM_WORLD, prefix="tiny_fr_"):

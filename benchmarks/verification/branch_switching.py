@@ -46,7 +46,7 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import load_case
-from gearfem.contact.friction import FrictionOptions
+from gearfem.contact.friction import PASS_BALANCES, FrictionOptions
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
 from gearfem.core.materials import ZERO_CELSIUS_K
@@ -153,13 +153,17 @@ def main() -> None:
         "--flash-half-width-um", type=float, default=None,
         help="the stated half-width ([friction] flash_half_width_um; with --flash-width stated)",
     )  # fmt: skip
+    ap.add_argument(
+        "--pass-balance", choices=PASS_BALANCES, default="cycle",
+        help="how each gear's pass of the contact history is scaled ([friction] pass_balance)",
+    )  # fmt: skip
     ap.add_argument("--docs", default=None, help="write the table into this page")
     ap.add_argument(
         "--block",
         choices=(
             "branch_switching",
             "branch_switching_profile_flash",
-            "branch_switching_stated_flash",
+            "branch_switching_balanced",
         ),
         default="branch_switching",
         help="the page's block to write",
@@ -175,6 +179,7 @@ def main() -> None:
             mu_glassy=a.mu_glassy,
             flash_width=a.flash_width,
             flash_half_width_um=a.flash_half_width_um,
+            pass_balance=a.pass_balance,
         ),
     )
     rows = []
@@ -238,6 +243,7 @@ def main() -> None:
             if a.flash_half_width_um is not None
             else ""
         )
+        + (f" --pass-balance {a.pass_balance}" if a.pass_balance != "cycle" else "")
         + (f" --variants {' '.join(a.variants)}" if len(a.variants) < 3 else "")
         + f"`, {time.perf_counter() - t0:.0f} s."
     )

@@ -4,19 +4,24 @@ Under a friction law that steps at the glass transition, a gear switches to its 
 its contacts' temperature (flank + flash) crosses T_g. This script takes the structural cycles of
 the built-in case at the three entry refinements of the branch study (``[mesh] size_entry_mm``
 x 1.5, x 1, / 1.5) and evaluates, with the flank held at one temperature (``--flank-C``, the
-same for every mesh, so that only the cycle's pressures differ), per bench point and gear and per
+same for every mesh, so that only the cycle's pressures differ), per bench point and gear, per
 flash width (``[friction] flash_width``: the Hertz width of each band's load, its pressure
-profile's width, or stated half-widths):
+profile's width, or stated half-widths) and per scale of each gear's pass of the contact history
+(``[friction] pass_balance``: the cycle's, once per gear, or each tooth pair's load at every
+position):
 
-* the largest contact temperature of any contact point, and the heat-weighted 99th percentile;
-* the share of the gear's friction heat generated above T_g (the contacts already rubbery);
-* the friction heat the gear's flanks take (W).
+* the largest contact temperature of any contact point and the gear's friction heat (W) at the
+  flank temperature ``--flank-C``;
+* the flank temperature at which 10 % and 50 % of the gear's friction heat is generated above T_g
+  (the contacts already rubbery: where the switching to the hot branch starts), with its GCI over
+  the three entry sizes, and at the tip-round radii 0.1 / 0.2 / 0.3 mm.
 
 A quantity that decides a branch should move less between the two finer meshes than between the
 two coarser ones, and by less than its distance to T_g. No thermal solve: the cycles are read
 from the cache (or solved).
 
-    python benchmarks/verification/flash_convergence.py [--stated-um 100 300] [--docs PAGE]
+    python benchmarks/verification/flash_convergence.py [--stated-um 100 300]
+        [--pass-balance cycle tooth] [--docs PAGE]
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.baselines import effective_modulus_Pa, hertz_line_contact
 from gearfem.config import load_case
-from gearfem.contact.friction import FrictionOptions
+from gearfem.contact.friction import PASS_BALANCES, FrictionOptions
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.gci import convergence
 from gearfem.core.log import setup_logging
@@ -85,8 +90,7 @@ class GearFriction:
             case.sources.heat_partition,
             case.sources.heat_fractions(case.materials)[body],
             NEGLIGIBLE_HEAT,
-            f.flash_width,
-            f.flash_half_width_m,
+            f.band_model,
         )
         self.inst = reference_instances(cyc, self.bands)
         self.model = FrictionFlux(self.law, self.bands, self.inst, f.contact_temperature)
@@ -114,25 +118,46 @@ class GearFriction:
         return 0.5 * (lo + hi) - ZERO_CELSIUS_K
 
 
-def gear_rows(case, comm, mu_glassy: float, widths, flank_K: float) -> dict:
-    """Per (width, half-width, speed, torque, body): the figures of :class:`GearFriction` on this
-    case's cycles (collective: the cycles)."""
+def pinion_pass_share(cyc) -> tuple[float, float, int]:
+    """The pinion's pass's weighted share of each pinion tooth's load (the cycle's tooth loads,
+    both passes' weighted sum) over the positions where that tooth carries at least a tenth of
+    the largest tooth load: (smallest, largest, position of the largest). 0.5 where the two
+    passes agree."""
+    h = cyc.history
+    w = h.pressure_Pa * h.weight_m2 * h.pass_weight
+    peak = max(float(np.max(v)) for v in cyc.tooth_load_N.values())
+    shares, where = [], []
+    for k, load in cyc.tooth_load_N.items():
+        for i in np.flatnonzero(load >= 0.1 * peak):
+            own = np.sum(w[(h.position == i) & (h.body == 0) & (h.tooth == k)])
+            shares.append(own / load[i])
+            where.append(int(i))
+    j = int(np.argmax(shares))
+    return float(min(shares)), float(shares[j]), where[j]
+
+
+def gear_rows(case, comm, mu_glassy: float, models, flank_K: float) -> dict:
+    """Per (width, half-width, pass balance, speed, torque, body) of ``models`` (width,
+    half-width, pass balance): the figures of :class:`GearFriction` on this case's cycles
+    (collective: the cycles)."""
     out = {}
     for speed, torque in POINTS:
         c0 = case.with_operating(speed_rpm=speed, torque_Nm=torque)
         cyc, _, _ = pipeline.cycle(c0, comm)
-        for width, half in widths:
+        out[("pass share", torque)] = pinion_pass_share(cyc)
+        for width, half, balance in models:
             fr = FrictionOptions(
                 law="glass_transition",
                 mu_glassy=mu_glassy,
                 flash_width=width,
                 flash_half_width_um=half,
+                pass_balance=balance,
             )
             c = dataclasses.replace(c0, friction=fr)
             for body in BODIES:
                 g = GearFriction(c, cyc, speed, body)
                 tmax, _, watts = g.at(flank_K)
-                out[(width, half, speed, torque, body)] = (
+                out[(width, half, balance, speed, torque, body)] = (
                     tmax,
                     watts,
                     g.switching_flank_C(0.1),
@@ -150,12 +175,14 @@ def main() -> None:
     ap.add_argument("--mu-glassy", type=float, default=0.13)
     ap.add_argument("--flank-C", type=float, default=60.0, help="the flank temperature (C)")
     ap.add_argument("--stated-um", type=float, nargs="*", default=[100.0, 300.0])
+    ap.add_argument("--pass-balance", choices=PASS_BALANCES, nargs="*", default=list(PASS_BALANCES))
     ap.add_argument("--docs", default=None, help="write the table into this page")
     a = ap.parse_args()
     setup_logging("WARNING")
     comm = MPI.COMM_WORLD
     base = load_case(None)
     widths = [("hertz", None), ("profile", None)] + [("stated", s) for s in a.stated_um]
+    models = [(w, half, b) for b in a.pass_balance for w, half in widths]
     flank_K = a.flank_C + ZERO_CELSIUS_K
     t0 = time.perf_counter()
     m, g = base.mesh, base.geometry
@@ -165,7 +192,7 @@ def main() -> None:
             dataclasses.replace(base, mesh=dataclasses.replace(m, size_entry_mm=e)),
             comm,
             a.mu_glassy,
-            widths,
+            models,
             flank_K,
         )
         for e in entry
@@ -175,14 +202,23 @@ def main() -> None:
             dataclasses.replace(base, geometry=dataclasses.replace(g, tip_round_coefficient=c)),
             comm,
             a.mu_glassy,
-            widths,
+            models,
             flank_K,
         )
         for c in TIP_ROUND_COEFFICIENTS
     }
     rows = []
+    split = []
+    for e, lv in zip(entry, levels, strict=True):
+        for _, torque in POINTS:
+            lo, hi, at = lv[("pass share", torque)]
+            split.append(
+                (f"{torque:g} N m", f"{e * 1e3:.1f}", f"{100 * lo:.0f}-{100 * hi:.0f}", str(at))
+            )
     for key in levels[0]:
-        width, half, speed, torque, body = key
+        if key[0] == "pass share":
+            continue
+        width, half, balance, speed, torque, body = key
         v = np.array([lv[key] for lv in levels])  # coarse to fine
         conv = convergence(v[:, 2], entry)
         tip = [
@@ -191,7 +227,7 @@ def main() -> None:
         ]
         rows.append(
             (
-                f"stated {half:g} um" if width == "stated" else width,
+                (f"stated {half:g} um" if width == "stated" else width) + f", {balance}",
                 f"{speed:g} rpm, {torque:g} N m",
                 body,
                 _join(v[:, 0], ".0f"),
@@ -205,7 +241,7 @@ def main() -> None:
         )
     radii = sorted(set(TIP_ROUND_COEFFICIENTS) | {g.tip_round_coefficient})
     head = (
-        "flash width",
+        "flash width, pass balance",
         "bench point",
         "gear",
         f"largest contact at {a.flank_C:g} C flank (C)",
@@ -234,9 +270,26 @@ def main() -> None:
             if a.stated_um != [100.0, 300.0]
             else ""
         )
+        + (
+            f" --pass-balance {' '.join(a.pass_balance)}"
+            if a.pass_balance != list(PASS_BALANCES)
+            else ""
+        )
         + f"`, {time.perf_counter() - t0:.0f} s."
     )
-    table = markdown_table(head, rows)
+    split_head = (
+        "torque",
+        "entry elements (um)",
+        "pinion pass's share of a tooth's load (%)",
+        "position of the largest share",
+    )
+    table = (
+        markdown_table(head, rows)
+        + "\n\nEach gear's pass of the two-pass contact, against the load the cycle reports per "
+        "tooth (both passes' weighted sum; 50 % where they agree), over the positions where the "
+        "tooth carries a tenth of the largest load or more:\n\n"
+        + markdown_table(split_head, sorted(split))
+    )
     if comm.rank == 0:
         print(table + note)
         if a.docs:

@@ -43,7 +43,11 @@ but shrinks with the mesh where a tip round enters (a corner, whose pressure pea
 converge), so that the flash there, growing as the inverse square root of the width, is set by
 the mesh; or ``"stated"``, one half-width for every band, ``flash_half_width_um`` (a length the
 mesh does not change: the flash of a band is then its heat over that width, an integral of the
-pressure, whatever the shape of its peak).
+pressure, whatever the shape of its peak). ``pass_balance`` says how each gear's pass of the two-pass
+contact lays its heat out: ``"cycle"`` (default), scaled once over the cycle to the mesh's
+friction power, as the cycle's own flux; ``"tooth"``, scaled at every position and tooth to the
+load of the tooth pair, which the passes split unevenly where they disagree
+(:func:`gearfem.coupling.friction_heat.tooth_balance`).
 
 How the law is used: the structural cycle is solved with the constant
 ``contact.friction_coefficient`` and records its contact history (:mod:`gearfem.cycle.history`); the
@@ -85,6 +89,8 @@ CONTACT_TEMPERATURES = ("flash", "flank")
 FLASH_WIDTHS = ("hertz", "profile", "stated")
 #: Range of a stated flash half-width (um): from a tip round's Hertz width to a wide flank contact.
 FLASH_HALF_WIDTH_RANGE_UM = (1.0, 5000.0)
+#: How each gear's pass of the contact history is scaled (``pass_balance``).
+PASS_BALANCES = ("cycle", "tooth")
 #: Which mu the structural cycle is solved with (``cycle_mu``, see the module docstring).
 CYCLE_MUS = ("constant", "law")
 MU_MAX = 2.0
@@ -138,6 +144,31 @@ def read_mu_table(path: str | Path) -> tuple[tuple[float, ...], tuple[float, ...
 
 
 @dataclasses.dataclass(frozen=True)
+class BandModel:
+    """How the friction heat reads the bands of the contact history (from ``[friction]``, see
+    :class:`FrictionOptions`): the flash half-width (``flash_width``; ``flash_half_width_m`` when
+    ``"stated"``) and how each gear's pass is scaled (``pass_balance``)."""
+
+    flash_width: str = "hertz"
+    flash_half_width_m: float | None = None
+    pass_balance: str = "cycle"
+
+    def __post_init__(self) -> None:
+        require_choice("friction.flash_width", self.flash_width, FLASH_WIDTHS)
+        require_choice("friction.pass_balance", self.pass_balance, PASS_BALANCES)
+        if (self.flash_width == "stated") != (self.flash_half_width_m is not None):
+            raise ParameterError(
+                "friction.flash_half_width_um",
+                self.flash_half_width_m,
+                "a half-width exactly when flash_width is 'stated'",
+            )
+
+
+#: The bands as the cycle reads them (its Hertz widths, its scale of the passes).
+DEFAULT_BAND_MODEL = BandModel()
+
+
+@dataclasses.dataclass(frozen=True)
 class FrictionOptions:
     """``[friction]``: the friction law of the heat sources (see the module docstring).
 
@@ -170,6 +201,7 @@ class FrictionOptions:
     contact_temperature: str = "flash"
     flash_width: str = "hertz"
     flash_half_width_um: float | None = None
+    pass_balance: str = "cycle"
     cycle_mu: str = "constant"
     cycle_mu_tolerance: float = 0.005
     cycle_mu_max_passes: int = 4
@@ -191,6 +223,7 @@ class FrictionOptions:
             "friction.contact_temperature", self.contact_temperature, CONTACT_TEMPERATURES
         )
         require_choice("friction.flash_width", self.flash_width, FLASH_WIDTHS)
+        require_choice("friction.pass_balance", self.pass_balance, PASS_BALANCES)
         if self.flash_width == "stated":
             if self.flash_half_width_um is None:
                 lo, hi = FLASH_HALF_WIDTH_RANGE_UM
@@ -357,9 +390,10 @@ class FrictionOptions:
         return FrictionLaw(self, float(cycle_mu))
 
     @property
-    def flash_half_width_m(self) -> float | None:
-        """The stated flash half-width in metres (``flash_width = "stated"``), else None."""
-        return None if self.flash_half_width_um is None else self.flash_half_width_um * 1e-6
+    def band_model(self) -> BandModel:
+        """How the contact history's bands are read (width of the flash, scale of the passes)."""
+        half = None if self.flash_half_width_um is None else self.flash_half_width_um * 1e-6
+        return BandModel(self.flash_width, half, self.pass_balance)
 
     @property
     def is_default(self) -> bool:

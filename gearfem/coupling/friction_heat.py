@@ -65,7 +65,7 @@ import numpy as np
 from mpi4py import MPI
 
 from gearfem.baselines import band_source_rise, peclet_regime
-from gearfem.contact.friction import FLASH_WIDTHS, FrictionLaw
+from gearfem.contact.friction import DEFAULT_BAND_MODEL, BandModel, FrictionLaw
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import Material
 from gearfem.geometry.options import BODIES
@@ -121,6 +121,7 @@ class ContactBands:
     dropped_heat_fraction: float
     low_peclet_bands: int
     hertz_width_used: np.ndarray  # per band: a is the Hertz width (asked for, or no profile width)
+    heat_norm: float = 1.0  # the cycle's pass heat over the scaled pass's (pass_balance)
 
     @property
     def num_bands(self) -> int:
@@ -154,6 +155,47 @@ def _rise(peclet: np.ndarray) -> tuple[np.ndarray, int]:
     return g, int(np.count_nonzero(low))
 
 
+def tooth_balance(history, pair_distance_m: float) -> np.ndarray:
+    """Per point of the contact history: the scale that makes its pass carry the load of its
+    tooth pair at its position (``[friction] pass_balance = "tooth"``).
+
+    Each gear's pass estimates the contact pressure from its own side (it is the slave); the load
+    the solver balances, and the cycle's tooth loads report, is the passes' weighted sum,
+    L = sum over both passes of w_pass int p dA over the pair's contact. Where the two passes
+    disagree about a pair's contact (near a corner, one side's points see a penetration the
+    other's do not) a gear's pass alone carries more or less than L there; the cycle scales each
+    pass once, over the whole cycle (its heat to the mesh's friction power). This scale instead
+    makes each (position, gear, tooth) group of the pass integrate to L, the pair's own load:
+    s = L / int p dA. A gear's tooth and the mate's tooth it meshes with at a position are the two
+    passes' groups whose pressure-weighted centroids lie within ``pair_distance_m`` (the pairs in
+    contact at one position are a base pitch apart); a group the other pass saw no contact for
+    carries its own weighted share."""
+    h = history
+    w = h.pressure_Pa * h.weight_m2
+    key = np.stack([h.position, h.body, h.tooth], axis=1)
+    groups, g = np.unique(key, axis=0, return_inverse=True)
+    g = g.ravel()
+    n = len(groups)
+    own = np.bincount(g, weights=w, minlength=n)
+    share = np.bincount(g, weights=w * h.pass_weight, minlength=n)
+    centroid = (
+        np.stack(
+            [np.bincount(g, weights=w * h.point_m[:, d], minlength=n) for d in range(3)], axis=1
+        )
+        / np.maximum(own, 1e-300)[:, None]
+    )
+    load = share.copy()
+    for i in np.flatnonzero(own > 0):
+        mates = np.flatnonzero(
+            (groups[:, 0] == groups[i, 0]) & (groups[:, 1] != groups[i, 1]) & (own > 0)
+        )
+        if len(mates):
+            d = np.linalg.norm(centroid[mates] - centroid[i], axis=1)
+            if d.min() < pair_distance_m:
+                load[i] += share[mates[np.argmin(d)]]
+    return np.where(own > 0, load / np.where(own > 0, own, 1.0), 1.0)[g]
+
+
 def contact_bands(
     cycle,
     body: str,
@@ -162,24 +204,17 @@ def contact_bands(
     partition: str = "fixed",
     fixed_fraction: float = 0.5,
     negligible: float = 0.0,
-    flash_width: str = "hertz",
-    flash_half_width_m: float | None = None,
+    band_model: BandModel = DEFAULT_BAND_MODEL,
 ) -> ContactBands:
     """The contact points of ``body``'s pass and its bands at pinion speed ``speed_rpm``; points
     carrying less than ``negligible`` of the gear's heat are left out (0: only those carrying
-    none). ``flash_width``: the bands' half-width a (flux q̄ = heat / (2 a dz), flash ∝ q̄ a g(L)):
+    none). ``band_model``: the bands' half-width a (flux q̄ = heat / (2 a dz), flash ∝ q̄ a g(L)):
     ``"hertz"``, the Hertz half-width of the band's load on the local radii (tip rounds
     included), ``"profile"``, the width of its pressure profile (the Hertz width where the
-    profile has none), or ``"stated"``, ``flash_half_width_m`` for every band: see
+    profile has none), or ``"stated"``, one half-width for every band; and the scale of the pass
+    (``pass_balance``: :func:`tooth_balance`): see
     :class:`~gearfem.contact.friction.FrictionOptions`."""
-    if flash_width not in FLASH_WIDTHS:
-        raise ParameterError("friction.flash_width", flash_width, f"one of {FLASH_WIDTHS}")
-    if (flash_width == "stated") != (flash_half_width_m is not None):
-        raise ParameterError(
-            "friction.flash_half_width_um",
-            flash_half_width_m,
-            "a half-width exactly when flash_width is 'stated'",
-        )
+    flash_width = band_model.flash_width
     if partition not in PARTITIONS:
         raise ParameterError("sources.heat_partition", partition, f"one of {PARTITIONS}")
     h = cycle.history
@@ -189,7 +224,15 @@ def contact_bands(
         )
     omega = 2.0 * math.pi * speed_rpm / 60.0
     sel = np.flatnonzero(h.of(body))
-    heat_all = h.pressure_Pa[sel] * h.dissipation_speed_m_s[sel] * omega * h.weight_m2[sel]
+    if band_model.pass_balance == "tooth":
+        scale = tooth_balance(h, 0.5 * cycle.base_pitch_m)
+    else:
+        scale = np.ones(h.num_points)
+    pressure = h.pressure_Pa * scale
+    cycle_heat = h.pressure_Pa[sel] * h.dissipation_speed_m_s[sel] * h.weight_m2[sel]
+    heat_all = pressure[sel] * h.dissipation_speed_m_s[sel] * omega * h.weight_m2[sel]
+    # the pass's heat, scaled, is normalised as the cycle's was (to the mesh's friction power)
+    heat_norm = float(np.sum(cycle_heat) * omega / np.sum(heat_all)) if np.any(heat_all) else 1.0
     total = float(np.sum(heat_all))
     keep = heat_all > negligible * total if total > 0 else heat_all > 0
     dropped = float(np.sum(heat_all[~keep]) / total) if total > 0 else 0.0
@@ -197,17 +240,18 @@ def contact_bands(
     bands, band = np.unique(h.band[ev], return_inverse=True)
     band = band.ravel()
     nb = len(bands)
-    heat = h.pressure_Pa[ev] * h.dissipation_speed_m_s[ev] * omega
+    heat = pressure[ev] * h.dissipation_speed_m_s[ev] * omega
     dA = h.weight_m2[ev]
     hw = heat * dA
     hb = np.maximum(np.bincount(band, weights=hw, minlength=nb), 1e-300)
     first = np.zeros(nb, dtype=np.int64)
     first[band[::-1]] = np.arange(len(band))[::-1]
-    a_hertz = h.hertz_half_width_m[ev][first]
+    band_scale = scale[ev][first]  # one scale per band (a band lies on one tooth)
+    a_hertz = h.hertz_half_width_m[ev][first] * np.sqrt(band_scale)  # a ~ sqrt(load)
     a = h.half_width_m[ev][first]
     if flash_width == "stated":
         unresolved = np.zeros(nb, dtype=bool)
-        a = np.full(nb, float(flash_half_width_m))
+        a = np.full(nb, float(band_model.flash_half_width_m))
     else:
         unresolved = ~(a > 0.0) if flash_width == "profile" else np.ones(nb, dtype=bool)
         a = np.where(unresolved, a_hertz, a)
@@ -234,7 +278,7 @@ def contact_bands(
         partition=partition,
         event=ev,
         heat=heat,
-        pressure_Pa=h.pressure_Pa[ev],
+        pressure_Pa=pressure[ev],
         slip_speed_m_s=h.slip_speed_m_s[ev] * omega,
         band=band,
         facet=h.facet[ev],
@@ -246,12 +290,13 @@ def contact_bands(
         mate_peclet=pe_m,
         half_width_m=a,
         hertz_half_width_m=a_hertz,
-        load_per_length_N_m=h.load_per_length_N_m[ev][first],
+        load_per_length_N_m=h.load_per_length_N_m[ev][first] * band_scale,
         position=h.position[ev][first],
         tooth=h.tooth[ev][first],
         dropped_heat_fraction=dropped,
         low_peclet_bands=low_s + low_m,
         hertz_width_used=unresolved,
+        heat_norm=heat_norm,
     )
 
 
@@ -301,7 +346,7 @@ def reference_instances(cycle, bands: ContactBands) -> Instances:
     p = np.concatenate(pts) if pts else np.zeros(0, dtype=np.int64)
     j = np.concatenate(tgt) if tgt else np.zeros(0, dtype=np.int64)
     w = np.concatenate(wts) if wts else np.zeros(0)
-    w = w * dphi / (2.0 * math.pi) * norm * bands.fraction[bands.band[p]]
+    w = w * dphi / (2.0 * math.pi) * norm * bands.heat_norm * bands.fraction[bands.band[p]]
     return Instances(p, j, w, bands.band[p], np.arange(bands.num_bands), n_ref)
 
 
@@ -589,14 +634,12 @@ def reference_flux(
     partition: str = "fixed",
     fixed_fraction: float = 1.0,
     contact_temperature: str = "flash",
-    flash_width: str = "hertz",
-    flash_half_width_m: float | None = None,
+    band_model: BandModel = DEFAULT_BAND_MODEL,
 ) -> tuple[np.ndarray, FluxState, ContactBands]:
     """Revolution-averaged friction flux (W/m²) into ``body`` on the sector facets of its reference
     tooth (``cycle.fields[body]``) at pinion speed ``speed_rpm`` for the law ``law``, with the flank
     temperature ``flank_K`` (one value, or one per sector facet) and the contact temperature
-    ``contact_temperature`` (flash on the bands' ``flash_width``, ``flash_half_width_m`` when
-    stated). ``fixed_fraction = 1`` gives
+    ``contact_temperature`` (the bands read by ``band_model``). ``fixed_fraction = 1`` gives
     the heat generated (the cycle's ``generated_flux_W_m2_per_rad_s`` times omega for its own
     constant mu)."""
     bands = contact_bands(
@@ -606,8 +649,7 @@ def reference_flux(
         speed_rpm,
         partition,
         fixed_fraction,
-        flash_width=flash_width,
-        flash_half_width_m=flash_half_width_m,
+        band_model=band_model,
     )
     inst = reference_instances(cycle, bands)
     model = FrictionFlux(law, bands, inst, contact_temperature)
@@ -642,8 +684,7 @@ class ThermalFrictionFlux:
         partition: str,
         fixed_fraction: float,
         contact_temperature: str,
-        flash_width: str = "hertz",
-        flash_half_width_m: float | None = None,
+        band_model: BandModel = DEFAULT_BAND_MODEL,
     ) -> None:
         from dolfinx import fem
 
@@ -656,8 +697,7 @@ class ThermalFrictionFlux:
             partition,
             fixed_fraction,
             NEGLIGIBLE_HEAT,
-            flash_width,
-            flash_half_width_m,
+            band_model,
         )
         self.bands = bands
         ref = reference_instances(cycle, bands)
@@ -732,4 +772,5 @@ __all__ = [
     "contact_bands",
     "reference_flux",
     "reference_instances",
+    "tooth_balance",
 ]

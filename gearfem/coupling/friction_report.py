@@ -25,7 +25,7 @@ from dolfinx.fem.petsc import assemble_vector
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from gearfem.contact.friction import FrictionLaw
+from gearfem.contact.friction import DEFAULT_BAND_MODEL, BandModel, FrictionLaw
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.coupling.friction_heat import FluxState, ThermalFrictionFlux
 from gearfem.coupling.options import FluxReconstruction
@@ -35,8 +35,7 @@ from gearfem.coupling.transfer import FlankTransfer
 def friction_model(
     problem, gear_mesh, body: str, cycle, law: FrictionLaw, materials, speed_rpm: float,
     partition: str, fixed_fraction: float, contact_temperature: str,
-    reconstruction: FluxReconstruction | None = None, flash_width: str = "hertz",
-    flash_half_width_m: float | None = None,
+    reconstruction: FluxReconstruction | None = None, band_model: BandModel = DEFAULT_BAND_MODEL,
 ) -> ThermalFrictionFlux:  # fmt: skip
     """The temperature-dependent friction flux of ``law`` on ``problem``'s mesh (the sources' own
     model when they have one; collective)."""
@@ -56,8 +55,7 @@ def friction_model(
         partition,
         fixed_fraction,
         contact_temperature,
-        flash_width,
-        flash_half_width_m,
+        band_model,
     )
 
 

@@ -157,8 +157,7 @@ def cycle_heat_sources(
                 options.heat_partition,
                 fraction,
                 "flank",
-                friction.flash_width,  # the bands' widths set Blok's partition
-                friction.flash_half_width_m,
+                friction.band_model,  # the bands' widths set Blok's partition
             )
             flux, names = friction_flux_function(
                 domain,
@@ -182,8 +181,7 @@ def cycle_heat_sources(
                 options.heat_partition,
                 fraction,
                 friction.contact_temperature,
-                friction.flash_width,
-                friction.flash_half_width_m,
+                friction.band_model,
             )
     return HeatSources(**kw)
 
