@@ -43,8 +43,8 @@ but shrinks with the mesh where a tip round enters (a corner, whose pressure pea
 converge), so that the flash there, growing as the inverse square root of the width, is set by
 the mesh; or ``"stated"``, one half-width for every band, ``flash_half_width_um`` (a length the
 mesh does not change: the flash of a band is then its heat over that width, an integral of the
-pressure, whatever the shape of its peak). ``pass_balance`` says how each gear's pass of the two-pass
-contact lays its heat out: ``"cycle"`` (default), scaled once over the cycle to the mesh's
+pressure, whatever the shape of its peak). ``pass_balance`` says how each gear's pass of the
+two-pass contact lays its heat out: ``"cycle"`` (default), scaled once over the cycle to the mesh's
 friction power, as the cycle's own flux; ``"tooth"``, scaled at every position and tooth to the
 load of the tooth pair, which the passes split unevenly where they disagree
 (:func:`gearfem.coupling.friction_heat.tooth_balance`).
