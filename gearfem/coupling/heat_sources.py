@@ -112,7 +112,8 @@ def cycle_heat_sources(
     ``heat_partition = "blok"``), so the cached cycle does not depend on the split.
 
     ``friction`` (the ``[friction]`` law, None: the cycle's constant mu): the cycle's own constant
-    mu with the fixed split is today's flux, as the cycle computed it; a law that does not depend on
+    mu with the fixed split and the cycle's scale of the passes is today's flux, as the cycle
+    computed it; a law that does not depend on
     temperature (another constant, pressure and sliding-speed factors, Blok's partition) is
     recomputed once from the contact history
     (:func:`gearfem.coupling.friction_heat.reference_flux`); a law that depends on temperature
@@ -141,6 +142,7 @@ def cycle_heat_sources(
             law.is_constant
             and law.mu0 == cycle.friction_coefficient
             and (options.heat_partition == "fixed")
+            and friction.pass_balance == "cycle"  # the cycle's flux is scaled as the cycle's
         ):
             flux, names = friction_flux_function(
                 domain, gear_mesh, body, fields, omega1, fraction, reconstruction=reconstruction
