@@ -18,11 +18,16 @@ file against ``--case`` (default: the built-in case, whose refinement studies gi
 ``OUT/bench_verdict``, compares the baseline's hottest nodes with its camera reading (how much of
 the gap the instrument model closes), and writes the verdict, ranking, gain and the suggested
 measurements into docs/diagnosis.md (block ``bench_verdict``) with its plots in
-docs/images/diagnosis/bench_verdict_*.png.
+docs/images/diagnosis/bench_verdict_*.png. With ``--pass-balance tooth --flash-half-width-um
+W`` the verdict is taken on the model whose switching temperature converges (each gear's pass of
+the contact history balanced to its tooth pair's load, every flash on a stated half-width W;
+docs/friction.md, "The switching temperature, width by width") and written into the block
+``bench_verdict_balanced`` (plots ``bench_verdict_balanced_*.png``) instead.
 
 Run (each point's structural cycle is cached after its first run):
     mpirun -n 2 python demos/bench_camera.py [--case CASE.toml] [--out results]
         [--diagnose DIAG_CASE.toml] [--verdict --skip-runs]
+        [--pass-balance tooth --flash-half-width-um 100]
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import case_to_dict, load_case
+from gearfem.contact.friction import PASS_BALANCES
 from gearfem.core.doctables import Provenance, markdown_table, replace_block
 from gearfem.core.errors import ParameterError
 from gearfem.core.io import read_json
@@ -62,6 +68,63 @@ from gearfem.uncertainty import DIAGNOSIS_CODE, provenance
 ROOT = Path(__file__).resolve().parent.parent
 #: The bench measurements gearfem ships (package data; no file outside the clone is read).
 BENCH = Path(str(resources.files("gearfem") / "data" / "testbench" / "thesis_testbench.csv"))
+
+
+@dataclasses.dataclass(frozen=True)
+class VerdictModel:
+    """The model a verdict is taken on: the case's own (``pass_balance`` None) or the case with
+    ``[friction] pass_balance`` and a stated flash half-width (um), and the docs block it goes
+    to."""
+
+    pass_balance: str | None = None
+    flash_half_width_um: float | None = None
+
+    def __post_init__(self) -> None:
+        if (self.pass_balance is None) != (self.flash_half_width_um is None):
+            raise ParameterError(
+                "--pass-balance and --flash-half-width-um go together (the balanced model): got "
+                f"{self.pass_balance!r} and {self.flash_half_width_um!r}"
+            )
+
+    @property
+    def block(self) -> str:
+        return "bench_verdict" if self.pass_balance is None else "bench_verdict_balanced"
+
+    @property
+    def flags(self) -> str:
+        if self.pass_balance is None:
+            return ""
+        return (
+            f" --pass-balance {self.pass_balance} "
+            f"--flash-half-width-um {self.flash_half_width_um:g}"
+        )
+
+    @property
+    def describe(self) -> str:
+        if self.pass_balance is None:
+            return ""
+        return (
+            f"; friction heat with pass_balance {self.pass_balance!r} and every flash on a stated "
+            f"half-width of {self.flash_half_width_um:g} um"
+        )
+
+    def demote(self, lines: list[str]) -> list[str]:
+        """``lines`` with their ``##`` headings two levels down in the balanced model's block
+        (a subsection of the page's bench section)."""
+        if self.pass_balance is None:
+            return lines
+        return ["##" + ln if ln.startswith("## ") else ln for ln in lines]
+
+    def apply(self, case):
+        if self.pass_balance is None:
+            return case
+        fr = dataclasses.replace(
+            case.friction,
+            pass_balance=self.pass_balance,
+            flash_width="stated",
+            flash_half_width_um=self.flash_half_width_um,
+        )
+        return dataclasses.replace(case, friction=fr)
 
 
 def _run(case, out: Path, comm) -> RunSummary:
@@ -114,14 +177,29 @@ def main() -> None:
         help="after --verdict: gearfem run on the winner's case files at the bench points, "
         "into README.md (block readme_verdict)",
     )
+    p.add_argument(
+        "--pass-balance",
+        choices=PASS_BALANCES,
+        default=None,
+        help="with --verdict: the model's [friction] pass_balance (with --flash-half-width-um; "
+        "block bench_verdict_balanced)",
+    )
+    p.add_argument(
+        "--flash-half-width-um",
+        type=float,
+        default=None,
+        help="with --verdict: every flash on this stated half-width ([friction] flash_width = "
+        '"stated")',
+    )
     p.add_argument("--skip-runs", action="store_true", help="only the diagnosis")
     a = p.parse_args()
+    model = VerdictModel(a.pass_balance, a.flash_half_width_um)
     setup_logging()  # $GEARFEM_LOG_LEVEL or INFO, rank 0
     comm = MPI.COMM_WORLD
     if a.diagnose:
         diagnosis(a.diagnose, Path(a.out) / "bench_diagnosis", comm, doc=not a.no_doc)
     if a.verdict:
-        verdict(a.case, Path(a.out) / "bench_verdict", comm, not a.no_doc, a.suggest_points)
+        verdict(a.case, Path(a.out) / "bench_verdict", comm, not a.no_doc, a.suggest_points, model)
     if a.confirm:
         confirm(a.case, Path(a.out) / "bench_verdict", comm, not a.no_doc, a.confirm)
     if a.reproduce:
@@ -281,12 +359,19 @@ def _grid(case, points: str | None) -> Grid | None:
     )
 
 
-def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | None = None) -> None:
+def verdict(
+    case_path: str | None,
+    out: Path,
+    comm,
+    doc: bool,
+    points: str | None = None,
+    model: VerdictModel = VerdictModel(),
+) -> None:
     """Issue 16's second round: ``gearfem diagnose --suggest`` of the bench (as camera_max)
-    against ``case_path`` (None: the built-in case); its verdict, the instrument model's share of
-    the gap, the ranking and the suggested measurements into docs/diagnosis.md (block
-    ``bench_verdict``), its plots into docs/images/diagnosis/."""
-    case = load_case(case_path)
+    against ``case_path`` (None: the built-in case) as ``model`` sets it; its verdict, the
+    instrument model's share of the gap, the ranking and the suggested measurements into
+    docs/diagnosis.md (block ``model.block``), its plots into docs/images/diagnosis/."""
+    case = model.apply(load_case(case_path))
     data = read_csv(BENCH)
     grid = _grid(case, points)
     r = run_diagnosis(data, case, out, comm, max_size=2, suggest_next=True, grid=grid)
@@ -358,7 +443,7 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
         [
             table,
             "",
-            f"Case {case.name!r} ({case_path or 'built-in'}), thermal degree "
+            f"Case {case.name!r} ({case_path or 'built-in'}{model.describe}), thermal degree "
             f"{case.thermal.degree}; u_num: {r.vv20['u_num_method']}. Model minus bench, "
             f"{closes}.",
             "",
@@ -388,15 +473,15 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
                 if r.fold_margins
                 else []
             ),
-            *(suggestion_markdown(r.suggestion) if r.suggestion is not None else []),
+            *(model.demote(suggestion_markdown(r.suggestion)) if r.suggestion is not None else []),
             "",
             *(
-                f"![{n}](images/diagnosis/bench_verdict_{n}.png)\n"
+                f"![{n}](images/diagnosis/{model.block}_{n}.png)\n"
                 for n in images
                 if (out / f"{n}.png").is_file()
             ),
             f"Measured by `mpirun -n {comm.size} python demos/bench_camera.py --verdict "
-            f"--skip-runs{' --case ' + case_path if case_path else ''}"
+            f"--skip-runs{' --case ' + case_path if case_path else ''}{model.flags}"
             f"{' --suggest-points ' + points if points else ''}` (report: "
             f"{_relative(out)}/report.md; {r.surrogate['full_model_solves']} full-model solves "
             f"for the diagnosis' surrogate; 1-minute load average {os.getloadavg()[0]:.1f} at "
@@ -410,10 +495,10 @@ def verdict(case_path: str | None, out: Path, comm, doc: bool, points: str | Non
                 if (out / f"{n}.png").is_file():
                     shutil.copyfile(
                         out / f"{n}.png",
-                        ROOT / "docs" / "images" / "diagnosis" / f"bench_verdict_{n}.png",
+                        ROOT / "docs" / "images" / "diagnosis" / f"{model.block}_{n}.png",
                     )
             replace_block(
-                ROOT / "docs" / "diagnosis.md", "bench_verdict", text, _provenance(r.provenance)
+                ROOT / "docs" / "diagnosis.md", model.block, text, _provenance(r.provenance)
             )
 
 

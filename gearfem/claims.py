@@ -68,6 +68,11 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         ),
     ),
     Regeneration(
+        f"{_BENCH_POINTS} --verdict --skip-runs --pass-balance tooth --flash-half-width-um 100 "
+        "--out results/balanced",
+        (("docs/diagnosis.md", "bench_verdict_balanced"),),
+    ),
+    Regeneration(
         "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --docs",
         (("docs/materials.md", "vdi2736_gearfem"),),
     ),

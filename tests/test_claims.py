@@ -102,9 +102,17 @@ def test_each_quoted_block_has_one_command_and_the_commands_run_once_in_order():
     assert {(p, b) for p, names in claims.QUOTED_BLOCKS.items() for b in names} == set(written)
     # the verdict's three blocks stale: its one command (the diagnosis of about 40 min), once;
     # with the headline as well: the bench points' runs first, which the headline reads
-    verdict = [claims.StaleClaim(p, b, "x") for p, b in written if "verdict" in b]
+    verdict = [
+        claims.StaleClaim(p, b, "x") for p, b in written if "verdict" in b and "balanced" not in b
+    ]
     steps = claims.regenerations(verdict)
     assert len(steps) == 1 and "--verdict" in steps[0].command
+    # the verdict on the balanced model: a diagnosis of its own, into its own block
+    balanced = claims.regenerations(
+        [claims.StaleClaim("docs/diagnosis.md", "bench_verdict_balanced", "x")]
+    )
+    assert len(balanced) == 1 and "--pass-balance tooth" in balanced[0].command
+    assert balanced[0].command != steps[0].command
     headline = claims.StaleClaim("README.md", "readme_headline", "x")
     steps = claims.regenerations([headline, *verdict])
     assert "benchmarks/headline.py" in steps[0].command and "--verdict" in steps[1].command
