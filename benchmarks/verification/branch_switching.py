@@ -59,22 +59,39 @@ POINTS = ((1000.0, 8.0), (2000.0, 4.0))
 AMBIENT_C = 21.0
 
 
+#: The entry refinement: ``[mesh] size_entry_mm`` x 1.5, x 1, / 1.5 (coarse to fine).
+ENTRY_FACTORS = (1.5, 1.0, 1.0 / 1.5)
+#: The tip-round radii besides the case's, in modules (0.1 and 0.3 mm for m = 2 mm).
+TIP_ROUND_COEFFICIENTS = (0.05, 0.15)
+
+
+def entry_variants(case) -> list[tuple[float, object]]:
+    """(entry element size in mm, case) of the entry refinement, coarse to fine."""
+    m = case.mesh
+    out = []
+    for f in ENTRY_FACTORS:
+        mesh = dataclasses.replace(m, size_entry_mm=round(m.size_entry_mm * f, 6))
+        out.append((mesh.size_entry_mm, dataclasses.replace(case, mesh=mesh)))
+    return out
+
+
+def tip_round_variants(case) -> list[tuple[float, object]]:
+    """(tip-round coefficient, case) of the other tip-round radii."""
+    g = case.geometry
+    return [
+        (c, dataclasses.replace(case, geometry=dataclasses.replace(g, tip_round_coefficient=c)))
+        for c in TIP_ROUND_COEFFICIENTS
+    ]
+
+
 def variants(case, which: tuple[str, ...]):
     """(label, case) of every variant."""
     out = []
-    m, g = case.mesh, case.geometry
     if "entry" in which:
-        for f in (1.5, 1.0, 1.0 / 1.5):
-            mesh = dataclasses.replace(m, size_entry_mm=round(m.size_entry_mm * f, 6))
-            out.append(
-                (f"entry {mesh.size_entry_mm * 1e3:.1f} um", dataclasses.replace(case, mesh=mesh))
-            )
+        out += [(f"entry {e * 1e3:.1f} um", c) for e, c in entry_variants(case)]
     if "tip_radius" in which:
-        for c in (0.05, 0.15):
-            geo = dataclasses.replace(g, tip_round_coefficient=c)
-            out.append(
-                (f"tip round {c * g.module_mm:.2f} mm", dataclasses.replace(case, geometry=geo))
-            )
+        module = case.geometry.module_mm
+        out += [(f"tip round {k * module:.2f} mm", c) for k, c in tip_round_variants(case)]
     if "flash_width" in which:
         fr = dataclasses.replace(case.friction, flash_width="profile", flash_half_width_um=None)
         out.append(("flash on the profile width", dataclasses.replace(case, friction=fr)))

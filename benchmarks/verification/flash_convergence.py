@@ -32,6 +32,9 @@ import math
 import time
 
 import numpy as np
+
+# the branch study's bench points and variants (this script's folder is on sys.path when run)
+from branch_switching import POINTS, TIP_ROUND_COEFFICIENTS, entry_variants, tip_round_variants
 from mpi4py import MPI
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
@@ -51,11 +54,6 @@ from gearfem.coupling.friction_heat import (
 )
 from gearfem.geometry.options import BODIES
 from gearfem.uncertainty import provenance
-
-POINTS = ((1000.0, 8.0), (2000.0, 4.0))
-ENTRY_FACTORS = (1.5, 1.0, 1.0 / 1.5)
-#: The tip-round radii of the branch study, in modules (0.1 and 0.3 mm for m = 2 mm).
-TIP_ROUND_COEFFICIENTS = (0.05, 0.15)
 
 
 def nominal_half_width_m(case, torque_Nm: float) -> float:
@@ -185,27 +183,13 @@ def main() -> None:
     models = [(w, half, b) for b in a.pass_balance for w, half in widths]
     flank_K = a.flank_C + ZERO_CELSIUS_K
     t0 = time.perf_counter()
-    m, g = base.mesh, base.geometry
-    entry = [round(m.size_entry_mm * f, 6) for f in ENTRY_FACTORS]
-    levels = [
-        gear_rows(
-            dataclasses.replace(base, mesh=dataclasses.replace(m, size_entry_mm=e)),
-            comm,
-            a.mu_glassy,
-            models,
-            flank_K,
-        )
-        for e in entry
-    ]
+    g = base.geometry
+    entries = entry_variants(base)
+    entry = [e for e, _ in entries]
+    # one gear_rows per variant case: the entry refinement (coarse to fine), the tip rounds
+    levels = [gear_rows(c, comm, a.mu_glassy, models, flank_K) for _, c in entries]
     rounds = {
-        c: gear_rows(
-            dataclasses.replace(base, geometry=dataclasses.replace(g, tip_round_coefficient=c)),
-            comm,
-            a.mu_glassy,
-            models,
-            flank_K,
-        )
-        for c in TIP_ROUND_COEFFICIENTS
+        k: gear_rows(c, comm, a.mu_glassy, models, flank_K) for k, c in tip_round_variants(base)
     }
     rows = []
     split = []
