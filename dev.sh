@@ -150,7 +150,7 @@ case "$cmd" in
     mpi_timeout="${GEARFEM_MPI_TEST_TIMEOUT:-1200}"
     rc=0
     run_pytest timeout "$mpi_timeout" "$(mpirun_cmd)" -n "$MPI_NP" \
-      "$VENV/bin/python" -m pytest "${mpi_mark[@]}" -p no:cacheprovider "$@" || rc=$?
+      "$VENV/bin/python" -m pytest "${mpi_mark[@]}" -p no:cacheprovider --durations=15 "$@" || rc=$?
     if [[ $rc -eq 124 ]]; then
       die "the mpirun -n $MPI_NP tests did not finish in GEARFEM_MPI_TEST_TIMEOUT=$mpi_timeout s (a rank waiting for one that failed? see [rank N] FAILED above)"
     fi
