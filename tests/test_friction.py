@@ -14,6 +14,7 @@ tests/test_cycle.py next to the cycle they use.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import types
 
@@ -525,3 +526,19 @@ def test_steady_runs_of_a_rising_law_take_the_lowest_steady_state(tmp_path):
         records, summ = solve_and_write(prob, tmp_path, write_fields=False, write_plot=False)
     assert summ["steady_state_search"]["branch"] == "lowest"
     assert records[-1].temperatures_K["mean_bulk"] == pytest.approx(branches[0], abs=2e-3)
+
+
+def test_the_cycle_mu_is_rounded_to_a_grid_inside_the_tolerance():
+    """The "law" fixed point solves each cycle at the effective mu rounded to a fiftieth of the
+    tolerance: two runs whose effective mu differs in round-off key the same cycle, and the
+    rounding stays within half a step of the value."""
+    f = FrictionOptions(law="glass_transition", mu_glassy=0.13, cycle_mu="law")
+    assert f.cycle_mu_step == pytest.approx(1e-4)
+    mu = 0.263758123
+    assert f.rounded_cycle_mu(mu) == f.rounded_cycle_mu(mu + 1e-12) == 0.2638
+    assert abs(f.rounded_cycle_mu(mu) - mu) <= 0.5 * f.cycle_mu_step
+    assert f.rounded_cycle_mu(0.5) == 0.5
+    coarse = dataclasses.replace(f, cycle_mu_tolerance=0.05)
+    assert coarse.rounded_cycle_mu(mu) == 0.264
+    # the band model is built (and checked) once per options
+    assert f.band_model is f.band_model

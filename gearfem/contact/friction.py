@@ -59,7 +59,9 @@ pressures is neglected); ``"law"``, the cycle ↔ heat fixed point in the cycle'
 (:func:`gearfem.pipeline.thermal_stages`): the cycle is solved again at the law's effective
 mu at the run's thermal state, mu_eff = mu_c P_law / P_cycle (the constant mu that dissipates what
 the law does, as the torque meters read it), until mu_c moves by less than ``cycle_mu_tolerance``
-(at most ``cycle_mu_max_passes`` cycles; not converged raises ConvergenceError). One effective mu
+(at most ``cycle_mu_max_passes`` cycles; not converged raises ConvergenceError). Each cycle's
+mu is rounded to a fiftieth of the tolerance (:meth:`FrictionOptions.cycle_mu_step`), so that runs
+whose effective mu differs in round-off solve and store the same cycle. One effective mu
 is a first-order coupling: the law's mu differs between contacts and the cycle takes one value for
 all of them. Numpy only (no DOLFINx): ``config`` reads it.
 
@@ -72,6 +74,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import functools
 import io
 import math
 from pathlib import Path
@@ -156,12 +159,20 @@ class BandModel:
     def __post_init__(self) -> None:
         require_choice("friction.flash_width", self.flash_width, FLASH_WIDTHS)
         require_choice("friction.pass_balance", self.pass_balance, PASS_BALANCES)
-        if (self.flash_width == "stated") != (self.flash_half_width_m is not None):
+        lo, hi = FLASH_HALF_WIDTH_RANGE_UM
+        # the case's key is in um: its value as typed (to round-off of the m it is held in)
+        um = None if self.flash_half_width_m is None else round(self.flash_half_width_m * 1e6, 6)
+        if self.flash_width == "stated" and um is None:
+            allowed = f"[{lo:g}, {hi:g}] um for flash_width 'stated'"
+            raise ParameterError("friction.flash_half_width_um", None, allowed)
+        if self.flash_width != "stated" and um is not None:
             raise ParameterError(
                 "friction.flash_half_width_um",
-                self.flash_half_width_m,
-                "a half-width exactly when flash_width is 'stated'",
+                um,
+                "absent unless flash_width = 'stated' (it would be ignored)",
             )
+        if um is not None:
+            require_range("friction.flash_half_width_um", um, lo, hi, unit="um")
 
 
 #: The bands as the cycle reads them (its Hertz widths, its scale of the passes).
@@ -222,28 +233,7 @@ class FrictionOptions:
         require_choice(
             "friction.contact_temperature", self.contact_temperature, CONTACT_TEMPERATURES
         )
-        require_choice("friction.flash_width", self.flash_width, FLASH_WIDTHS)
-        require_choice("friction.pass_balance", self.pass_balance, PASS_BALANCES)
-        if self.flash_width == "stated":
-            if self.flash_half_width_um is None:
-                lo, hi = FLASH_HALF_WIDTH_RANGE_UM
-                raise ParameterError(
-                    "friction.flash_half_width_um",
-                    None,
-                    f"[{lo:g}, {hi:g}] um for flash_width 'stated'",
-                )
-            require_range(
-                "friction.flash_half_width_um",
-                self.flash_half_width_um,
-                *FLASH_HALF_WIDTH_RANGE_UM,
-                unit="um",
-            )
-        elif self.flash_half_width_um is not None:
-            raise ParameterError(
-                "friction.flash_half_width_um",
-                self.flash_half_width_um,
-                "absent unless flash_width = 'stated' (it would be ignored)",
-            )
+        _ = self.band_model  # built here: the flash width, its half-width and pass balance checked
         own = {
             "constant": ("mu",),
             "table": ("table_file", "table_C"),
@@ -390,8 +380,21 @@ class FrictionOptions:
         return FrictionLaw(self, float(cycle_mu))
 
     @property
+    def cycle_mu_step(self) -> float:
+        """The grid the cycle's mu of the ``"law"`` fixed point is rounded to: a fiftieth of
+        ``cycle_mu_tolerance`` (1e-4 by default), well inside it."""
+        return self.cycle_mu_tolerance / 50.0
+
+    def rounded_cycle_mu(self, mu: float) -> float:
+        """``mu`` on the :attr:`cycle_mu_step` grid (the value the cycle is solved and keyed
+        with: a run whose effective mu differs in round-off finds the same stored cycle)."""
+        step = self.cycle_mu_step
+        return float(f"{round(float(mu) / step) * step:.12g}")
+
+    @functools.cached_property
     def band_model(self) -> BandModel:
-        """How the contact history's bands are read (width of the flash, scale of the passes)."""
+        """How the contact history's bands are read (width of the flash, scale of the passes);
+        built, and so validated, once per options."""
         half = None if self.flash_half_width_um is None else self.flash_half_width_um * 1e-6
         return BandModel(self.flash_width, half, self.pass_balance)
 

@@ -226,13 +226,14 @@ def contact_bands(
     sel = np.flatnonzero(h.of(body))
     if band_model.pass_balance == "tooth":
         scale = tooth_balance(h, 0.5 * cycle.base_pitch_m)
-    else:
-        scale = np.ones(h.num_points)
-    pressure = h.pressure_Pa * scale
-    cycle_heat = h.pressure_Pa[sel] * h.dissipation_speed_m_s[sel] * h.weight_m2[sel]
+        pressure = h.pressure_Pa * scale
+        # the scaled pass's heat is normalised as the cycle's was (to the mesh's friction power)
+        work = h.dissipation_speed_m_s[sel] * h.weight_m2[sel]
+        scaled = float(np.sum(pressure[sel] * work))
+        heat_norm = float(np.sum(h.pressure_Pa[sel] * work)) / scaled if scaled > 0 else 1.0
+    else:  # the cycle's own scale of the pass
+        scale, pressure, heat_norm = None, h.pressure_Pa, 1.0
     heat_all = pressure[sel] * h.dissipation_speed_m_s[sel] * omega * h.weight_m2[sel]
-    # the pass's heat, scaled, is normalised as the cycle's was (to the mesh's friction power)
-    heat_norm = float(np.sum(cycle_heat) * omega / np.sum(heat_all)) if np.any(heat_all) else 1.0
     total = float(np.sum(heat_all))
     keep = heat_all > negligible * total if total > 0 else heat_all > 0
     dropped = float(np.sum(heat_all[~keep]) / total) if total > 0 else 0.0
@@ -246,7 +247,8 @@ def contact_bands(
     hb = np.maximum(np.bincount(band, weights=hw, minlength=nb), 1e-300)
     first = np.zeros(nb, dtype=np.int64)
     first[band[::-1]] = np.arange(len(band))[::-1]
-    band_scale = scale[ev][first]  # one scale per band (a band lies on one tooth)
+    # one scale per band (a band lies on one tooth)
+    band_scale = scale[ev][first] if scale is not None else np.ones(nb)
     a_hertz = h.hertz_half_width_m[ev][first] * np.sqrt(band_scale)  # a ~ sqrt(load)
     a = h.half_width_m[ev][first]
     if flash_width == "stated":
