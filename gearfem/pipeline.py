@@ -1168,13 +1168,16 @@ def thermal_stages(
     (the steady state when the run computes one), mu_eff = mu_k P_law / P_cycle: P_law the
     friction heat of both gears' models at that state (the torque meters' reading), P_cycle the
     cycle's own friction power at mu_k. It stops when |mu_eff − mu_k| < ``cycle_mu_tolerance``
-    (the last pass is the run's) and otherwise solves again at mu_{k+1} = mu_eff; not converged
+    (the last pass is the run's) and otherwise solves again at mu_{k+1} = mu_eff (rounded to
+    :attr:`~gearfem.contact.friction.FrictionOptions.cycle_mu_step`); not converged
     after ``cycle_mu_max_passes`` cycles raises ConvergenceError with the passes' mu. Each cycle
     is stored under its own mu (the cycle's key holds the contact options). ``on_pass(k, case_k,
     stages_k, pass_k)`` is called after every pass (a study reads more of each)."""
     f = case.friction
     law_mu = case.sources.mode == "cycle" and f.cycle_mu == "law"
     mu = case.contact.friction_coefficient if start_mu is None else float(start_mu)
+    if law_mu and start_mu is not None:
+        mu = f.rounded_cycle_mu(mu)
     passes: list[CycleMuPass] = []
     cycle_s = thermal_s = 0.0  # over every pass
     for k in range(f.cycle_mu_max_passes if law_mu else 1):
@@ -1224,7 +1227,7 @@ def thermal_stages(
             on_pass(k, c, stages, passes[-1] if passes else None)
         if not law_mu or abs(passes[-1].change) < f.cycle_mu_tolerance:
             return stages
-        mu = passes[-1].mu_effective
+        mu = f.rounded_cycle_mu(passes[-1].mu_effective)
     raise ConvergenceError(
         "cycle <-> heat fixed point in the cycle's mu",
         f"the law's effective mu still moved by {passes[-1].change:+.4g} (tolerance "
