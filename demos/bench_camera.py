@@ -45,7 +45,6 @@ from mpi4py import MPI
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
 from gearfem.config import case_to_dict, load_case
-from gearfem.contact.friction import PASS_BALANCES
 from gearfem.core.doctables import Provenance, markdown_table, replace_block
 from gearfem.core.errors import ParameterError
 from gearfem.core.io import read_json
@@ -82,8 +81,10 @@ class VerdictModel:
     def __post_init__(self) -> None:
         if (self.pass_balance is None) != (self.flash_half_width_um is None):
             raise ParameterError(
-                "--pass-balance and --flash-half-width-um go together (the balanced model): got "
-                f"{self.pass_balance!r} and {self.flash_half_width_um!r}"
+                "--flash-half-width-um",
+                self.flash_half_width_um,
+                "given exactly when --pass-balance is (the balanced model): --pass-balance = "
+                f"{self.pass_balance!r}",
             )
 
     @property
@@ -179,7 +180,7 @@ def main() -> None:
     )
     p.add_argument(
         "--pass-balance",
-        choices=PASS_BALANCES,
+        choices=("tooth",),  # the balanced model; "cycle" is the default model's own
         default=None,
         help="with --verdict: the model's [friction] pass_balance (with --flash-half-width-um; "
         "block bench_verdict_balanced)",
