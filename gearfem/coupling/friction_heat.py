@@ -224,16 +224,16 @@ def contact_bands(
         )
     omega = 2.0 * math.pi * speed_rpm / 60.0
     sel = np.flatnonzero(h.of(body))
+    work = h.dissipation_speed_m_s[sel] * h.weight_m2[sel]  # heat per unit pressure and omega
     if band_model.pass_balance == "tooth":
         scale = tooth_balance(h, 0.5 * cycle.base_pitch_m)
         pressure = h.pressure_Pa * scale
         # the scaled pass's heat is normalised as the cycle's was (to the mesh's friction power)
-        work = h.dissipation_speed_m_s[sel] * h.weight_m2[sel]
         scaled = float(np.sum(pressure[sel] * work))
         heat_norm = float(np.sum(h.pressure_Pa[sel] * work)) / scaled if scaled > 0 else 1.0
     else:  # the cycle's own scale of the pass
         scale, pressure, heat_norm = None, h.pressure_Pa, 1.0
-    heat_all = pressure[sel] * h.dissipation_speed_m_s[sel] * omega * h.weight_m2[sel]
+    heat_all = pressure[sel] * work * omega
     total = float(np.sum(heat_all))
     keep = heat_all > negligible * total if total > 0 else heat_all > 0
     dropped = float(np.sum(heat_all[~keep]) / total) if total > 0 else 0.0
@@ -501,6 +501,35 @@ class FlashTable:
         return mu, dmu, (1.0 - t) * h0 + t * h1
 
 
+#: Largest number of (target, group) keys for which :func:`target_group_pairs` marks them in a
+#: dense array (8 bytes a key for the moment it takes); beyond, it sorts.
+DENSE_PAIR_KEYS = 50_000_000
+
+
+def target_group_pairs(
+    target: np.ndarray, group: np.ndarray, num_targets: int, num_groups: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The distinct (target, group) pairs of the instances, ordered by target then group: each
+    instance's pair index, and each pair's target and group (what ``np.unique`` of the keys
+    target * num_groups + group with ``return_inverse`` gives). The keys lie in
+    [0, num_targets * num_groups): below :data:`DENSE_PAIR_KEYS` they are marked in a dense array,
+    linear in the instances (on the built-in case 6 million instances of 1.9 million keys: 0.05 s
+    instead of 0.9 s for the sort)."""
+    stride = max(num_groups, 1)
+    key = target.astype(np.int64) * stride + group
+    n_keys = max(num_targets, 1) * stride
+    if n_keys > DENSE_PAIR_KEYS:
+        unique, pair = np.unique(key, return_inverse=True)
+        pair = pair.ravel()
+    else:
+        seen = np.zeros(n_keys, dtype=bool)
+        seen[key] = True
+        unique = np.flatnonzero(seen)
+        index = np.cumsum(seen, dtype=np.int64) - 1
+        pair = index[key]
+    return (pair, *np.divmod(unique, stride))
+
+
 def _profile(law: FrictionLaw, Tb: np.ndarray, flash0: np.ndarray, n_chunk: int = 50000):
     """Profile-mean mu_T and largest flash temperature of bands at flank temperatures Tb with flash
     temperatures per unit mu flash0 (the Volterra equation of the module docstring). The bands are
@@ -566,10 +595,7 @@ class FrictionFlux:
         self._flash0 = bands.flash_per_flux_K_m2_W[gb] * bands.q0_W_m2[gb] * fg
         # the (target, group) pairs: mu_T and the flash temperature are evaluated per pair
         if pairs is None:
-            stride = max(ng, 1)
-            key = inst.target.astype(np.int64) * stride + inst.group
-            unique, pair = np.unique(key, return_inverse=True)
-            pairs = (pair.ravel(), *np.divmod(unique, stride))
+            pairs = target_group_pairs(inst.target, inst.group, inst.num_targets, ng)
         self._pair, self._pair_target, self._pair_group = pairs
         self._pair_weight = np.bincount(
             self._pair, weights=self._hw * self._fpv, minlength=len(self._pair_target)

@@ -42,6 +42,7 @@ import numpy as np
 
 from gearfem.core.errors import ConvergenceError
 from gearfem.core.newton import NewtonSettings, newton_solve
+from gearfem.core.params import require_int
 from gearfem.core.petsc import ksp_reason, set_options
 
 log = logging.getLogger(__name__)
@@ -49,6 +50,24 @@ log = logging.getLogger(__name__)
 REBUILD_RATIO = 1.25
 ARMIJO = 1e-4
 MAX_HALVINGS = 12
+
+
+@dataclasses.dataclass(frozen=True)
+class Effort:
+    """The most Newton work one solve may take: ``max_it`` iterations (at most the solver's own)
+    and ``max_halvings`` halvings of the step in each backtracking line search. A solve whose
+    failure is itself an answer (a continuation's probe beyond a fold, a check whether a start
+    reaches a state) is given less than the solver's defaults, so that it fails sooner; a solve
+    within the effort ends where it would have with the defaults."""
+
+    max_it: int
+    max_halvings: int = MAX_HALVINGS
+
+    def __post_init__(self) -> None:
+        require_int("thermal Newton effort max_it", self.max_it, 1, 1000)
+        require_int("thermal Newton effort max_halvings", self.max_halvings, 0, MAX_HALVINGS)
+
+
 #: KSP reasons of an indefinite operator or preconditioner (DIVERGED_INDEFINITE_PC,
 #: DIVERGED_INDEFINITE_MAT): CG needs a positive definite Jacobian.
 INDEFINITE_REASONS = (-8, -10)
@@ -326,9 +345,16 @@ class NewtonSolver:
         raise ConvergenceError("thermal Newton", reason, step=where, iteration=it, residual=norm)
 
     # ------------------------------------------------------------------------------------------
-    def solve(self, where: str, linesearch: str = "basic", chord: bool = False) -> int:
+    def solve(
+        self,
+        where: str,
+        linesearch: str = "basic",
+        chord: bool = False,
+        effort: Effort | None = None,
+    ) -> int:
         """Newton from the current T (``linesearch``: "basic" full steps or "bt" backtracking),
-        driven by :func:`gearfem.core.newton.newton_solve`.
+        driven by :func:`gearfem.core.newton.newton_solve`; ``effort`` caps the iterations and
+        the line search's halvings below the solver's (:class:`Effort`).
 
         ``chord``: keep the Jacobian of the first iteration while each iteration reduces the
         residual at least tenfold (a modified Newton method; the converged result is the same,
@@ -337,9 +363,9 @@ class NewtonSolver:
         iterations; raises ConvergenceError on failure.
         """
         settings = NewtonSettings(
-            max_it=self.max_it,
+            max_it=self.max_it if effort is None else min(self.max_it, effort.max_it),
             line_search="full" if linesearch == "basic" else "backtracking",
-            max_halvings=MAX_HALVINGS,
+            max_halvings=MAX_HALVINGS if effort is None else effort.max_halvings,
             armijo=ARMIJO,
             accept_below_tolerance=False,
             on_line_search_failure="raise",

@@ -35,7 +35,7 @@ from gearfem.core.materials import ZERO_CELSIUS_K, Material, STEFAN_BOLTZMANN_W_
 from gearfem.thermal.balance import HeatBalance
 from gearfem.thermal.boundary import ThermalBoundary
 from gearfem.thermal.domain import ThermalDomain
-from gearfem.thermal.newton import NewtonSolver, SolverStatistics
+from gearfem.thermal.newton import Effort, NewtonSolver, SolverStatistics
 from gearfem.thermal.options import ThermalOptions
 from gearfem.thermal.periodic import PeriodicTie
 from gearfem.thermal.properties import antiderivative, antiderivative_ufl, table_ufl
@@ -695,15 +695,19 @@ class ThermalProblem:
     # ------------------------------------------------------------------------------------------
     # steady state
     # ------------------------------------------------------------------------------------------
-    def solve_steady(self) -> StepRecord:
+    def solve_steady(self, effort: Effort | None = None) -> StepRecord:
         """Steady state (from the current T as initial guess). Raises ConvergenceError when Newton
-        fails, e.g. when hysteresis grows faster with T than the losses (thermal runaway)."""
+        fails, e.g. when hysteresis grows faster with T than the losses (thermal runaway).
+        ``effort``: a cap on the Newton work below the options' (a probe whose failure is an
+        answer, :mod:`gearfem.thermal.branches`)."""
         if self._steady_solver is None:
             self._steady_solver = self._make_solver(transient=False)
         self._t.value = self.time_s
         self._steady_solver.set_time_terms(0.0, None)
         its = self._steady_solver.solve(
-            "steady state (no steady solution if the heating runs away)", linesearch="bt"
+            "steady state (no steady solution if the heating runs away)",
+            linesearch="bt",
+            effort=effort,
         )
         self._T_n.x.array[:] = self.T.x.array
         self._a[0].value, self._a[1].value, self._a[2].value = (
