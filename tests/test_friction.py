@@ -30,10 +30,11 @@ from gearfem.config import Case, case_from_dict, case_to_dict
 from gearfem.contact.friction import FrictionOptions
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.materials import ZERO_CELSIUS_K, Material
-from gearfem.coupling.friction_heat import reference_flux
+from gearfem.coupling.friction_heat import reference_flux, target_group_pairs
 from gearfem.cycle.history import ContactHistory
 from gearfem.thermal import HeatSources, ThermalBoundary, ThermalOptions, ThermalProblem
 from gearfem.thermal.branches import continuation, steady_states
+from gearfem.thermal.newton import Effort
 
 C = ZERO_CELSIUS_K
 
@@ -413,15 +414,13 @@ def test_flash_table_matches_the_volterra_solution():
 def test_target_group_pairs_are_numpys_unique(monkeypatch, dense):
     """The (target, group) pairs of the friction flux's instances, by the dense marking and by
     the sort it falls back to for many keys: np.unique of the keys with its inverse, exactly."""
-    from gearfem.coupling import friction_heat as fh
-
     if not dense:
-        monkeypatch.setattr(fh, "DENSE_PAIR_KEYS", 0)
+        monkeypatch.setattr("gearfem.coupling.friction_heat.DENSE_PAIR_KEYS", 0)
     rng = np.random.default_rng(5)
     nt, ng = 300, 40
     target = rng.integers(0, nt, 20000).astype(np.int32)
     group = rng.integers(0, ng, 20000)
-    pair, pt, pg = fh.target_group_pairs(target, group, nt, ng)
+    pair, pt, pg = target_group_pairs(target, group, nt, ng)
     unique, inverse = np.unique(target.astype(np.int64) * ng + group, return_inverse=True)
     np.testing.assert_array_equal(pair, inverse.ravel())
     np.testing.assert_array_equal(pt * ng + pg, unique)
@@ -432,8 +431,6 @@ def test_target_group_pairs_are_numpys_unique(monkeypatch, dense):
 def test_a_probes_effort_caps_newtons_work():
     """A steady solve given an Effort stops at its iterations with the solver's reason, one
     within it ends as without; an effort outside the solver's own is refused by name."""
-    from gearfem.thermal.newton import Effort
-
     prob, law, _ = _lumped(prefix="zd_effort_")
     _, states = _analytic(law)
     with prob:
@@ -446,8 +443,8 @@ def test_a_probes_effort_caps_newtons_work():
             prob.solve_steady(Effort(max_it=its - 1))
         assert err.value.reason.startswith("DIVERGED_MAX_IT") and err.value.iteration == its - 1
         prob.set_initial(TA)
-        capped = prob.solve_steady(Effort(max_it=full.newton_iterations, max_halvings=10))
-        assert capped.newton_iterations == full.newton_iterations
+        capped = prob.solve_steady(Effort(max_it=its, max_halvings=10))
+        assert capped.newton_iterations == its
         assert capped.temperatures_K["mean_bulk"] == pytest.approx(states[0], abs=2e-3)
     with pytest.raises(ParameterError, match="max_it"):
         Effort(max_it=0)
