@@ -26,6 +26,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from gearfem.contact.friction import DEFAULT_BAND_MODEL, BandModel, FrictionLaw
+from gearfem.core.forms import kept_form
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.coupling.friction_heat import FluxState, ThermalFrictionFlux
 from gearfem.coupling.options import FluxReconstruction
@@ -72,7 +73,7 @@ def flank_mean_temperature(problem, transfer: FlankTransfer) -> np.ndarray:
     w = ufl.TestFunction(transfer.Q)
     out = []
     for expr in (problem.T * w * ds, w * ds):
-        b = assemble_vector(fem.form(expr))
+        b = assemble_vector(kept_form(expr))
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         out.append(b.array.copy())
         b.destroy()

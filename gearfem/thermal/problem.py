@@ -31,6 +31,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from gearfem.core.errors import ConvergenceError
+from gearfem.core.forms import kept_derivative_form, kept_form
 from gearfem.core.materials import ZERO_CELSIUS_K, Material, STEFAN_BOLTZMANN_W_m2K4
 from gearfem.thermal.balance import HeatBalance
 from gearfem.thermal.boundary import ThermalBoundary
@@ -171,7 +172,7 @@ class ThermalProblem:
         self._cp_const, self._k_const = cp.is_constant, kT.is_constant
         self._split = self._residual_split(T, v, vol, surf, stored)
 
-        self._content = fem.form(e(T) * dx)
+        self._content = kept_form(e(T) * dx)
         self._w_vol = self._weights(v * dx)
         self._fast_stored = self._cp_const
         self._rho_cp = rho * float(cp.values[0])
@@ -189,11 +190,11 @@ class ThermalProblem:
         self._probes(v)
         self._controller = StepController(options.time_error_K, options.dt_min_s, options.dt_max_s)
         self._dF_dscale = (
-            fem.form(-sum(q * v * m for q, m in self._friction_unscaled))
+            kept_form(-sum(q * v * m for q, m in self._friction_unscaled))
             if self._friction_unscaled
             else None
         )
-        self._capacity_form = fem.form(
+        self._capacity_form = kept_form(
             rho * table_ufl(cp, T) * ufl.TrialFunction(self.V) * v * self._dx
         )
 
@@ -250,13 +251,13 @@ class ThermalProblem:
             Q0 = m.value.function_space
             self._flux_Tbar = fem.Function(Q0, name="surface_mean_temperature_K")
             w0 = ufl.TestFunction(Q0)
-            self._tbar_form = fem.form(T * w0 * dsm)
-            area = assemble_vector(fem.form(w0 * dsm))
+            self._tbar_form = kept_form(T * w0 * dsm)
+            area = assemble_vector(kept_form(w0 * dsm))
             area.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             self._tbar_area = area.array.copy()
             area.destroy()
             self._tbar_vec = assemble_vector(self._tbar_form)
-            self._flux_B = assemble_matrix(fem.form(ufl.TrialFunction(self.V) * w0 * dsm))
+            self._flux_B = assemble_matrix(kept_form(ufl.TrialFunction(self.V) * w0 * dsm))
             self._flux_B.assemble()
             qm = self._const(src.flux_scale) * m.value
             self._friction_unscaled.append((qm, dsm))
@@ -319,10 +320,10 @@ class ThermalProblem:
         evaluated as dot products with the weight vectors ∫φ_i (exactly the same sums); the rest
         as forms. Returns (forms by balance name, fast convection terms)."""
         dx, ds, domain = self._dx, self._ds, self.domain
-        forms: dict[str, Any] = {} if self._fast_stored else {"stored_W": fem.form(stored * dx)}
+        forms: dict[str, Any] = {} if self._fast_stored else {"stored_W": kept_form(stored * dx)}
         names = {"hysteresis": "hysteresis_W", "volumetric": "volumetric_W"}
         for name, q in vol.items():
-            forms[names[name]] = fem.form(q * dx)
+            forms[names[name]] = kept_form(q * dx)
         fast_conv = []  # (h, T_fluid, weights, area) per role with constant h
         exchanges = self.boundary.exchanges()
         if all(not callable(exchanges[r].h_W_m2K) for r in ("teeth", "sides")):
@@ -340,7 +341,7 @@ class ThermalProblem:
                     )
         for name, terms in surf.items():
             if terms and not (name == "convected" and fast_conv):
-                forms[f"{name}_W"] = fem.form(sum(q * m for q, m in terms))
+                forms[f"{name}_W"] = kept_form(sum(q * m for q, m in terms))
         return forms, fast_conv
 
     def _probes(self, v) -> None:
@@ -436,13 +437,13 @@ class ThermalProblem:
     # ------------------------------------------------------------------------------------------
     def _integrate(self, expr) -> float:
 
-        return self.comm.allreduce(fem.assemble_scalar(fem.form(expr)), op=MPI.SUM)
+        return self.comm.allreduce(fem.assemble_scalar(kept_form(expr)), op=MPI.SUM)
 
     def _weights(self, linear_form):
         """The vector int phi_i (assembled once): w . T is the integral of T (exact, same
         quadrature)."""
 
-        w = assemble_vector(fem.form(linear_form))
+        w = assemble_vector(kept_form(linear_form))
         w.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return w
 
@@ -510,16 +511,14 @@ class ThermalProblem:
         F = sp["F_nl_transient"] if transient else sp["F_nl"]
         if isinstance(F, int):  # no sources, no exchange, constant properties: F_nl vanishes
             F = fem.Constant(self.domain.mesh, 0.0) * ufl.TestFunction(self.V) * self._dx
-        dF = ufl.algorithms.expand_derivatives(ufl.derivative(F, self.T))
-        J = None if dF.empty() else fem.form(dF)
         o = self.options
         return NewtonSolver(
             self.T,
-            fem.form(F),
-            J,
-            fem.form(sp["mass"]) if (transient and sp["mass"] is not None) else None,
-            fem.form(sp["stiffness"]) if sp["stiffness"] is not None else None,
-            fem.form(sp["pattern"]),
+            kept_form(F),
+            kept_derivative_form(F, self.T),
+            kept_form(sp["mass"]) if (transient and sp["mass"] is not None) else None,
+            kept_form(sp["stiffness"]) if sp["stiffness"] is not None else None,
+            kept_form(sp["pattern"]),
             f"{self._prefix}{'transient' if transient else 'steady'}_",
             self._petsc_options(),
             rtol=o.newton_rtol,

@@ -39,6 +39,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from gearfem.core.errors import ParameterError
+from gearfem.core.forms import kept_form
 from gearfem.core.materials import Material, TemperatureTable
 from gearfem.core.params import require_nonnegative, require_positive
 from gearfem.thermal.options import PrescribedSources, loading_frequency_Hz
@@ -176,7 +177,7 @@ def prescribed_heat_sources(
     if prescribed.flank_heat_per_gear_W > 0.0:
         ds = ufl.Measure("ds", domain=domain.mesh, subdomain_data=domain.facet_tags)
         area = domain.comm.allreduce(
-            fem.assemble_scalar(fem.form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM
+            fem.assemble_scalar(kept_form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM
         )
         if area <= 0.0:
             raise ParameterError(
