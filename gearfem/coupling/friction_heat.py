@@ -409,8 +409,11 @@ _VOLTERRA = _Volterra.build()
 #: a table 1-128 K further than asked for (32 rows of about 160 for a reach of 512 K) is
 #: reused by every evaluation of the law whose bands' flashes fall under the same multiple.
 FLASH_TABLE_REACH_K = 128.0
-#: How many laws' tables :meth:`FlashTable.of` keeps (about 4 MB each at a reach of 500 K).
-KEPT_FLASH_TABLES = 8
+#: How many bytes of tables :meth:`FlashTable.of` keeps, the most recently used (a table is about
+#: 1 MB at a reach of 128 K, 4 MB at 512 K): a diagnosis's surrogate evaluates the same laws (its
+#: nodes) at every operating point, 10-20 of them per point, so a count of 8 kept none of them
+#: from one point to the next.
+KEPT_FLASH_TABLE_BYTES = 256 * 2**20
 _FLASH_TABLES: dict[tuple, FlashTable] = {}
 
 
@@ -421,9 +424,10 @@ class FlashTable:
     temperature per unit mu, theta0, bilinear interpolation; flank temperatures 200-1000 K in
     0.5 K steps (constant beyond). theta0 lies on a fixed lattice, 0, 12 geometric steps from
     0.01 to 10 K, then 10 + 4 k K up to the largest band's, so the rows of a table do not depend
-    on how far it reaches: :meth:`of` keeps the tables of the last :data:`KEPT_FLASH_TABLES` laws
-    (each reaching a multiple of :data:`FLASH_TABLE_REACH_K`) and a law evaluated again (another
-    operating point, a refinement of the diagnosis) reuses its table. A constant mu_T is
+    on how far it reaches: :meth:`of` keeps the tables of the laws used last, up to
+    :data:`KEPT_FLASH_TABLE_BYTES` (each reaching a multiple of :data:`FLASH_TABLE_REACH_K`), and
+    a law evaluated again (another operating point, a refinement of the diagnosis) reuses its
+    table. A constant mu_T is
     reproduced exactly (every entry equals it)."""
 
     T_K: np.ndarray
@@ -455,7 +459,8 @@ class FlashTable:
     def of(cls, law: FrictionLaw, theta0_max_K: float) -> FlashTable:
         """The table of ``law`` reaching at least ``theta0_max_K``: built up to the next multiple
         of :data:`FLASH_TABLE_REACH_K` and kept by the law's options and the cycle's mu (what
-        mu_T depends on) and that reach, for the last :data:`KEPT_FLASH_TABLES` laws. The same
+        mu_T depends on) and that reach, the most recently used up to
+        :data:`KEPT_FLASH_TABLE_BYTES`. The same
         law and reach give the same table, whichever was asked for first."""
         reach = FLASH_TABLE_REACH_K * max(math.ceil(theta0_max_K / FLASH_TABLE_REACH_K), 1)
         key = (law.options, law.cycle_mu, reach)
@@ -467,9 +472,16 @@ class FlashTable:
         if table is None:
             table = cls.build(law, reach)
         _FLASH_TABLES[key] = table  # the most recent last
-        while len(_FLASH_TABLES) > KEPT_FLASH_TABLES:
+        while len(_FLASH_TABLES) > 1 and (
+            sum(t.nbytes for t in _FLASH_TABLES.values()) > KEPT_FLASH_TABLE_BYTES
+        ):
             _FLASH_TABLES.pop(next(iter(_FLASH_TABLES)))
         return table
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the table's arrays (bytes)."""
+        return sum(a.nbytes for a in (self.T_K, self.theta0_K, self.mu, self.theta_max_K))
 
     def weights(self, theta0_K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Row index and weight of each theta0 in the table."""
