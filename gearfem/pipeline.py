@@ -679,7 +679,13 @@ def _read_and_keep(
     out.mkdir(parents=True, exist_ok=True)
     if snapshot.bodies:
         snapshot.save(out / SNAPSHOT_NAME)
-    return evaluate(instruments, snapshot, out)
+    return evaluate(instruments, snapshot, out, views_dir=camera_views_dir())
+
+
+def camera_views_dir() -> Path:
+    """Where the camera's phase views are stored between runs (``<cache>/camera_views``: a run
+    of another operating point of the same case reads them instead of tracing the rays)."""
+    return cache_root() / "camera_views"
 
 
 SNAPSHOT_NAME = "snapshot.npz"
@@ -715,7 +721,7 @@ def observe(
         path = result / "instruments" / SNAPSHOT_NAME
         snapshot = FieldSnapshot.load(path)
         (out / READINGS_NAME).unlink(missing_ok=True)
-        readings = evaluate(ins, snapshot, out, only=only)
+        readings = evaluate(ins, snapshot, out, only=only, views_dir=camera_views_dir())
         write_json(out / READINGS_NAME, readings)  # last: marks a complete observation
         return readings
 

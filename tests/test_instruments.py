@@ -481,6 +481,37 @@ def test_the_rays_are_traced_once_per_scene(ring):
     assert len(camera_module._VIEWS) == 2
 
 
+def test_stored_views_are_read_by_a_later_process(ring, tmp_path, monkeypatch, caplog):
+    """With a views directory the first camera of a scene stores its phase views (one file); a
+    camera of the same scene in a later process (the in-process views cleared) reads them instead
+    of tracing and reads the same thermogram to the bit; an unreadable file is traced and stored
+    again, with a warning; another pose gets a file of its own."""
+    from gearfem.instruments import camera as camera_module
+
+    def camera(distance_factor=1.0):
+        cam, target = _ring_camera(ring, 1000.0, 6, directional_emissivity="dielectric")
+        o = dataclasses.replace(cam.options, distance_m=cam.options.distance_m * distance_factor)
+        return Camera(o, {"pinion": ring[1]}, 1000.0, 30, target, 21.0, 21.0, ("end",), tmp_path)
+
+    camera_module._VIEWS.clear()
+    (traced,), frames_traced = camera().render()
+    (stored,) = tmp_path.glob("*.npz")
+    camera_module._VIEWS.clear()
+    with monkeypatch.context() as m:
+        m.setattr(Camera, "_phase_view", lambda self, j: pytest.fail("rays traced again"))
+        (read,), frames_read = camera().render()
+    assert np.array_equal(frames_read, frames_traced)
+    assert np.array_equal(read.image_C, traced.image_C) and read.reading == traced.reading
+    stored.write_bytes(stored.read_bytes()[:100])
+    camera_module._VIEWS.clear()
+    with caplog.at_level("WARNING", logger="gearfem.instruments.camera"):
+        (again,), _ = camera().render()
+    assert "unreadable" in caplog.text and again.reading == traced.reading
+    assert len(camera_module.load_views(stored)) == 6  # stored again, whole
+    camera(1.01).render()
+    assert len(list(tmp_path.glob("*.npz"))) == 2
+
+
 def _fill_fraction(prof, r: np.ndarray) -> np.ndarray:
     """Time fraction a point at radius r of the turning pinion's side face is on a tooth: the
     tooth's angular thickness over the pitch (involute part of the flank)."""

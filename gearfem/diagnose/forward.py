@@ -259,7 +259,12 @@ class FullModel:
             def read() -> tuple[dict[Request, float], dict[Request, float]]:
                 times = (None, *self.times_s)
                 labels = tuple(dict.fromkeys(snapshot.label_of(t) for t in times))
-                got = evaluate(case.instruments, snapshot, labels=labels)
+                got = evaluate(
+                    case.instruments,
+                    snapshot,
+                    labels=labels,
+                    views_dir=pipeline.camera_views_dir(),
+                )
                 values = {
                     (q, t): got.value(q, snapshot.label_of(t))
                     for q in self.quantities

@@ -82,8 +82,14 @@ def target_point_m(options, snapshot: FieldSnapshot) -> np.ndarray:
     return np.array([mid[0], mid[1], 0.5 * snapshot.face_width_m])
 
 
-def camera_of(options: InstrumentOptions, snapshot: FieldSnapshot, rows: list[int]) -> Camera:
-    """The camera of ``options`` on the snapshot's gears at the snapshot rows ``rows``."""
+def camera_of(
+    options: InstrumentOptions,
+    snapshot: FieldSnapshot,
+    rows: list[int],
+    views_dir: str | Path | None = None,
+) -> Camera:
+    """The camera of ``options`` on the snapshot's gears at the snapshot rows ``rows`` (its phase
+    views stored in ``views_dir``: :class:`~gearfem.instruments.camera.Camera`)."""
     cam = options.camera
     missing = [b for b in ("pinion", "wheel") if b not in snapshot.bodies]
     if missing:
@@ -107,6 +113,7 @@ def camera_of(options: InstrumentOptions, snapshot: FieldSnapshot, rows: list[in
         amb if cam.surroundings_C is None else cam.surroundings_C,
         amb if cam.background_C is None else cam.background_C,
         tuple(snapshot.labels[i] for i in rows),
+        views_dir,
     )
 
 
@@ -116,10 +123,12 @@ def evaluate(
     out_dir: str | Path | None = None,
     labels: tuple[str, ...] | None = None,
     only: tuple[str, ...] | None = None,
+    views_dir: str | Path | None = None,
 ) -> InstrumentReadings:
     """Read every configured instrument (or those named in ``only``: ``camera``, ``probes``,
     ``torque``) at the snapshot's labels (or ``labels``); with ``out_dir`` write the thermogram
-    of each label (``thermogram_<label>.png`` and ``.csv``). Not collective: call on one rank."""
+    of each label (``thermogram_<label>.png`` and ``.csv``); the camera's phase views stored in
+    ``views_dir`` (a later run of the same scene reads them). Not collective: call on one rank."""
     only = INSTRUMENTS if only is None else tuple(only)
     for name in only:
         if name not in INSTRUMENTS:
@@ -129,7 +138,7 @@ def evaluate(
     camera: dict[str, CameraReading] = {}
     files: list[str] = []
     if "camera" in only and options.camera.enabled:
-        cam = camera_of(options, snapshot, rows)
+        cam = camera_of(options, snapshot, rows, views_dir)
         thermograms, _ = cam.render()
         for th in thermograms:
             camera[th.reading.label] = th.reading
