@@ -60,6 +60,7 @@ import dataclasses
 import functools
 import logging
 import math
+from importlib import resources
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -769,8 +770,25 @@ def _band_surface_rise_fast(L: float, shape: str, X: np.ndarray, n: int = 200) -
     return out / math.pi
 
 
+#: The shipped table of :func:`compute_band_table` for every band shape (the exact 2D solution at
+#: 61 Peclet numbers, 1.8 s of quadrature per shape and process otherwise), equal to a new
+#: computation to the bit (tests/test_friction.py); :func:`write_band_table` writes it again.
+BAND_TABLE_FILE = "band_source_rise.npz"
+
+
+def _band_table_path():
+    return resources.files("gearfem") / "data" / BAND_TABLE_FILE
+
+
 @functools.cache
 def _band_table(shape: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(log L, max, mean) of :func:`compute_band_table`, read from the shipped table."""
+    _band_shape(shape)  # a shape that is not one of BAND_SHAPES: its error
+    with np.load(_band_table_path()) as z:
+        return z[f"{shape}_logL"], z[f"{shape}_max"], z[f"{shape}_mean"]
+
+
+def compute_band_table(shape: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(log L, max, mean) of k theta sqrt(L) / (q_mean a) on a log grid of Peclet numbers."""
     logL = np.linspace(math.log(_PECLET_TABLE[0]), math.log(_PECLET_TABLE[1]), 61)
     xg, wg = np.polynomial.legendre.leggauss(64)
@@ -785,6 +803,16 @@ def _band_table(shape: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         mx.append(float(max(vals.max(), _band_surface_rise_fast(L, shape, fine).max())))
     s = np.sqrt(np.exp(logL))
     return logL, np.asarray(mx) * s, np.asarray(mn) * s
+
+
+def write_band_table(path=None) -> None:
+    """Compute the table of every band shape and write it to ``path`` (default: the shipped
+    file, gearfem/data/band_source_rise.npz)."""
+    arrays = {}
+    for shape in BAND_SHAPES:
+        for name, a in zip(("logL", "max", "mean"), compute_band_table(shape), strict=True):
+            arrays[f"{shape}_{name}"] = a
+    np.savez(path if path is not None else str(_band_table_path()), **arrays)
 
 
 #: High-Peclet limits of k theta sqrt(L) / (q_mean a) for the band source: maximum and mean

@@ -179,6 +179,18 @@ def test_band_source_low_peclet_limit():
     assert B.peclet_regime(0.05) == "low" and B.peclet_regime(100.0) == "high"
 
 
+@pytest.mark.slow
+def test_shipped_band_table_is_the_computed_one():
+    """gearfem/data/band_source_rise.npz holds what compute_band_table gives, to the bit (after a
+    change of the quadrature: gearfem.baselines.write_band_table() writes it again)."""
+    for shape in B.BAND_SHAPES:
+        shipped, computed = B._band_table(shape), B.compute_band_table(shape)
+        for a, b in zip(shipped, computed, strict=True):
+            assert np.array_equal(a, b), shape
+    with pytest.raises(ParameterError, match="band shape"):
+        B._band_table("triangular")
+
+
 def test_fast_band_integral_matches_adaptive_quadrature():
     for shape in ("uniform", "semi_elliptic"):
         for L in (2e-3, 0.7, 40.0):
