@@ -472,10 +472,9 @@ class FlashTable:
         if table is None:
             table = cls.build(law, reach)
         _FLASH_TABLES[key] = table  # the most recent last
-        while len(_FLASH_TABLES) > 1 and (
-            sum(t.nbytes for t in _FLASH_TABLES.values()) > KEPT_FLASH_TABLE_BYTES
-        ):
-            _FLASH_TABLES.pop(next(iter(_FLASH_TABLES)))
+        kept = sum(t.nbytes for t in _FLASH_TABLES.values())
+        while len(_FLASH_TABLES) > 1 and kept > KEPT_FLASH_TABLE_BYTES:
+            kept -= _FLASH_TABLES.pop(next(iter(_FLASH_TABLES))).nbytes
         return table
 
     @property
@@ -729,9 +728,24 @@ class ThermalFrictionFlux:
         from dolfinx import fem
 
         self.transfer, self.law, self.body = transfer, law, body
+        self._contact = (cycle, materials, speed_rpm, partition, fixed_fraction)
+        self._contact_temperature = contact_temperature
+        self._build(band_model)
+        self.surfaces = transfer.names
+        self.value = fem.Function(transfer.Q, name="flank_flux_W_m2")
+        self.slope = fem.Function(transfer.Q, name="flank_flux_slope_W_m2K")
+        self.may_rise_with_temperature = law.may_rise_with_temperature
+        self.state: FluxState | None = None
+        self.evaluations = 0
+
+    def _build(self, band_model: BandModel) -> None:
+        """The contact bands read by ``band_model``, the instances on the thermal cells and the
+        flux of the law on them (collective)."""
+        transfer = self.transfer
+        cycle, materials, speed_rpm, partition, fixed_fraction = self._contact
         bands = contact_bands(
             cycle,
-            body,
+            self.body,
             materials,
             speed_rpm,
             partition,
@@ -739,7 +753,7 @@ class ThermalFrictionFlux:
             NEGLIGIBLE_HEAT,
             band_model,
         )
-        self.bands = bands
+        self.bands, self.band_model = bands, band_model
         ref = reference_instances(cycle, bands)
         q_ref0 = np.bincount(
             ref.target, weights=bands.heat[ref.point] * ref.weight, minlength=ref.num_targets
@@ -765,14 +779,20 @@ class ThermalFrictionFlux:
             num_targets=transfer.num_cells,
         )
         self.flux = FrictionFlux(
-            law, bands, inst, contact_temperature, transfer.comm, bands.num_bands * nt
+            self.law,
+            bands,
+            inst,
+            self._contact_temperature,
+            transfer.comm,
+            bands.num_bands * nt,
         )
-        self.surfaces = transfer.names
-        self.value = fem.Function(transfer.Q, name="flank_flux_W_m2")
-        self.slope = fem.Function(transfer.Q, name="flank_flux_slope_W_m2K")
-        self.may_rise_with_temperature = law.may_rise_with_temperature
-        self.state: FluxState | None = None
-        self.evaluations = 0
+
+    def set_band_model(self, band_model: BandModel) -> None:
+        """Read the contact history's bands with another :class:`BandModel` from now on (the
+        flash half-width, the passes' balance; the bands, instances and flux built anew, the law
+        kept; collective): the stated flash half-width can be varied on one thermal problem, as
+        the fold margins of :mod:`gearfem.diagnose.margins` do."""
+        self._build(band_model)
 
     def set_law(self, law: FrictionLaw) -> None:
         """Evaluate another friction law on the same contact points from now on (its flash table
