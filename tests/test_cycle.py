@@ -559,6 +559,38 @@ def test_temperature_dependent_law_on_the_gear(loaded):
         assert end == pytest.approx(cold.temperatures_C["max_surface"], abs=2.0)
 
 
+@pytest.mark.slow
+def test_a_flux_set_to_another_stated_flash_width_is_one_built_with_it(loaded):
+    """``ThermalFrictionFlux.set_band_model`` (the fold margins' search in the stated flash
+    half-width, gearfem.diagnose.margins): a glass law's flux switched from 100 to 300 um is, at
+    every target, the flux of one built with 300 um, and switched back the flux it started with;
+    the narrower contact's hotter flash turns more contacts rubbery below T_g (more heat)."""
+
+    def glass(width_um: float) -> FrictionOptions:
+        return FrictionOptions(
+            law="glass_transition",
+            mu_glassy=0.15,
+            flash_width="stated",
+            flash_half_width_um=width_um,
+        )
+
+    def heat(model) -> np.ndarray:  # every target at a flank of 120 C (T_g 143 C)
+        T = np.full(model.flux.inst.num_targets, 120.0 + ZERO_CELSIUS_K)
+        return model.flux.evaluate(T).flux_W_m2
+
+    with _thermal_tiny(loaded, glass(300.0), prefix="tiny_w3_") as p:
+        wide = heat(p.sources.flank_flux_model)
+    with _thermal_tiny(loaded, glass(100.0), prefix="tiny_w1_") as p:
+        model = p.sources.flank_flux_model
+        narrow = heat(model)
+        stated = model.band_model
+        model.set_band_model(dataclasses.replace(stated, flash_half_width_m=300e-6))
+        np.testing.assert_allclose(heat(model), wide, rtol=1e-12, atol=0.0)
+        model.set_band_model(stated)
+        np.testing.assert_array_equal(heat(model), narrow)
+    assert np.sum(narrow) > 1.05 * np.sum(wide)
+
+
 @pytest.mark.mpi
 @pytest.mark.slow
 @pytest.mark.skipif(MPI.COMM_WORLD.size == 1, reason="compares 1 with N ranks: the mpirun tier")
