@@ -597,3 +597,31 @@ def test_the_cycle_mu_is_rounded_to_a_grid_inside_the_tolerance():
     assert coarse.rounded_cycle_mu(mu) == 0.264
     # the band model is built (and checked) once per options
     assert f.band_model is f.band_model
+
+
+def test_a_margin_in_a_parameter_whose_rise_cools_counts_the_other_way():
+    """The fold margin in the stated flash half-width (gearfem.diagnose.margins): a wider contact
+    runs cooler, so the cool branch is traced from the widest width down and the margin is the
+    stated width minus the fold's. A fold at 145 um above a stated 100 um: the point lands hot
+    (-45 um), fragile against ± 50 um, robust against ± 40 um; a fold at 60 um: lands cool
+    (+40 um). A parameter whose rise heats counts fold minus value (the torque, mu_g)."""
+    from gearfem.diagnose.margins import _margin
+    from gearfem.thermal.branches import Fold
+
+    point = (2000.0, 4.0, 21.0)
+    at_145 = Fold(cool=150.0, gone=140.0, limit=33.3, solves=9)
+    hot = _margin(point, "pinion", "flash half-width", "um", 100.0, at_145, 50.0, heat_falls=True)
+    assert hot.fold == 145.0 and hot.margin == -45.0 and hot.lands == "hot" and hot.fragile
+    robust = _margin(
+        point, "pinion", "flash half-width", "um", 100.0, at_145, 40.0, heat_falls=True
+    )
+    assert not robust.fragile
+    at_60 = Fold(cool=65.0, gone=55.0, limit=33.3, solves=9)
+    cool = _margin(point, "wheel", "flash half-width", "um", 100.0, at_60, 50.0, heat_falls=True)
+    assert cool.margin == 40.0 and cool.lands == "cool" and cool.fragile
+    rises = _margin(point, "wheel", "torque", "N m", 4.0, Fold(5.0, 6.0, 12.0, 9), 0.04)
+    assert rises.margin == 1.5 and rises.lands == "cool" and not rises.fragile
+    # no fold within the range: cool over all of it (the branch reached the narrowest width)
+    beyond = Fold(cool=33.3, gone=None, limit=33.3, solves=12)
+    none = _margin(point, "wheel", "flash half-width", "um", 100.0, beyond, 50.0, heat_falls=True)
+    assert none.margin is None and none.lands == "cool" and not none.fragile

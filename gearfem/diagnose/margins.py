@@ -22,6 +22,13 @@ lands on the hot branch and would come down only if p fell by that much. Paramet
   transition moved the other way (glass_transition_C − ΔT): this margin, in kelvin, is also the
   margin of the contact temperature that decides the branch, to be compared with that
   temperature's numerical uncertainty;
+* the **stated flash half-width** (``[friction] flash_width = "stated"``), a modelling choice
+  without a source: the bands read with another width
+  (:meth:`gearfem.coupling.friction_heat.ThermalFrictionFlux.set_band_model`). A wider contact
+  spreads the same heat, so its flash is cooler: the margin is the stated width minus the fold's
+  (positive: lands cool, and jumps if the width shrank by the margin), searched within a factor
+  :data:`FLASH_WIDTH_SPAN` of the stated width and compared with :data:`FLASH_WIDTH_RELATIVE_U`
+  of it;
 * the camera's view, aim and blur change what the camera reads, not the heat balance: they move no
   fold.
 
@@ -41,7 +48,7 @@ from mpi4py import MPI
 
 from gearfem import pipeline
 from gearfem.config import Case
-from gearfem.contact.friction import dma_glass_transition_C
+from gearfem.contact.friction import FLASH_HALF_WIDTH_RANGE_UM, dma_glass_transition_C
 from gearfem.core.results import JsonRecord
 from gearfem.core.tasks import run_split
 from gearfem.diagnose.candidates import LIBRARY, Candidate, apply_all, by_name
@@ -61,11 +68,13 @@ class FoldMargin(JsonRecord):
     """One data point's margin to the fold of one gear in one parameter.
 
     ``value``: the parameter at the verdict; ``fold``: where the gear's cool branch ends (None:
-    not within the searched range); ``margin`` = fold − value (positive: lands cool; negative:
-    lands hot; None: no fold found, i.e. the point stays on the cool branch over the range, or
-    never reaches it); ``uncertainty``: what the parameter is known to (its interval's half-width,
-    the torque meter's uncertainty, the ambient's ± 2 K with the contact temperature's numerical
-    uncertainty); ``fragile``: the fold lies within that uncertainty."""
+    not within the searched range); ``margin`` = fold − value (value − fold for the flash
+    half-width, whose rise cools; positive: lands cool; negative: lands hot; None: no fold
+    found, i.e. the point stays on the cool branch over the range, or never reaches it);
+    ``uncertainty``: what the parameter is known to (its interval's half-width, the torque
+    meter's uncertainty, the ambient's ± 2 K with the contact temperature's numerical
+    uncertainty, a stated flash half-width's :data:`FLASH_WIDTH_RELATIVE_U`); ``fragile``: the
+    fold lies within that uncertainty."""
 
     speed_rpm: float
     torque_Nm: float
@@ -91,10 +100,13 @@ def _margin(
     fold: Fold,
     uncertainty: float,
     to_value=lambda p: p,
+    heat_falls: bool = False,
 ) -> FoldMargin:
+    """``heat_falls``: a parameter whose rise cools the contact (the flash half-width), whose
+    margin is value − fold (positive: lands cool)."""
     f = fold.fold
     fv = to_value(f) if f is not None else None
-    margin = None if fv is None else fv - value
+    margin = None if fv is None else (value - fv if heat_falls else fv - value)
     if margin is not None:
         lands = "cool" if margin > 0.0 else "hot"
     else:  # no fold within the range searched: cool over all of it, or never cool
@@ -207,6 +219,10 @@ def fold_margins(
                     problem.set_friction_scale(1.0)
                     found.append(_margin(point, gear, name, prm.unit, v, fold, half.get(name, 0.0)))
 
+                bm = flux.band_model
+                if bm.flash_width == "stated":
+                    found.append(_flash_width_margin(problem, flux, bm, point, gear))
+
                 # the ambient, to first order every temperature shifted: the law's shifted back;
                 # traced from 60 K cooler (reached from a fifth of the heat) upwards
                 def set_shift(dT):
@@ -236,6 +252,48 @@ def fold_margins(
 
 #: How far the ambient (every temperature) is shifted either way in the search for its fold (K).
 SHIFT_RANGE_K = 60.0
+#: The stated flash half-width's search range: this factor either way of the stated value. The
+#: two lengths docs/friction.md compares, the tip round's Hertz half-width (about 100 um on the
+#: thesis pair) and the nominal load's at the pitch point (about 300 um), differ by it.
+FLASH_WIDTH_SPAN = 3.0
+#: What the stated flash half-width is taken to be known to, as a fraction of itself: a length
+#: without a source (assumed; the switching flank temperature moves by 30-80 K between 100 and
+#: 300 um, docs/friction.md).
+FLASH_WIDTH_RELATIVE_U = 0.5
+
+
+def _flash_width_margin(problem, flux, bm, point, gear: str) -> FoldMargin:
+    """The margin in the stated flash half-width (``[friction] flash_half_width_um``): the bands
+    read with another width (:meth:`ThermalFrictionFlux.set_band_model`), the cool branch traced
+    from the widest of the range (the coolest flash) towards the narrowest."""
+    w = bm.flash_half_width_m * 1e6
+    lo_range, _ = FLASH_HALF_WIDTH_RANGE_UM
+    wide, narrow = w * FLASH_WIDTH_SPAN, max(w / FLASH_WIDTH_SPAN, lo_range)
+
+    def set_width(w_um: float) -> None:
+        flux.set_band_model(dataclasses.replace(bm, flash_half_width_m=w_um * 1e-6))
+
+    set_width(wide)
+    fold = Fold(None, wide, narrow, 0)
+    full, x = cool_at_full_heat(problem)
+    n = full.solves
+    if full.gone is None:
+        fold, y = trace_lowest_branch(problem, set_width, wide, narrow, wide - narrow, x0=x)
+        _destroy(y)
+    _destroy(x)
+    fold = dataclasses.replace(fold, solves=fold.solves + n)
+    problem.set_friction_scale(1.0)
+    flux.set_band_model(bm)
+    return _margin(
+        point,
+        gear,
+        "flash half-width",
+        "um",
+        w,
+        fold,
+        FLASH_WIDTH_RELATIVE_U * w,
+        heat_falls=True,
+    )
 
 
 def _destroy(x) -> None:
