@@ -887,3 +887,34 @@ def test_a_pair_of_two_materials_has_each_gears_material_inputs():
         assert changed.materials[body].emissivity == pytest.approx(e.value + delta)
         assert changed.materials[other] == case.materials[other]
     assert library_material("steel")["emissivity"].interval() == (0.10, 0.80)
+
+
+def test_a_suggestion_with_one_explanation_ranks_nothing():
+    """With one explanation standing, every proposal's expected gain is zero: the report's
+    section says so in a line instead of a table of zeros (and draws no ranking figure); with two,
+    the ranked table."""
+    from gearfem.diagnose.design import Explanation, Grid, Proposal, Suggestion
+    from gearfem.diagnose.report import suggestion_markdown
+
+    grid = Grid((1000.0, 2000.0), (4.0, 8.0), (900.0,), ("camera_max",))
+
+    def proposal(label, gain, expl):
+        return Proposal(
+            "operating point", label, (label,), ("camera_max",), gain, gain / 2,
+            {e.label: [50.0 + i] for i, e in enumerate(expl)}, [2.0],
+        )  # fmt: skip
+
+    one = (Explanation(("friction_glass_transition",), {"friction_glass_transition": 0.13}, 1.0),)
+    two = (*one, Explanation(("convection_scale",), {"convection_scale": 1.3}, 0.5))
+    for expl, separates in ((one, False), (two, True)):
+        gain = 0.4 if separates else 0.0
+        sug = Suggestion(
+            expl, 1.0 if separates else 0.0, grid, 8,
+            (proposal("1000 rpm 4 N m", gain, expl), proposal("2000 rpm 8 N m", gain, expl)),
+            (), "what would decide",
+        )  # fmt: skip
+        text = "\n".join(suggestion_markdown(sug))
+        assert sug.separates == separates
+        assert ("| 1 | operating point | 1000 rpm 4 N m |" in text) == separates
+        assert ("no measurement of the grid is ranked" in text) != separates
+        assert "what would decide" in text

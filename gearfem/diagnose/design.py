@@ -160,6 +160,12 @@ class Suggestion(JsonRecord):
     decisive: tuple[Proposal, ...]
     text: str
 
+    @property
+    def separates(self) -> bool:
+        """Whether there is anything to separate: two or more standing explanations (with one,
+        every proposal's expected gain is zero and the ranking says nothing)."""
+        return len(self.explanations) > 1
+
 
 def reading_uncertainty(quantity: str, value: float, torque_u_Nm: float) -> float:
     """The measurement standard uncertainty of a proposed reading of ``quantity`` that reads

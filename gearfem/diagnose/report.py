@@ -547,7 +547,7 @@ def _plots(
     fig.tight_layout()
     fig.savefig(out / "ranking.png", dpi=110)
     plt.close(fig)
-    if suggestion is not None and suggestion.ranked:
+    if suggestion is not None and suggestion.ranked and suggestion.separates:
         _suggestion_plot(suggestion, out / "suggestion.png", plt)
 
 
@@ -716,7 +716,8 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "![ranking](ranking.png)",
         "",
     ]
-    if report.suggestion is not None and report.suggestion.ranked:
+    sug = report.suggestion
+    if sug is not None and sug.ranked and sug.separates:
         lines += ["![what to measure next](suggestion.png)", ""]
     return "\n".join(lines)
 
@@ -731,15 +732,25 @@ def suggestion_markdown(sug: Suggestion, top: int = 12) -> list[str]:
         f"Grid: speeds {', '.join(f'{x:g}' for x in g.speeds_rpm)} rpm x torques "
         f"{', '.join(f'{x:g}' for x in g.torques_Nm)} N m, warm-up times "
         f"{', '.join(f'{x:g}' for x in g.times_s)} s, instruments {', '.join(g.instruments)} "
-        f"({g.source}). Standing explanations (prior entropy {sug.prior_entropy_bits:.2f} bit): "
-        + ", ".join(f"{e.label} (p = {e.probability:.2f})" for e in sug.explanations)
-        + f"; {sug.draws} simulated outcomes per explanation and proposal.",
-        "",
-        "| rank | kind | measurement | expected information gain (bit) | P(decides) | "
-        "largest separation (u) | full vs surrogate (max) |",
-        "|---|---|---|---|---|---|---|",
+        f"({g.source}). "
+        + (
+            f"Standing explanations (prior entropy {sug.prior_entropy_bits:.2f} bit): "
+            + ", ".join(f"{e.label} (p = {e.probability:.2f})" for e in sug.explanations)
+            + f"; {sug.draws} simulated outcomes per explanation and proposal."
+            if sug.separates
+            else "One explanation standing ("
+            + ", ".join(e.label for e in sug.explanations)
+            + "): nothing to separate, so no measurement of the grid is ranked."
+        ),
     ]
-    for i, p in enumerate(sug.ranked[:top], start=1):
+    if sug.separates:
+        lines += [
+            "",
+            "| rank | kind | measurement | expected information gain (bit) | P(decides) | "
+            "largest separation (u) | full vs surrogate (max) |",
+            "|---|---|---|---|---|---|---|",
+        ]
+    for i, p in enumerate(sug.ranked[:top] if sug.separates else (), start=1):
         full = "" if p.full_max_difference is None else f"{p.full_max_difference:.2g}"
         lines.append(
             f"| {i} | {p.kind} | {p.label} | {p.expected_information_gain_bits:.2f} | "
