@@ -40,9 +40,10 @@ def kept_form(expr: ufl.Form, dtype=default_scalar_type) -> Form:
     if not isinstance(expr, ufl.Form) or expr.empty():
         return fem.form(expr, dtype=dtype)
     key = (expr.signature(), np.dtype(dtype).str)
-    compiled = _kept(key, expr.ufl_domain().ufl_cargo().comm)
+    comm = expr.ufl_domain().ufl_cargo().comm
+    compiled = _kept(key, comm)
     if compiled is None:
-        compiled = _compile(key, expr, dtype)
+        _COMPILED[key] = compiled = _compile(comm, expr, dtype)
     return _attach(
         compiled,
         dtype,
@@ -81,8 +82,7 @@ def kept_derivative_form(F: ufl.Form, u: fem.Function, dtype=default_scalar_type
                 tuple(index[id(c)] for c in dF.coefficients()),
                 tuple(cindex[id(c)] for c in dF.constants()),
             )
-            compiled = (*_compile(key, dF, dtype), places)
-            _COMPILED[key] = compiled
+            _COMPILED[key] = compiled = (*_compile(comm, dF, dtype), places)
     if compiled[0] is None:
         return None
     coefficient_places, constant_places = compiled[3]
@@ -104,18 +104,18 @@ def _kept(key: tuple, comm: MPI.Comm):
     return compiled
 
 
-def _compile(key: tuple, expr: ufl.Form, dtype) -> tuple:
-    """Compile ``expr`` with FFCx (collective over its mesh's communicator) and keep it."""
-    comm = expr.ufl_domain().ufl_cargo().comm
-    compiled = tuple(jit.ffcx_jit(comm, expr, form_compiler_options={"scalar_type": dtype}))
-    _COMPILED[key] = compiled
-    return compiled
+def _compile(comm: MPI.Comm, expr: ufl.Form, dtype) -> tuple:
+    """``expr`` compiled by FFCx (collective over ``comm``, its mesh's communicator): the
+    ``ufcx_form``, its module and code."""
+    return tuple(jit.ffcx_jit(comm, expr, form_compiler_options={"scalar_type": dtype}))
 
 
 def _attach(compiled: tuple, dtype, expr: ufl.Form, spaces, coefficients, constants) -> Form:
     """What :func:`dolfinx.fem.form` attaches to the compiled form: the argument spaces, the
     coefficients in the compiled form's order, the constants, and the integration entities of
-    each subdomain id of each integral type (from ``expr``'s subdomain data)."""
+    each subdomain id of each integral type the compiled form has (from ``expr``'s subdomain
+    data: a derivative's are its residual's, which may have integral types the derivative has
+    not)."""
     ufcx_form, module, code = compiled[:3]
     sd = expr.subdomain_data()
     (domain,) = list(sd.keys())
@@ -133,6 +133,7 @@ def _attach(compiled: tuple, dtype, expr: ufl.Form, spaces, coefficients, consta
     subdomains = {
         fem.IntegralType[name]: get_integration_domains(fem.IntegralType[name], data[0], ids[name])
         for name, data in sd[domain].items()
+        if ids[name]
     }
     cpp = form_cpp_class(dtype)(
         [module.ffi.cast("uintptr_t", module.ffi.addressof(ufcx_form))],
