@@ -918,3 +918,42 @@ def test_a_suggestion_with_one_explanation_ranks_nothing():
         assert ("| 1 | operating point | 1000 rpm 4 N m |" in text) == separates
         assert ("no measurement of the grid is ranked" in text) != separates
         assert "what would decide" in text
+
+
+def test_margins_of_a_pair_split_by_contact_temperature_hold_the_split():
+    """The fold margins trace one gear at a time; a case that splits the friction heat by
+    contact temperature (both gears solved together) is traced with the pinion's share held at
+    the one the verdict's model reaches at that point; any other case as it is."""
+    from gearfem.config import case_from_dict
+    from gearfem.diagnose.forward import ForwardState
+    from gearfem.diagnose.report import margin_case
+
+    class Full:  # the forward model's run at the point: the share its split found
+        def __init__(self):
+            self.asked = []
+
+        def evaluate_state(self, speed, torque, ambient, model):
+            self.asked.append((speed, torque, ambient, model))
+            return ForwardState({}, 1.0, heat_fraction_pinion=0.726)
+
+    params = {"friction_glass_transition": 0.13}
+    split = case_from_dict(
+        {
+            "material": {"name": "steel"},
+            "material_wheel": {"name": "PEEK 450G"},
+            "sources": {"heat_partition": "contact_temperature"},
+        }
+    )
+    full = Full()
+    held = margin_case(split, full, (1000.0, 4.0, 21.0), params)
+    assert full.asked == [(1000.0, 4.0, 21.0, params)]
+    assert held.sources.heat_partition == "fixed"
+    assert held.sources.heat_fraction_pinion == 0.726
+    assert held.materials == split.materials and held.friction == split.friction
+    full = Full()
+    for partition in ("fixed", "blok"):
+        case = dataclasses.replace(
+            split, sources=dataclasses.replace(split.sources, heat_partition=partition)
+        )
+        assert margin_case(case, full, (1000.0, 4.0, 21.0), params) is case
+    assert full.asked == []

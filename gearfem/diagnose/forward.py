@@ -72,6 +72,9 @@ class ForwardState:
     branches: tuple[dict, ...] = ()
     # per camera_max request: the standard deviation of the reading over the sub-pixel aims (K)
     aim_std_K: dict[Request, float] = dataclasses.field(default_factory=dict)
+    # the pinion's share of the friction heat where the case splits it by contact temperature
+    # ([sources] heat_partition = "contact_temperature"; None otherwise)
+    heat_fraction_pinion: float | None = None
 
 
 #: Length of the transient from ambient (s) of the case files the diagnosis writes for its winner
@@ -292,6 +295,11 @@ class FullModel:
             transient_branch=fr.get("transient_branch"),
             branches=tuple(fr.get("branches", ())),
             aim_std_K=aim_std,
+            heat_fraction_pinion=(
+                pipeline.HeatSplit.from_json(summ["heat_split"]).fraction_pinion
+                if "heat_split" in summ
+                else None
+            ),
         )
 
     def _instruments(self, case: Case):

@@ -32,6 +32,11 @@ lands on the hot branch and would come down only if p fell by that much. Paramet
 * the camera's view, aim and blur change what the camera reads, not the heat balance: they move no
   fold.
 
+A case that splits the friction heat by contact temperature (both gears' runs solved together) is
+traced one gear at a time with the pinion's share held at the one the verdict's model reaches at
+the point (:func:`gearfem.diagnose.report.margin_case`): first-order, as the torque's and the
+ambient's margins are.
+
 Method (:func:`gearfem.thermal.branches.trace_lowest_branch`): natural-parameter continuation of
 the cool branch from a value where it exists, stepping towards the fold with step halving. A few
 tens of steady solves per gear and parameter, no transient.

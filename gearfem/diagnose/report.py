@@ -307,16 +307,37 @@ def verdict_margins(
         for n, iv in intervals.items()
         if n in params
     }
-    return fold_margins(
-        case,
-        data.points,
-        params,
-        comm,
-        interval_half_width=half,
-        torque_u_Nm=case.instruments.torque.uncertainty_Nm,
-        temperature_u_K=AMBIENT_U_K,
-        cycle=full.cycle,
-    )
+    out: list[FoldMargin] = []
+    for point in data.points:
+        out += fold_margins(
+            margin_case(case, full, point, params),
+            (point,),
+            params,
+            comm,
+            interval_half_width=half,
+            torque_u_Nm=case.instruments.torque.uncertainty_Nm,
+            temperature_u_K=AMBIENT_U_K,
+            cycle=full.cycle,
+        )
+    return out
+
+
+def margin_case(
+    case: Case, full: FullModel, point: tuple[float, float, float], params: dict[str, float]
+) -> Case:
+    """The case whose gears the fold margins trace at ``point`` (speed, torque, ambient):
+    ``case`` itself, or, where it splits the friction heat by contact temperature (both gears'
+    runs solved together, :func:`gearfem.pipeline.split_by_contact_temperature`), ``case`` with
+    the pinion's share held at the one the model ``params`` reaches there (a run of the full
+    model): a margin traced on one gear with the split held is first-order, as the torque's
+    and the ambient's are (near a fold the split would move with the state)."""
+    src = case.sources
+    if not (src.mode == "cycle" and src.friction and src.heat_partition == "contact_temperature"):
+        return case
+    speed, torque, ambient = point
+    share = full.evaluate_state(speed, torque, ambient, params).heat_fraction_pinion
+    held = dataclasses.replace(src, heat_partition="fixed", heat_fraction_pinion=share)
+    return dataclasses.replace(case, sources=held)
 
 
 def winner_params(result: Diagnosis) -> dict[str, float]:
