@@ -787,8 +787,7 @@ def thermal_problem(
         raise ParameterError(
             "sources.heat_partition",
             src.heat_partition,
-            "'fixed' or 'blok' in a thermal problem of one gear (gearfem thermal, the fold "
-            "margins)",
+            "'fixed' or 'blok' in a thermal problem of one gear (gearfem thermal)",
             "the split by contact temperature solves both gears' runs together: gearfem run",
         )
     # the thermal model meshes only its body: balanced over the ranks
