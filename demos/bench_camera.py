@@ -493,11 +493,11 @@ def verdict(
         print(text)
         if doc:
             for n in images:
+                page_image = ROOT / "docs" / "images" / "diagnosis" / f"{model.block}_{n}.png"
                 if (out / f"{n}.png").is_file():
-                    shutil.copyfile(
-                        out / f"{n}.png",
-                        ROOT / "docs" / "images" / "diagnosis" / f"{model.block}_{n}.png",
-                    )
+                    shutil.copyfile(out / f"{n}.png", page_image)
+                else:  # this diagnosis drew none (a suggestion with nothing to separate)
+                    page_image.unlink(missing_ok=True)
             replace_block(
                 ROOT / "docs" / "diagnosis.md", model.block, text, _provenance(r.provenance)
             )

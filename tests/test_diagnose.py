@@ -957,3 +957,16 @@ def test_margins_of_a_pair_split_by_contact_temperature_hold_the_split():
         )
         assert margin_case(case, full, (1000.0, 4.0, 21.0), params) is case
     assert full.asked == []
+
+
+def test_a_diagnosis_into_a_used_directory_leaves_nothing_of_the_earlier_one(tmp_path):
+    """What an earlier diagnosis wrote and a new one may not write again (its suggestion, its
+    winner's case files) is removed before the new one writes; the rest it overwrites."""
+    from gearfem.diagnose.report import clear_earlier_outputs
+
+    earlier = ("suggestion.png", "suggestion.json", "winner.toml", "winner_1000rpm_8Nm.toml")
+    for name in (*earlier, "report.md", "ranking.png", "data.csv"):
+        (tmp_path / name).write_text("earlier")
+    clear_earlier_outputs(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.csv", "ranking.png", "report.md"]
+    clear_earlier_outputs(tmp_path)  # nothing to remove: no error

@@ -273,6 +273,7 @@ def run_diagnosis(
         provenance=dataclasses.asdict(provenance(case, DIAGNOSIS_CODE)),
     )
     if comm.rank == 0:
+        clear_earlier_outputs(out)
         _plots(result, data, out, suggestion)
         if suggestion is not None:
             write_json(out / "suggestion.json", suggestion)
@@ -287,6 +288,14 @@ def run_diagnosis(
 #: The uncertainty of the bench's ambient (K): what the fold margins in the ambient are compared
 #: with (the recorded air temperature near two gears running at up to 150 C).
 AMBIENT_U_K = 2.0
+
+
+def clear_earlier_outputs(out: Path) -> None:
+    """Remove from ``out`` what an earlier diagnosis into it wrote and a new one may not write
+    again (a suggestion only with ``--suggest`` and two explanations standing, the winner's case
+    files only with a winner), so that none is left to look like the new one's."""
+    for old in (out / "suggestion.png", out / "suggestion.json", *out.glob("winner*.toml")):
+        old.unlink(missing_ok=True)
 
 
 def verdict_margins(
@@ -826,6 +835,7 @@ class DiagnosisReport(JsonRecord):
 
 __all__ = [
     "DiagnosisReport",
+    "clear_earlier_outputs",
     "design_case",
     "markdown",
     "run_diagnosis",
