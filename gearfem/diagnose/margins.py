@@ -222,11 +222,12 @@ def fold_margins(
                     _destroy(x)
                     fold = dataclasses.replace(fold, solves=fold.solves + n)
                     problem.set_friction_scale(1.0)
+                    flux.set_law(law)  # the trace left the law at its last value
                     found.append(_margin(point, gear, name, prm.unit, v, fold, half.get(name, 0.0)))
 
                 bm = flux.band_model
                 if bm.flash_width == "stated":
-                    found.append(_flash_width_margin(problem, flux, bm, point, gear))
+                    found.append(_flash_width_margin(problem, flux, law, bm, point, gear))
 
                 # the ambient, to first order every temperature shifted: the law's shifted back;
                 # traced from 60 K cooler (reached from a fifth of the heat) upwards
@@ -267,10 +268,12 @@ FLASH_WIDTH_SPAN = 3.0
 FLASH_WIDTH_RELATIVE_U = 0.5
 
 
-def _flash_width_margin(problem, flux, bm, point, gear: str) -> FoldMargin:
-    """The margin in the stated flash half-width (``[friction] flash_half_width_um``): the bands
-    read with another width (:meth:`ThermalFrictionFlux.set_band_model`), the cool branch traced
-    from the widest of the range (the coolest flash) towards the narrowest."""
+def _flash_width_margin(problem, flux, law, bm, point, gear: str) -> FoldMargin:
+    """The margin in the stated flash half-width (``[friction] flash_half_width_um``) of the
+    model's ``law``: the bands read with another width
+    (:meth:`ThermalFrictionFlux.set_band_model`), the cool branch traced from the widest of the
+    range (the coolest flash) towards the narrowest."""
+    flux.set_law(law)
     w = bm.flash_half_width_m * 1e6
     lo_range, _ = FLASH_HALF_WIDTH_RANGE_UM
     wide, narrow = w * FLASH_WIDTH_SPAN, max(w / FLASH_WIDTH_SPAN, lo_range)
