@@ -181,12 +181,16 @@ def test_band_source_low_peclet_limit():
 
 @pytest.mark.slow
 def test_shipped_band_table_is_the_computed_one():
-    """gearfem/data/band_source_rise.npz holds what compute_band_table gives, to the bit (after a
-    change of the quadrature: gearfem.baselines.write_band_table() writes it again)."""
+    """gearfem/data/band_source_rise.npz holds what compute_band_table gives (after a change of
+    the quadrature: gearfem.baselines.write_band_table() writes it again). To within a few units
+    in the last place, not to the bit: the quadrature's sums round differently on another CPU
+    (the table written on an Intel machine differs from one computed on an AMD EPYC in 1 ulp at
+    a few entries), while any change of the quadrature itself moves entries by far more."""
     for shape in B.BAND_SHAPES:
         shipped, computed = B._band_table(shape), B.compute_band_table(shape)
         for a, b in zip(shipped, computed, strict=True):
-            assert np.array_equal(a, b), shape
+            assert a.shape == b.shape, shape
+            np.testing.assert_array_max_ulp(a, b, maxulp=4)
     with pytest.raises(ParameterError, match="band shape"):
         B._band_table("triangular")
 
