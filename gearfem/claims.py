@@ -110,6 +110,10 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/friction.md", "friction_fixed_point_scan"),),
     ),
     Regeneration(
+        f"{_FRICTION}modulus_temperature.py --docs docs/materials.md",
+        (("docs/materials.md", "modulus_temperature"),),
+    ),
+    Regeneration(
         "mpirun -n 2 python demos/steel_pom.py --docs docs/materials.md",
         (("docs/materials.md", "steel_pom_demo"),),
         case="demos/steel_pom.toml",

@@ -14,10 +14,13 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from scripts import load_script
 
 from gearfem import claims
+from gearfem.core.materials import TemperatureTable
+from gearfem.instruments.snapshot import BodyField
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -59,3 +62,37 @@ def test_regenerate_names_a_block_its_command_left_stale(tmp_path):
     step = next(r for r in claims.REGENERATIONS if ("README.md", "readme_headline") in r.blocks)
     left = regenerate.still_stale(step, tmp_path)
     assert [(c.block, c.reason) for c in left] == [("readme_headline", "no provenance line")]
+
+
+def test_the_modulus_of_a_thermal_state_is_the_teeths_harmonic_volume_mean():
+    """benchmarks/verification/modulus_temperature.py: E_eff = V / sum(V_c / E(T_c)) over the cells
+    outside the root circle; the cells inside it (the body) do not count; the shares above T_g
+    and beyond the table are volume shares of the tooth."""
+    script = load_script("benchmarks/verification/modulus_temperature.py")
+    unit = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)  # volume 1/6
+    # two tooth cells (x about 10 and 12, the second twice as large) and one body cell (x about 1)
+    at = lambda x: np.array([x, 0.0, 0.0])
+    nodes = np.vstack([unit + at(10), 2 ** (1 / 3) * unit + at(12), unit + at(1)])
+    cells = np.arange(12).reshape(3, 4)
+    T_C = np.repeat([100.0, 175.0, 300.0], 4)  # the body cell hot: it must not count
+    field = BodyField(
+        body="pinion",
+        nodes_m=nodes,
+        cells=cells,
+        faces=np.zeros((0, 3), dtype=int),
+        face_kind=np.zeros(0, dtype=np.int8),
+        temperature_K=(T_C + 273.15)[None, :],
+        center_m=np.zeros(3),
+        tooth_angles_rad=np.zeros(1),
+        teeth=30,
+        rotation_sense=1,
+        speed_rpm=1000.0,
+        emissivity=0.9,
+        temperatures_C={},
+    )
+    table = TemperatureTable.from_celsius([23.0, 130.0, 170.0], [3.7e9, 3.7e9, 2.3e9])
+    got = script.tooth_modulus(field, 0, 5.0, table, glass_transition_C=143.0)
+    # cell volumes 1/6 and 2/6 at E 3.7 and 2.3 GPa (175 C is beyond the table: its last value)
+    assert got.modulus_Pa == pytest.approx(3.0 / (1 / 3.7e9 + 2 / 2.3e9), rel=1e-12)
+    assert got.above_glass_transition == pytest.approx(2 / 3, rel=1e-12)
+    assert got.beyond_table == pytest.approx(2 / 3, rel=1e-12)
