@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from body_fields import body_field
 from scripts import load_script
 
 from gearfem import claims
 from gearfem.core.materials import TemperatureTable
-from gearfem.instruments.snapshot import BodyField
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -75,21 +75,7 @@ def test_the_modulus_of_a_thermal_state_is_the_teeths_harmonic_volume_mean():
     nodes = np.vstack([unit + at(10), 2 ** (1 / 3) * unit + at(12), unit + at(1)])
     cells = np.arange(12).reshape(3, 4)
     T_C = np.repeat([100.0, 175.0, 300.0], 4)  # the body cell hot: it must not count
-    field = BodyField(
-        body="pinion",
-        nodes_m=nodes,
-        cells=cells,
-        faces=np.zeros((0, 3), dtype=int),
-        face_kind=np.zeros(0, dtype=np.int8),
-        temperature_K=(T_C + 273.15)[None, :],
-        center_m=np.zeros(3),
-        tooth_angles_rad=np.zeros(1),
-        teeth=30,
-        rotation_sense=1,
-        speed_rpm=1000.0,
-        emissivity=0.9,
-        temperatures_C={},
-    )
+    field = body_field(nodes, cells, T_C + 273.15)
     table = TemperatureTable.from_celsius([23.0, 130.0, 170.0], [3.7e9, 3.7e9, 2.3e9])
     got = script.tooth_modulus(field, 0, 5.0, table, glass_transition_C=143.0)
     # cell volumes 1/6 and 2/6 at E 3.7 and 2.3 GPa (175 C is beyond the table: its last value)

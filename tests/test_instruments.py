@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from body_fields import body_field
 from mpi4py import MPI
 from scipy.integrate import quad
 from scipy.optimize import brentq
@@ -952,20 +953,12 @@ def _one_face_body(T_of_xy, quadratic=True) -> BodyField:
     edges = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)]  # basix order of the cell's edges
     nodes = np.vstack([v, [0.5 * (v[a] + v[b]) for a, b in edges]]) if quadratic else v
     face = [0, 1, 2, 6, 8, 9] if quadratic else [0, 1, 2]  # then the edges (1,2), (0,2), (0,1)
-    return BodyField(
-        body="pinion",
-        nodes_m=nodes,
-        cells=np.arange(len(nodes))[None, :],
+    return body_field(
+        nodes,
+        np.arange(len(nodes))[None, :],
+        T_of_xy(nodes[:, 0], nodes[:, 1]),
         faces=np.array([face]),
         face_kind=np.array([KINDS.index("drive_flank")]),
-        temperature_K=T_of_xy(nodes[:, 0], nodes[:, 1])[None, :],
-        center_m=np.zeros(3),
-        tooth_angles_rad=np.zeros(1),
-        teeth=30,
-        rotation_sense=1,
-        speed_rpm=1000.0,
-        emissivity=0.9,
-        temperatures_C={},
     )
 
 
