@@ -38,12 +38,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
+from one_case import observed_fields, scratch_directory, steady_case
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
@@ -94,12 +93,7 @@ def _end_reading(case, snap, comm):
 def _camera_at(case, cyc, comm):
     """The camera's reading (C) of the thermal runs of ``case`` on ``cyc`` at their end value
     (collective)."""
-    name = tempfile.mkdtemp(prefix="gearfem-fixed-point-") if comm.rank == 0 else None
-    out = Path(comm.bcast(name, root=0))
-    _, _, snap = pipeline.observed_thermal(
-        case, out, comm, cyc, write_fields=False, steady=False, write_plot=False
-    )
-    return _end_reading(case, snap, comm)[0]
+    return _end_reading(case, observed_fields(case, comm, cyc, steady=False), comm)[0]
 
 
 def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
@@ -107,8 +101,6 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
     steady) from ``start_mu`` (gearfem.pipeline.thermal_stages), each with the camera at 900 s
     from ambient on its cycle (collective)."""
     rows: list[Iterate] = []
-    name = tempfile.mkdtemp(prefix="gearfem-fixed-point-") if comm.rank == 0 else None
-    out = Path(comm.bcast(name, root=0))
 
     def on_pass(k, c, stages, p):
         # the camera of the steady state the pass's cycle leads to, each gear's heat-weighted mu
@@ -145,17 +137,17 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
             print(f"{c.operating.speed_rpm:g} rpm / {c.operating.torque_Nm:g} N m, pass {k}: "
                   f"{rows[-1]}", flush=True)  # fmt: skip
 
-    steady = dataclasses.replace(case.thermal, mode="steady", output_times_s=())
-    pipeline.thermal_stages(
-        dataclasses.replace(case, thermal=steady),
-        out,
-        comm,
-        progress=False,
-        write_fields=False,
-        write_plot=False,
-        start_mu=start_mu,
-        on_pass=on_pass,
-    )
+    with scratch_directory(comm) as out:
+        pipeline.thermal_stages(
+            steady_case(case),
+            out,
+            comm,
+            progress=False,
+            write_fields=False,
+            write_plot=False,
+            start_mu=start_mu,
+            on_pass=on_pass,
+        )
     return rows
 
 

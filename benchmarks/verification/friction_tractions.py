@@ -20,12 +20,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
-import tempfile
-from pathlib import Path
 
-import numpy as np
 from mpi4py import MPI
+from one_case import CycleLoads, observed_fields, steady_case
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
@@ -40,27 +37,24 @@ from gearfem.uncertainty import provenance, run_uncertainty
 def measures(case, comm) -> dict[str, float]:
     """The cycle's and the steady run's quantities of ``case`` (collective)."""
     cyc, _, _ = pipeline.cycle(case, comm)
-    at = pipeline.CycleAtSpeed.of(cyc, case.operating.speed_rpm)
-    loads = np.array([v for v in cyc.tooth_load_N.values()])  # (teeth, positions)
-    th = dataclasses.replace(case.thermal, mode="steady", output_times_s=())
-    c = dataclasses.replace(case, thermal=th)
-    name = tempfile.mkdtemp(prefix="gearfem-tractions-") if comm.rank == 0 else None
-    out = Path(comm.bcast(name, root=0))
-    _, _, snap = pipeline.observed_thermal(c, out, comm, cyc, write_fields=False, write_plot=False)
-    cam = heat = None
-    if comm.rank == 0:
-        cam = evaluate(c.instruments, snap, only=("camera",)).camera[snap.label_of(None)].max_C
-        heat = snap.mesh_heat_W(snap.label_of(None))[0]
-    cam, heat = comm.bcast((cam, heat), root=0)
-    umax = max(float(np.max(f.u_max_J_m3)) for f in cyc.fields.values())
+    q = CycleLoads.of(cyc, case.operating.speed_rpm)
+    c = steady_case(case)
+    snap = observed_fields(c, comm, cyc)
+
+    def read():
+        label = snap.label_of(None)
+        cam = evaluate(c.instruments, snap, only=("camera",)).camera[label].max_C
+        return cam, snap.mesh_heat_W(label)[0]
+
+    cam, heat = pipeline.on_root(comm, read)
     return {
-        "largest tooth-pair load (N)": float(loads.max()),
-        "mean tooth-pair load over the engagement (N)": float(loads[loads > 0].mean()),
-        "effective contact ratio": at.effective_contact_ratio,
-        "pitch-point pressure, band (MPa)": at.pitch_point_band_pressure_MPa or math.nan,
-        "largest pressure (MPa)": at.max_contact_pressure_MPa,
-        "transmission error, mean (um)": at.transmission_error_um["mean"],
-        "largest U_max (kJ/m3)": umax * 1e-3,
+        "largest tooth-pair load (N)": q.largest_load_N,
+        "mean tooth-pair load over the engagement (N)": q.mean_load_N,
+        "effective contact ratio": q.effective_contact_ratio,
+        "pitch-point pressure, band (MPa)": q.pitch_point_band_pressure_MPa,
+        "largest pressure (MPa)": q.largest_pressure_MPa,
+        "transmission error, mean (um)": q.te_mean_um,
+        "largest U_max (kJ/m3)": q.largest_u_max_J_m3 * 1e-3,
         "friction heat of the glassy mu, steady (W)": heat,
         "camera_max, steady (C)": cam,
     }

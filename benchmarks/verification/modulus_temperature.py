@@ -30,12 +30,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
+from one_case import CycleLoads, observed_fields, steady_case
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
@@ -96,15 +94,11 @@ def one_pass(case: Case, comm, table) -> tuple[dict[str, float], dict[str, Tooth
     """The cycle and the steady state of ``case``: its quantities and each gear's tooth modulus
     at that state (collective)."""
     cyc, _, _ = pipeline.cycle(case, comm)
-    at = pipeline.CycleAtSpeed.of(cyc, case.operating.speed_rpm)
-    loads = np.array([v for v in cyc.tooth_load_N.values()])  # (teeth, positions)
-    th = dataclasses.replace(case.thermal, mode="steady", output_times_s=())
-    c = dataclasses.replace(case, thermal=th)
-    name = tempfile.mkdtemp(prefix="gearfem-modulus-") if comm.rank == 0 else None
-    out = Path(comm.bcast(name, root=0))
-    _, _, snap = pipeline.observed_thermal(c, out, comm, cyc, write_fields=False, write_plot=False)
-    result = None
-    if comm.rank == 0:
+    loads = CycleLoads.of(cyc, case.operating.speed_rpm)
+    c = steady_case(case)
+    snap = observed_fields(c, comm, cyc)
+
+    def read():
         label = snap.label_of(None)
         i = snap.label_index(label)
         pair = GearPair(case.geometry)
@@ -123,11 +117,11 @@ def one_pass(case: Case, comm, table) -> tuple[dict[str, float], dict[str, Tooth
                 case.materials["pinion"].youngs_modulus_Pa / GPA,
                 case.materials["wheel"].youngs_modulus_Pa / GPA,
             ),
-            "effective contact ratio": at.effective_contact_ratio,
-            "largest tooth-pair load (N)": float(loads.max()),
-            "pitch-point pressure, band (MPa)": at.pitch_point_band_pressure_MPa or math.nan,
-            "largest pressure (MPa)": at.max_contact_pressure_MPa,
-            "transmission error, mean (um)": at.transmission_error_um["mean"],
+            "effective contact ratio": loads.effective_contact_ratio,
+            "largest tooth-pair load (N)": loads.largest_load_N,
+            "pitch-point pressure, band (MPa)": loads.pitch_point_band_pressure_MPa,
+            "largest pressure (MPa)": loads.largest_pressure_MPa,
+            "transmission error, mean (um)": loads.te_mean_um,
             "friction heat of the pair, steady (W)": snap.mesh_heat_W(label)[0],
             "hottest surface, steady (C)": max(
                 snap.bodies[b].temperatures_C[label]["max_surface"] for b in BODIES
@@ -136,8 +130,9 @@ def one_pass(case: Case, comm, table) -> tuple[dict[str, float], dict[str, Tooth
             .camera[label]
             .max_C,
         }
-        result = (q, moduli)
-    return comm.bcast(result, root=0)
+        return q, moduli
+
+    return pipeline.on_root(comm, read)
 
 
 def fixed_point(base: Case, comm, table, tolerance: float, max_passes: int):
