@@ -14,8 +14,9 @@ import os
 import sys
 from collections.abc import Sequence
 
-from gearfem import claims, pipeline
+from gearfem import case_keys, claims, pipeline
 from gearfem.config import load_case
+from gearfem.core.doctables import replace_block
 from gearfem.core.errors import GearfemError, ParameterError
 from gearfem.core.io import write_json
 from gearfem.core.log import ProgressBar, setup_logging
@@ -67,6 +68,17 @@ def _cmd_claims(args: argparse.Namespace) -> int:
             for step in steps:
                 print(f"    {step.command}")
     return 1 if found else 0
+
+
+def _cmd_keys(args: argparse.Namespace) -> int:
+    """Print the case file's keys (gearfem.case_keys): every table's, or one table's; with
+    ``--docs PAGE`` write the Markdown reference into block ``case_keys`` of PAGE instead."""
+    if args.docs:
+        replace_block(args.docs, "case_keys", case_keys.markdown())
+        print(f"wrote the case file reference into {args.docs} (block case_keys)")
+        return 0
+    print(case_keys.text(args.table))
+    return 0
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
@@ -516,6 +528,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("root", nargs="?", default=".", help="repository root (default: .)")
     s.set_defaults(func=_cmd_claims)
+
+    s = sub.add_parser(
+        "keys",
+        help="the case file's tables and keys: default, accepted values and meaning of each",
+    )
+    s.add_argument(
+        "table", nargs="?", default=None, help="one table (thermal, instruments.camera, ...)"
+    )
+    s.add_argument(
+        "--docs", default=None, help="write the Markdown reference into this page's block instead"
+    )
+    s.set_defaults(func=_cmd_keys)
 
     s = sub.add_parser(
         "mesh", help="mesh the gear pair of a case: mesh.msh, mesh.json, picture (cached)"

@@ -54,7 +54,12 @@ from gearfem.thermal.options import ThermalOptions
 
 @dataclasses.dataclass(frozen=True)
 class OperatingPoint:
-    """``[operating]``: pinion speed and the resisting torque on the wheel."""
+    """``[operating]``: pinion speed and the resisting torque on the wheel.
+
+    Args:
+        speed_rpm: Speed of the pinion (rpm).
+        torque_Nm: Resisting torque on the wheel (N m).
+    """
 
     speed_rpm: float = 1000.0
     torque_Nm: float = 8.0
@@ -70,7 +75,11 @@ def _thesis_contact() -> ContactOptions:
 
 @dataclasses.dataclass(frozen=True)
 class Case:
-    """Everything one gearfem run needs (see the module docstring)."""
+    """Everything one gearfem run needs (see the module docstring).
+
+    Args:
+        name: The case's name, free text (written into the results).
+    """
 
     name: str = "thesis"
     geometry: GearPairGeometry = dataclasses.field(default_factory=GearPairGeometry)

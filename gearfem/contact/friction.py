@@ -186,6 +186,41 @@ class FrictionOptions:
     Keys that belong to another law than the chosen one must be left out (a key that would be
     silently ignored is an error). ``table_file`` is read on construction into ``table_C`` (the
     values are what the caches are keyed by); given together they must agree.
+
+    Args:
+        law: mu_T(T), the law proper: ``"constant"``, ``"table"`` or ``"glass_transition"``.
+        mu: mu of the constant law (None: the cycle's ``[contact] friction_coefficient``).
+        table_file, table_C: mu(T) of the table law: a CSV file with columns
+            ``temperature_C,mu``, or inline ``[[T_C...], [mu...]]``; constant beyond its ends.
+        mu_glassy, mu_rubbery: mu below and above the glass transition (``mu_rubbery`` None: the
+            cycle's mu).
+        glass_transition_C: T_g of the glass step (C; None: the gears' polymer's, 143 C for PEEK
+            450G).
+        transition_width_K: Width w of the glass step (K; None: 5 K, 10-90 % over 2.2 w).
+        temperature_coefficient_per_K: beta of the factor exp(-beta (T - T_ref)) (1/K; > 0
+            falls with temperature, 0: no factor).
+        reference_C: T_ref of that factor (C).
+        temperature_range_C: Temperatures (C) beyond which that factor stays constant.
+        pressure: The pressure factor f_p: ``"none"``, ``"power"`` or ``"table"``.
+        pressure_exponent, pressure_reference_MPa: e and p_ref of f_p = (p / p_ref)^e.
+        pressure_range_MPa: Pressures (MPa) beyond which f_p stays constant.
+        pressure_table_MPa: f_p as ``[[p_MPa...], [factor...]]``, linear between the points.
+        sliding_speed: The sliding-speed factor f_v: ``"none"``, ``"power"`` or ``"table"``.
+        speed_exponent, speed_reference_m_s: e and v_ref of f_v = (v_s / v_ref)^e.
+        speed_range_m_s: Sliding speeds (m/s) beyond which f_v stays constant.
+        speed_table_m_s: f_v as ``[[v_m_s...], [factor...]]``, linear between the points.
+        contact_temperature: The temperature the law sees: ``"flash"`` (flank + flash
+            temperature) or ``"flank"``.
+        flash_width: The half-width a band's flash temperature is computed with: ``"hertz"``,
+            ``"profile"`` or ``"stated"`` (the module docstring says what each converges to).
+        flash_half_width_um: The half-width of ``flash_width = "stated"`` (um).
+        pass_balance: How each gear's pass of the contact history lays its heat out:
+            ``"cycle"`` (scaled once over the cycle) or ``"tooth"`` (at every position and tooth
+            pair).
+        cycle_mu: The mu the structural cycle is solved with: ``"constant"`` (``[contact]
+            friction_coefficient``) or ``"law"`` (the law's effective mu, iterated with the heat).
+        cycle_mu_tolerance: The cycle ↔ heat iteration stops when the cycle's mu moves by less.
+        cycle_mu_max_passes: Cycles that iteration may solve at most (not converged: an error).
     """
 
     law: str = "constant"

@@ -54,12 +54,12 @@ class ContactOptions:
         quadrature_degree: degree of the triangle rule on each segment of a slave facet.
         search_distance_rel: pairs farther apart than this many facet sizes are ignored.
         max_normal_angle_deg: candidate pairs whose normals are not opposed within this angle are
-        ignored.
+            ignored.
         projection_tolerance: a slave point counts only if its closest-point foot lies on its master
             facet within this distance in reference coordinates (curvature makes it slightly
             outside).
         newton_rtol, newton_atol_N: residual tolerances (relative to the internal force norm;
-        absolute, N).
+            absolute, N).
         newton_max_it: Newton iterations per solve.
         newton_stall_rtol: A Newton solve whose line search can no longer decrease the residual is
             accepted, with a warning and counted in ``SolveReport.stalled``, when the residual is
@@ -76,6 +76,11 @@ class ContactOptions:
             (the tangent changes only through the contact active set, so one factorization usually
             serves a whole solve; the linear systems are still solved to ``krylov_rtol``). Factors
             that needed more than ``refactor_krylov_its`` iterations are replaced at the next solve.
+        max_krylov_its: GMRES iterations with reused factors after which the Jacobian is factored
+            anew (``reuse_factorization``).
+        refactor_krylov_its: GMRES iterations above which a factorization is replaced at the next
+            solve.
+        krylov_rtol: Relative tolerance of the GMRES solves with reused factors.
     """
 
     method: str = "augmented_lagrangian"

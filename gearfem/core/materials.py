@@ -200,6 +200,28 @@ class Material:
     ``hysteresis`` names the H(T) table (``"peek450g"``; ``"none"``, :data:`NO_HYSTERESIS`, for a
     body without hysteresis such as a steel gear: H = 0 at every temperature) or gives one as
     ``[[T_C...], [H...]]``. ``glass_transition_C`` is None for a material without one (steel).
+
+    Args:
+        name: The material's name. One of the library's (``"PEEK 450G"``, ``"POM"``, ``"PA66"``,
+            ``"steel"``) selects its constants, each with its source (docs/materials.md); the
+            table's other keys override them.
+        density_kg_m3: Density (kg/m^3).
+        youngs_modulus_Pa: Young's modulus of the structural cycle (Pa), one value for every
+            temperature.
+        poissons_ratio: Poisson's ratio.
+        thermal_conductivity_W_mK: Thermal conductivity (W/(m K)); ``conductivity_table`` makes it
+            k(T).
+        specific_heat_J_kgK: Specific heat capacity (J/(kg K)); ``specific_heat_table`` makes it
+            c_p(T).
+        emissivity: Emissivity of the gear's surfaces in radiation to the surroundings (``[thermal]
+            emissivity`` overrides it).
+        glass_transition_C: Glass transition temperature (C), None for a material without one: the
+            glass-transition friction law steps there unless ``[friction] glass_transition_C`` is
+            given.
+        hysteresis: H(T) of the hysteresis heat H(T) U_max f: ``"peek450g"`` (the thesis's DMA
+            table), ``"none"`` (no hysteresis: a steel gear) or a table ``[[T_C...], [H...]]``.
+        conductivity_table, specific_heat_table: k(T) and c_p(T) as ``[[T_C...], [value...]]``,
+            linear between the points (None: the constants).
     """
 
     name: str = "PEEK 450G"

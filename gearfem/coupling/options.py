@@ -68,6 +68,8 @@ class SourceOptions:
             temperatures (flank + flash) agree within ``contact_temperature_tolerance_K`` (K)
             (:func:`gearfem.pipeline.split_by_contact_temperature`: both gears' thermal runs,
             repeated; ``heat_fraction_pinion`` is where the search starts).
+        contact_temperature_tolerance_K: How closely (K) the ``"contact_temperature"`` partition
+            makes the two gears' heat-weighted mean contact temperatures agree.
         hysteresis_scale, flux_scale: Multipliers (model-discrepancy hooks).
         flux_smoothing_profile_mm, flux_smoothing_axial_mm: Standard deviations (mm) of the
             Gaussian with which the cycle's friction flux, a value per structural facet summed

@@ -33,8 +33,7 @@ class CycleOptions:
         mesh_stiffness_guess_N_mm_um: Only for the first predictor of the wind-up (a gear pair's
             mesh stiffness per unit face width, scaled from PEEK with the Young's modulus).
         initial_interference_m: Rigid pre-rotation of the wheel (along the line of action) that
-        gives
-            the first Newton iteration contact stiffness before the torque is balanced.
+            gives the first Newton iteration contact stiffness before the torque is balanced.
         creep_ratio: Slip (relative to the rolling speed) at which friction approaches μ p. Near the
             pitch point the flanks roll with little sliding and the contact is in micro-slip
             (Carter;
@@ -44,12 +43,12 @@ class CycleOptions:
             None: Carter's estimate μ a / (2 R) from the Hertz half-width at the nominal load.
             This sets ``ContactOptions.slip_regularization_m_s`` for the gear cycle.
         pressure_smoothing_fraction: δ of the C1 pressure ramp
-        (``ContactOptions.pressure_smoothing_Pa``)
-            as a fraction of the nominal Hertz pressure at the pitch point, used when the contact
-            options leave it 0. With friction, the exact ramp's kink at the edge of the contact zone
-            (rounded tips entering and leaving contact) can make Newton cycle at a residual just
-            above tolerance (measured on the 4-tooth test mesh at 8 N m, μ = 0.5: 40 iterations
-            stuck at 7e-5 relative; with δ = 0.4 % of p0: 13-18 iterations). 0 keeps the exact ramp.
+            (``ContactOptions.pressure_smoothing_Pa``) as a fraction of the nominal Hertz pressure
+            at the pitch point, used when the contact options leave it 0. With friction, the exact
+            ramp's kink at the edge of the contact zone (rounded tips entering and leaving contact)
+            can make Newton cycle at a residual just above tolerance (measured on the 4-tooth test
+            mesh at 8 N m, μ = 0.5: 40 iterations stuck at 7e-5 relative; with δ = 0.4 % of p0:
+            13-18 iterations). 0 keeps the exact ramp.
         solver: ``"condensed"``: each gear's stiffness is condensed once (per mesh and material)
             onto the contact surfaces of the teeth that can engage over the solved angles, and
             every position is solved on those surfaces only (:mod:`gearfem.contact.condensed`; the

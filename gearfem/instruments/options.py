@@ -265,9 +265,17 @@ class ProbeOptions:
             max_surface, mean_bulk, flank_mean, tip_max, ...).
 
     Attributes:
-        kind, body ("pinion" or "wheel"), radius_mm, angle_deg, z_mm, side (the side face of a
-        side_face probe: "front" = the mesh's side_front at z = 0, "back" = side_back at z = b),
-        quantity: as above.
+        kind: ``"thermocouple"``, ``"side_face"`` or ``"field"`` (above).
+        body: The gear it reads: ``"pinion"`` or ``"wheel"``.
+        radius_mm: Distance from the gear's axis (mm): a thermocouple's junction, a side_face
+            probe's circle.
+        angle_deg: Angle of a thermocouple from the centre line of a tooth (degrees,
+            counter-clockwise; 180/z is the middle of a gap).
+        z_mm: Position across the face width (mm; None: mid-face).
+        side: The side face a side_face probe reads: ``"front"`` (the mesh's side_front, z = 0)
+            or ``"back"`` (side_back, z = b).
+        quantity: The reported temperature a field probe reads (max_surface, mean_bulk,
+            flank_mean, tip_max, ...).
     """
 
     kind: str = "thermocouple"

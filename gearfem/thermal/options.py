@@ -80,13 +80,13 @@ class ThermalOptions:
         mode: ``"transient"`` or ``"steady"``.
         duration_s: Simulated time (thesis: 8000 s).
         time_stepping: ``"adaptive"`` (BDF2 with local error control) or ``"fixed"`` (dt_initial_s
-        throughout).
+            throughout).
         dt_initial_s, dt_min_s, dt_max_s: Step sizes. The first two steps (backward Euler, then
             BDF2) use ``dt_initial_s`` without an error estimate (it needs three solutions): keep
             it small against the flank heating time (default 0.25 s).
         time_error_K: Accepted local error per step (max norm over the nodes), kelvin.
         output_times_s: Times at which fields are written (and steps land exactly); the end is
-        always written.
+            always written.
 
     Discretisation and solver:
         degree: Lagrange degree of the temperature, 1 or 2. Default 2: on the default gear mesh
