@@ -14,6 +14,8 @@ import os
 import sys
 from collections.abc import Sequence
 
+from mpi4py import MPI
+
 from gearfem import case_keys, claims, pipeline
 from gearfem.config import load_case
 from gearfem.core.doctables import replace_block
@@ -73,11 +75,14 @@ def _cmd_claims(args: argparse.Namespace) -> int:
 def _cmd_keys(args: argparse.Namespace) -> int:
     """Print the case file's keys (gearfem.case_keys): every table's, or one table's; with
     ``--docs PAGE`` write the Markdown reference into block ``case_keys`` of PAGE instead."""
-    if args.docs:
-        replace_block(args.docs, "case_keys", case_keys.markdown())
-        print(f"wrote the case file reference into {args.docs} (block case_keys)")
+    reference = case_keys.markdown() if args.docs else case_keys.text(args.table)
+    if MPI.COMM_WORLD.rank != 0:  # a serial command: under mpirun, rank 0 alone writes
         return 0
-    print(case_keys.text(args.table))
+    if args.docs:
+        replace_block(args.docs, "case_keys", reference)
+        print(f"wrote the case file reference into {args.docs} (block case_keys)")
+    else:
+        print(reference)
     return 0
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from gearfem import case_keys
+from gearfem.cli import main
 from gearfem.core.doctables import read_block
 from gearfem.core.errors import ParameterError
 from gearfem.core.params import require_choice, require_int, require_range
@@ -99,3 +100,15 @@ def test_an_unknown_table_is_an_error_naming_the_tables():
 def test_the_reference_is_not_code_a_quoted_result_hashes():
     for roots in (RUN_CODE, DIAGNOSIS_CODE):
         assert "gearfem.case_keys" not in source_files(*roots)
+
+
+def test_gearfem_keys_prints_a_table_writes_the_page_and_refuses_an_unknown_table(tmp_path, capsys):
+    """A serial test (not mpi-marked): one rank prints and writes."""
+    assert main(["keys", "operating"]) == 0
+    out = capsys.readouterr().out
+    assert "speed_rpm = 1000.0" in out and "Resisting torque on the wheel (N m)." in out
+    page = tmp_path / "page.md"
+    page.write_text("# x\n\n<!-- gearfem:begin case_keys -->\n<!-- gearfem:end case_keys -->\n")
+    assert main(["keys", "--docs", str(page)]) == 0
+    assert read_block(page, "case_keys") == case_keys.markdown()
+    assert main(["keys", "thermals"]) != 0
