@@ -11,8 +11,10 @@ import dataclasses
 import json
 import logging
 import os
+import shutil
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from mpi4py import MPI
 
@@ -41,7 +43,6 @@ log = logging.getLogger("gearfem.cli")
 
 def _cmd_info(args: argparse.Namespace) -> int:
     info = versions()
-    from mpi4py import MPI
 
     if MPI.COMM_WORLD.rank == 0:
         print(json.dumps(info, indent=2) if args.json else format_versions(info))
@@ -51,9 +52,6 @@ def _cmd_info(args: argparse.Namespace) -> int:
 def _cmd_claims(args: argparse.Namespace) -> int:
     """List the quoted results of the README and docs that no longer belong to the shipped model
     (gearfem.claims); exit 1 when there are any."""
-    from pathlib import Path
-
-    from mpi4py import MPI
 
     found = claims.stale_claims(Path(args.root))
     if MPI.COMM_WORLD.rank == 0:
@@ -88,10 +86,6 @@ def _cmd_keys(args: argparse.Namespace) -> int:
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
     """Build (or load) the gear-pair mesh of a case; write mesh.msh, mesh.json and a picture."""
-    import shutil
-    from pathlib import Path
-
-    from mpi4py import MPI
 
     case = load_case(args.case)
     geometry, options = case.geometry, case.mesh
@@ -141,7 +135,6 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
 
 def _cmd_thermal(args: argparse.Namespace) -> int:
     """Transient (or steady) temperature of one gear from prescribed sources."""
-    from mpi4py import MPI
 
     summary = run_thermal_case(read_case(args.case), args.out, cache_dir=args.cache_dir)
     # (read_case: the one case schema of gearfem.config; None = the built-in thesis case)
@@ -185,7 +178,6 @@ def with_u_num(headline: pipeline.Headline, field: str, unit: str, digits: int =
 
 
 def _say(*a, **k) -> None:
-    from mpi4py import MPI
 
     if MPI.COMM_WORLD.rank == 0:
         print(*a, **k)
@@ -193,7 +185,6 @@ def _say(*a, **k) -> None:
 
 def _cmd_cycle(args: argparse.Namespace) -> int:
     """Solve the mesh cycle of a case's torque (cached) and write histories and plots."""
-    from mpi4py import MPI
 
     case = load_case(args.case)
     if args.torque_Nm is not None:
@@ -224,7 +215,6 @@ def _cmd_cycle(args: argparse.Namespace) -> int:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     """The whole chain for one operating point: cycle (cached), thermal, baselines, summary."""
-    from mpi4py import MPI
 
     case = load_case(args.case)
     case = case.with_operating(speed_rpm=args.speed_rpm, torque_Nm=args.torque_Nm)
@@ -320,7 +310,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_observe(args: argparse.Namespace) -> int:
     """Read the instruments again on a finished run (no solve)."""
-    from mpi4py import MPI
 
     instruments = load_case(args.case).instruments if args.case else None
     r = pipeline.observe(
@@ -359,7 +348,6 @@ def _cmd_observe(args: argparse.Namespace) -> int:
 
 def _cmd_study(args: argparse.Namespace) -> int:
     """A speed x torque study: one cycle per torque, every operating point, a table and plots."""
-    from mpi4py import MPI
 
     study = load_study(args.study)
     if args.list:
@@ -405,7 +393,6 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
 def _cmd_converge(args: argparse.Namespace) -> int:
     """Refinement study of a case in one direction (gearfem.refinement)."""
-    from mpi4py import MPI
 
     case = load_case(args.case)
     if args.duration_s is not None:
@@ -471,7 +458,6 @@ def _design_grid(args: argparse.Namespace, case):
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     """Confront a case with measured data: V&V 20, candidate extensions ranked, verdict, gain."""
-    from mpi4py import MPI
 
     data = read_csv(args.data)
     case = load_case(args.case)
