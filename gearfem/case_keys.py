@@ -260,10 +260,11 @@ class _Required:
 _REQUIRED = _Required()
 
 
-def case_tables() -> tuple[Table, ...]:
+def case_tables(case: Case | None = None) -> tuple[Table, ...]:
     """Every table of the case file, the top level first, in the order of :class:`Case`'s
-    fields, with the built-in case's defaults."""
-    tables = list(_tables(Case, Case(), load_case(None), ""))
+    fields, with each key's default and its value in ``case`` (None: the built-in case) where
+    that differs (:attr:`Key.builtin`)."""
+    tables = list(_tables(Case, Case(), case if case is not None else load_case(None), ""))
     top = [t for t in tables if t.name == ""]
     return tuple(top + [t for t in tables if t.name != ""])
 
@@ -300,10 +301,12 @@ def markdown() -> str:
     return "\n\n".join(parts)
 
 
-def text(table: str | None = None, width: int = 100) -> str:
+def text(table: str | None = None, case: Case | None = None, width: int = 100) -> str:
     """The reference as plain text for a terminal: every table, or ``table`` (``thermal``,
-    ``instruments.camera``); an unknown table raises ParameterError naming the known ones."""
-    tables = case_tables()
+    ``instruments.camera``), with the values of ``case`` (None: the built-in case) where they
+    differ from the defaults; an unknown table raises ParameterError naming the known ones."""
+    label = "built-in case" if case is None else "this case"
+    tables = case_tables(case)
     if table is not None:
         tables = tuple(t for t in tables if t.name == table)
         if not tables:
@@ -320,7 +323,7 @@ def text(table: str | None = None, width: int = 100) -> str:
         )
         for k in t.keys:
             head = f"  {k.name} = {k.default}"
-            head += f"    built-in case: {k.builtin}" if k.builtin else ""
+            head += f"    {label}: {k.builtin}" if k.builtin else ""
             head += f"    accepted: {k.accepted}" if k.accepted else ""
             out.append(head)
             out += textwrap.wrap(

@@ -73,7 +73,8 @@ def _cmd_claims(args: argparse.Namespace) -> int:
 def _cmd_keys(args: argparse.Namespace) -> int:
     """Print the case file's keys (gearfem.case_keys): every table's, or one table's; with
     ``--docs PAGE`` write the Markdown reference into block ``case_keys`` of PAGE instead."""
-    reference = case_keys.markdown() if args.docs else case_keys.text(args.table)
+    case = load_case(args.case) if args.case else None
+    reference = case_keys.markdown() if args.docs else case_keys.text(args.table, case)
     if MPI.COMM_WORLD.rank != 0:  # a serial command: under mpirun, rank 0 alone writes
         return 0
     if args.docs:
@@ -526,6 +527,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument(
         "table", nargs="?", default=None, help="one table (thermal, instruments.camera, ...)"
+    )
+    s.add_argument(
+        "--case",
+        default=None,
+        help="show this case file's values where they differ from the defaults (default: the "
+        "built-in case's)",
     )
     s.add_argument(
         "--docs", default=None, help="write the Markdown reference into this page's block instead"

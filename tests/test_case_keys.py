@@ -112,3 +112,7 @@ def test_gearfem_keys_prints_a_table_writes_the_page_and_refuses_an_unknown_tabl
     assert main(["keys", "--docs", str(page)]) == 0
     assert read_block(page, "case_keys") == case_keys.markdown()
     assert main(["keys", "thermals"]) != 0
+    case = tmp_path / "case.toml"
+    case.write_text("[operating]\ntorque_Nm = 4.0\n")
+    assert main(["keys", "operating", "--case", str(case)]) == 0
+    assert "torque_Nm = 8.0    this case: 4.0" in capsys.readouterr().out
