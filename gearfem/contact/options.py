@@ -71,6 +71,11 @@ class ContactOptions:
         uzawa_newton_rtol: Newton tolerance of the augmented-Lagrangian passes before the last
             (inexact Uzawa): the multipliers change after them anyway; the final pass uses
             ``newton_rtol``.
+        geometric_tangent: assemble the variation of the closest point, the master normal and
+            the frozen slip direction into the contact tangent (:mod:`gearfem.contact.tangent`):
+            the exact linearisation of the residual, so that each augmented-Lagrangian pass
+            converges quadratically near the solution instead of linearly (False: the tangent
+            W ε ρ γᵀ with those frozen). The solution is the same to the Newton tolerance.
         reuse_factorization: solve each Newton system with GMRES preconditioned by the LU factors of
             an earlier Jacobian, refactoring only when GMRES needs more than ``max_krylov_its``
             (the tangent changes only through the contact active set, so one factorization usually
@@ -99,6 +104,7 @@ class ContactOptions:
     newton_stall_rtol: float = 1e-4
     uzawa_newton_rtol: float = 1e-5
     line_search: bool = True
+    geometric_tangent: bool = True
     reuse_factorization: bool = True
     max_krylov_its: int = 60
     refactor_krylov_its: int = 15

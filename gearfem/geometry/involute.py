@@ -134,7 +134,8 @@ class GearPairGeometry:
         center_distance_mm: Operating centre distance a [mm]; ``None`` = ``m (z1 + z2) / 2``
             without profile shift, the shifted pair's working centre distance with one.
         profile_shift_pinion, profile_shift_wheel: Profile shift coefficients x1, x2 (ISO 21771:
-            the generating rack moved x m away from the gear's centre; -3 to 3). Both 0: the
+            the generating rack moved x m away from the gear's centre; -3 to 3; 0 is stored as
+            None, so that an unshifted pair keeps its cache and resolution keys). Both 0: the
             pair above. Otherwise each gear is the shifted rack's: its thickness on the reference
             circle ``m (pi/2 + 2 x tan(alpha)) - ds`` with the thinning of the unshifted tooth,
             ``ds = pi m / 2 - tooth_thickness_mm`` (``tooth_thickness_mm`` is then read as the
@@ -160,8 +161,8 @@ class GearPairGeometry:
     tip_round_coefficient: float = 0.1
     bore_radius_mm: float = 15.0
     center_distance_mm: float | None = None
-    profile_shift_pinion: float = 0.0
-    profile_shift_wheel: float = 0.0
+    profile_shift_pinion: float | None = None
+    profile_shift_wheel: float | None = None
 
     def __post_init__(self) -> None:
         p = "geometry."
@@ -207,7 +208,9 @@ class GearPairGeometry:
                 require_positive(p + "center_distance_mm", self.center_distance_mm),
             )
         for key in ("profile_shift_pinion", "profile_shift_wheel"):
-            set_(key, require_range(p + key, getattr(self, key), -3.0, 3.0))
+            if getattr(self, key) is not None:
+                x = require_range(p + key, getattr(self, key), -3.0, 3.0)
+                set_(key, None if x == 0.0 else x)  # 0 is stored as None: the unshifted keys
         _check_pair(self)  # derived feasibility: raises ParameterError naming the parameter
 
     def teeth(self, body: str) -> int:
@@ -221,13 +224,14 @@ class GearPairGeometry:
         return pinion_speed_rpm * self.teeth_pinion / self.teeth(body)
 
     def profile_shift(self, body: str) -> float:
-        """Profile shift coefficient x of ``body``."""
-        return self.profile_shift_pinion if body == "pinion" else self.profile_shift_wheel
+        """Profile shift coefficient x of ``body`` (0 without)."""
+        x = self.profile_shift_pinion if body == "pinion" else self.profile_shift_wheel
+        return x or 0.0
 
     @property
     def shifted(self) -> bool:
         """True when a gear has a profile shift."""
-        return self.profile_shift_pinion != 0.0 or self.profile_shift_wheel != 0.0
+        return self.profile_shift_pinion is not None or self.profile_shift_wheel is not None
 
     @property
     def reference_center_distance_mm(self) -> float:
@@ -250,13 +254,13 @@ class GearPairGeometry:
         backlash (ISO 21771); the reference one without shift."""
         alpha = math.radians(self.pressure_angle_deg)
         z_sum = self.teeth_pinion + self.teeth_wheel
-        x_sum = self.profile_shift_pinion + self.profile_shift_wheel
+        x_sum = self.profile_shift("pinion") + self.profile_shift("wheel")
         inv_w = inv(alpha) + 2.0 * math.tan(alpha) * x_sum / z_sum
         if inv_w <= 0.0:
             limit = -z_sum * inv(alpha) / (2.0 * math.tan(alpha))
             raise ParameterError(
                 "geometry.profile_shift_wheel",
-                self.profile_shift_wheel,
+                self.profile_shift("wheel"),
                 f"x1 + x2 > {limit:.4g}",
                 "no working pressure angle for this shift sum",
             )
@@ -269,7 +273,7 @@ class GearPairGeometry:
         if not self.shifted:
             return 0.0
         y = (self.center_distance - self.reference_center_distance_mm) / self.module_mm
-        return min(0.0, y - (self.profile_shift_pinion + self.profile_shift_wheel))
+        return min(0.0, y - (self.profile_shift("pinion") + self.profile_shift("wheel")))
 
 
 MIN_TEETH = 6
