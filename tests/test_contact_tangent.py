@@ -229,7 +229,7 @@ def test_the_assembled_tangent_is_the_derivative_of_the_assembled_residual(mu):
     finite difference of its residual in the contact dofs (the bodies' frames, the dofs the
     boundary conditions fix left out); without it, it is off by the normal's and the foot's
     variation (with friction, a sliding upper cylinder freezes its slip directions)."""
-    opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu)
+    opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu, geometric_tangent=True)
     case = hertz_case(MPI.COMM_SELF, opts, contact_size=0.02)
     if mu:
         case.problem.motions["upper"] = RigidMotion(velocity_m_s=(1.0, 0.0, 0.0))
@@ -270,7 +270,7 @@ def test_the_assembled_torque_border_is_the_derivative_in_the_rotation(mu):
     ``rotation_terms``' ∂R_u/∂ψ, ∂(−M)/∂u and ∂(−M)/∂ψ with the geometric parts are the central
     finite differences of the assembled residual and of the contact moment; without them they
     are not."""
-    opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu)
+    opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu, geometric_tangent=True)
     case = hertz_case(MPI.COMM_SELF, opts, contact_size=0.02)
     turn = RigidMotion(center=(0.0, 1.0, 0.0), axis=(0.0, 0.0, 1.0), angular_velocity_rad_s=1.0)
     case.problem.motions["upper"] = turn

@@ -38,7 +38,7 @@ from gearfem.contact.kinematics import _affine_coords, evaluate, project, segmen
 from gearfem.contact.options import ContactOptions
 from gearfem.contact.rigid import RigidMotion
 from gearfem.contact.surface import ContactSurface
-from gearfem.contact.tangent import PointGeometry, geometric_tangent, torque_border
+from gearfem.contact.tangent import PointGeometry, geometric_factors, torque_border
 from gearfem.core.errors import GearfemError
 
 
@@ -67,12 +67,11 @@ class ContactPoints:
     slope: np.ndarray  # dp/d(λ − εg): 1 where active (0..1 with pressure smoothing)
     Ns: np.ndarray  # (n, nn)
     Nm: np.ndarray  # (n, nn)
-    # the master facet at the foot, for the geometric tangent (gearfem.contact.tangent)
-    dNm: np.ndarray | None = None  # (n, 2, nn) ∂N_m/∂ζ_α
-    tau: np.ndarray | None = None  # (n, 2, 3) τ_α = ∂x_m/∂ζ_α
-    curvature: np.ndarray | None = None  # (n, 2, 2) b_αβ = n·∂²x_m/∂ζ_α∂ζ_β
+    # for the geometric tangent (gearfem.contact.tangent)
     frozen_slip: np.ndarray | None = None  # (n, 3) the frozen s₀ ŝ is made from (None: not frozen)
     nodes: np.ndarray | None = None  # (n, 2 nn, 3) placed slave, then master facet nodes
+    # the active points' (indices, U, V, e_β) once assembled (rotation_terms reuses them)
+    geometric: tuple | None = None
 
     @property
     def num_points(self) -> int:
@@ -396,12 +395,8 @@ class ContactInterface:
             seg.area_scale = np.linalg.norm(np.cross(T1, T2), axis=1)
         jac = seg.area_scale
         fm, zeta, valid = self._master_feet(ref_m, place.xm, x, seg)
-        tab = ref_m.tabulate(zeta, 2)  # N, ∂N/∂ζ₁, ∂N/∂ζ₂, ∂²N/∂ζ₁², ∂²N/∂ζ₁∂ζ₂, ∂²N/∂ζ₂²
-        xd = np.matmul(tab[:, :, None, :], place.xm[fm][None])[:, :, 0, :]  # (6, n, 3)
-        xmp, t1, t2, Nm = xd[0], xd[1], xd[2], tab[0]
+        xmp, t1, t2, Nm = evaluate(ref_m, place.xm[fm], zeta)
         normal, _ = unit_normal(t1, t2, place.master_data.orientation[fm])
-        b = np.einsum("kpd,pd->pk", xd[3:], normal)  # n·x_11, n·x_12, n·x_22
-        curvature = np.stack([b[:, [0, 1]], b[:, [1, 2]]], axis=1)
         gap = np.einsum("pd,pd->p", x - xmp, normal)
         gap = np.where(valid, gap, np.inf)
         eps = ps.eps[fs]
@@ -434,9 +429,6 @@ class ContactInterface:
             slope=slope,
             Ns=Ns,
             Nm=Nm,
-            dNm=np.moveaxis(tab[1:3], 0, 1),
-            tau=np.stack([t1, t2], axis=1),
-            curvature=curvature,
             frozen_slip=frozen_slip,
             nodes=np.concatenate([place.xs[fs], place.xm[fm]], axis=1),
         )
@@ -606,7 +598,7 @@ class ContactInterface:
                     shape=(k, len(local_ids)),
                 )
                 if self.options.geometric_tangent:
-                    U, V = self._geometric_factors(pts, act, dirn, Rs, Rm, free)
+                    U, V = self._geometric_factors(ps, pts, act, dirn, Rs, Rm, free)
                     r4 = np.repeat(np.arange(4 * k).reshape(k, 4), m, axis=0).reshape(k, m, 4)
                     shape = (4 * k, len(local_ids))
                     cols4 = np.broadcast_to(inv[:, :, None], (k, m, 4))
@@ -626,17 +618,19 @@ class ContactInterface:
             return res, None
         return res, (cat(rows, np.int64), cat(cols, np.int64), cat(vals, np.float64))
 
-    def _geometric_factors(self, pts, act, dirn, Rs, Rm, free):
+    def _geometric_factors(self, ps, pts, act, dirn, Rs, Rm, free):
         """The geometric tangent's factors (U, V), each (k, m, 4), of the active points ``act``
         (:func:`gearfem.contact.tangent.geometric_tangent`) in the bodies' frames over the points'
         dofs (slave nodes, then master nodes, 3 each), masked where the dofs are fixed: the
         variation of the closest point, the normal and the frozen slip direction that the
-        tangent W ε ρ γᵀ leaves out."""
-        geo, frozen = _point_geometry(pts, act)
-        U, V = geometric_tangent(
+        tangent W ε ρ γᵀ leaves out. The global-frame factors are kept on ``pts`` for
+        :meth:`rotation_terms`."""
+        geo, frozen = _point_geometry(pts, act, ps.master.ref)
+        U, V, e = geometric_factors(
             geo, pts.dA[act] * pts.pressure[act], dirn[act], self.options.friction_coefficient,
             frozen,
         )  # fmt: skip
+        pts.geometric = (act, geo, frozen, (U, V, e))
         k, nn = len(act), pts.Ns.shape[1]
         mask = free[act][..., None]  # (k, 2, nn, 3, 1): per dof
         return tuple(
@@ -704,7 +698,12 @@ class ContactInterface:
             v_pu_pts = (w * mcoef)[:, None] * gam
             if self.options.geometric_tangent and np.any(act):
                 a_idx = np.flatnonzero(act)
-                geo, frozen = _point_geometry(pts, a_idx)
+                kept = pts.geometric
+                if kept is not None and np.array_equal(kept[0], a_idx):
+                    _, geo, frozen, factors = kept
+                else:
+                    geo, frozen = _point_geometry(pts, a_idx, ps.master.ref)
+                    factors = None
                 wp = pts.dA[a_idx] * pts.pressure[a_idx]
                 d = dirn[a_idx]
                 nn = pts.Ns.shape[1]
@@ -714,7 +713,7 @@ class ContactInterface:
                 )  # fmt: skip
                 g_up, g_pu, g_pp = torque_border(
                     geo, wp, d, mu, frozen, r_glob.reshape(len(a_idx), -1), pts.nodes[a_idx],
-                    pts.x[a_idx], axis, c, "slave" if sign > 0 else "master",
+                    pts.x[a_idx], axis, c, "slave" if sign > 0 else "master", factors,
                 )  # fmt: skip
                 k = len(a_idx)
                 mask = free[a_idx]  # (k, 2, nn, 3)
@@ -795,16 +794,25 @@ class ContactInterface:
         return worst
 
 
-def _point_geometry(pts: ContactPoints, idx: np.ndarray) -> tuple[PointGeometry, np.ndarray | None]:
-    """What :mod:`gearfem.contact.tangent` needs of the points ``idx``, and their frozen slip
-    directions (None when ŝ is not frozen)."""
+def _point_geometry(
+    pts: ContactPoints, idx: np.ndarray, ref_m
+) -> tuple[PointGeometry, np.ndarray | None]:
+    """What :mod:`gearfem.contact.tangent` needs of the points ``idx`` (the master facet's shape
+    functions, tangents and curvature at the foot, from one tabulation with second derivatives),
+    and their frozen slip directions (None when ŝ is not frozen)."""
+    nn = pts.Ns.shape[1]
+    xm = pts.nodes[idx, nn:]
+    tab = ref_m.tabulate(pts.zeta[idx], 2)  # N, N_,1, N_,2, N_,11, N_,12, N_,22: (6, k, nn)
+    xd = np.matmul(tab[:, :, None, :], xm[None])[:, :, 0, :]  # (6, k, 3)
+    normal = pts.normal[idx]
+    b = np.einsum("jkd,kd->kj", xd[3:], normal)  # n·x_11, n·x_12, n·x_22
     geo = PointGeometry(
         Ns=pts.Ns[idx],
         Nm=pts.Nm[idx],
-        dNm=pts.dNm[idx],
-        tau=pts.tau[idx],
-        curvature=pts.curvature[idx],
-        normal=pts.normal[idx],
+        dNm=np.moveaxis(tab[1:3], 0, 1),
+        tau=np.moveaxis(xd[1:3], 0, 1),
+        curvature=np.stack([b[:, [0, 1]], b[:, [1, 2]]], axis=1),
+        normal=normal,
         gap=pts.gap[idx],
     )
     return geo, None if pts.frozen_slip is None else pts.frozen_slip[idx]
@@ -814,7 +822,13 @@ def _to_body_frames(F: np.ndarray, Rs: np.ndarray, Rm: np.ndarray) -> np.ndarray
     """Per-point arrays over the global coordinates of the slave's and the master's nodes,
     ``(k, 2, nn, 3, ...)``, in the bodies' frames: each node's 3-block times R_bᵀ (residual rows
     R_bᵀ r; displacement columns, Δx = R_b Δu)."""
-    return np.stack([np.einsum("ji,pnj...->pni...", R, F[:, b]) for b, R in ((0, Rs), (1, Rm))], 1)
+    out = np.empty_like(F)
+    for b, R in ((0, Rs), (1, Rm)):
+        if F.ndim == 4:  # (k, 2, nn, 3): vectors
+            out[:, b] = F[:, b] @ R
+        else:  # (k, 2, nn, 3, c): columns of vectors
+            out[:, b] = np.matmul(R.T, F[:, b])
+    return out
 
 
 def _box_pairs(xs: np.ndarray, xm: np.ndarray, margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
