@@ -11,12 +11,19 @@ without friction.
 
 from __future__ import annotations
 
+import dataclasses
+
 import basix
 import numpy as np
 import pytest
+import scipy.sparse as sp
+from mpi4py import MPI
 
 from gearfem.contact.kinematics import evaluate, project, unit_normal
+from gearfem.contact.options import ContactOptions
+from gearfem.contact.rigid import RigidMotion
 from gearfem.contact.tangent import PointGeometry, frozen_slip_jacobian, geometric_tangent
+from gearfem.contact.verification import hertz_case
 from gearfem.core.facets import FacetReference
 
 REF = FacetReference.create(basix.CellType.tetrahedron, 2)
@@ -200,3 +207,107 @@ def test_torque_border_is_the_derivative_in_the_rotation(controlled, mu):
     assert np.linalg.norm(fd_pu - (W * EPS * m * gam + k_pu[0])) < 1e-6 * np.linalg.norm(fd_pu)
     fd_pp = -(moment(turned(step)) - moment(turned(-step))) / (2 * step)
     assert fd_pp == pytest.approx(W * EPS * m * beta + k_pp[0], rel=1e-6)
+
+
+def _assembled(itf, u, motions, matrix):
+    """The interface's residual (dense, by dof) and, with ``matrix``, its tangent (sparse) at
+    displacement ``u``: the segmentation, the multipliers and the frozen slip directions held."""
+    pts = itf.evaluate(u, motions)
+    (rd, rv), coo = itf.assemble(pts, motions, matrix)
+    r = np.zeros(len(u))
+    np.add.at(r, rd, rv)
+    if not matrix:
+        return r, None
+    rows, cols, vals = coo
+    return r, sp.csr_matrix((vals, (rows, cols)), shape=(len(u), len(u)))
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.3])
+def test_the_assembled_tangent_is_the_derivative_of_the_assembled_residual(mu):
+    """On the Hertz pair of curved P2 cylinders after a solve (active contact, multipliers from
+    the augmented Lagrangian), the interface's tangent with the geometric part is the central
+    finite difference of its residual in the contact dofs (the bodies' frames, the dofs the
+    boundary conditions fix left out); without it, it is off by the normal's and the foot's
+    variation (with friction, a sliding upper cylinder freezes its slip directions)."""
+    opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu, geometric_tangent=True)
+    case = hertz_case(MPI.COMM_SELF, opts, contact_size=0.02)
+    if mu:
+        case.problem.motions["upper"] = RigidMotion(velocity_m_s=(1.0, 0.0, 0.0))
+    case.problem.solve("tangent check")
+    itf, motions = case.problem.interfaces[0], case.problem.motions
+    u0 = case.problem.u.x.array.copy()
+    _, K = _assembled(itf, u0, motions, True)
+    itf_frozen = dataclasses.replace(itf.options, geometric_tangent=False)
+    itf.options, saved = itf_frozen, itf.options
+    _, K0 = _assembled(itf, u0, motions, True)
+    itf.options = saved
+    contact = np.unique(K.nonzero()[1])
+    rng = np.random.default_rng(0)
+    h = 1e-7 * np.abs(u0).max()
+    err, err0 = [], []
+    for j in rng.choice(contact, size=min(24, len(contact)), replace=False):
+        e = np.zeros_like(u0)
+        e[j] = h
+        rp, _ = _assembled(itf, u0 + e, motions, False)
+        rm, _ = _assembled(itf, u0 - e, motions, False)
+        fd = (rp - rm) / (2 * h)
+        scale = np.linalg.norm(fd)
+        err.append(np.linalg.norm(K[:, j].toarray().ravel() - fd) / scale)
+        err0.append(np.linalg.norm(K0[:, j].toarray().ravel() - fd) / scale)
+    assert max(err) < 1e-5, max(err)
+    assert max(err0) > 100 * max(err)  # the geometric part is what closes the gap
+
+
+def _dense(n: int, dofs: np.ndarray, vals: np.ndarray) -> np.ndarray:
+    out = np.zeros(n)
+    np.add.at(out, dofs, vals)
+    return out
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.3])
+def test_the_assembled_torque_border_is_the_derivative_in_the_rotation(mu):
+    """The upper Hertz cylinder turned by ψ about its own axis (as the gear cycle holds the wheel):
+    ``rotation_terms``' ∂R_u/∂ψ, ∂(−M)/∂u and ∂(−M)/∂ψ with the geometric parts are the central
+    finite differences of the assembled residual and of the contact moment; without them they
+    are not."""
+    opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu, geometric_tangent=True)
+    case = hertz_case(MPI.COMM_SELF, opts, contact_size=0.02)
+    turn = RigidMotion(center=(0.0, 1.0, 0.0), axis=(0.0, 0.0, 1.0), angular_velocity_rad_s=1.0)
+    case.problem.motions["upper"] = turn
+    case.problem.solve("torque border check")
+    itf, motions = case.problem.interfaces[0], dict(case.problem.motions)
+    u0 = case.problem.u.x.array.copy()
+    n = len(u0)
+    psi0, d_psi = 2e-3, 1e-7
+    at = lambda psi: {**motions, "upper": turn.rotated(psi)}
+
+    def terms(u, psi, geometric=True):
+        saved = itf.options
+        itf.options = dataclasses.replace(saved, geometric_tangent=geometric)
+        try:
+            return itf.rotation_terms(itf.evaluate(u, at(psi)), at(psi), "upper")
+        finally:
+            itf.options = saved
+
+    def residual(u, psi):
+        return _assembled(itf, u, at(psi), False)[0]
+
+    fd_up = (residual(u0, psi0 + d_psi) - residual(u0, psi0 - d_psi)) / (2 * d_psi)
+    fd_pp = -(terms(u0, psi0 + d_psi)[0] - terms(u0, psi0 - d_psi)[0]) / (2 * d_psi)
+    rng = np.random.default_rng(1)
+    _, kpp, (d1, v1), (d2, v2) = terms(u0, psi0)
+    _, _, (e1, w1), (e2, w2) = terms(u0, psi0, geometric=False)
+    k_up, k_pu = _dense(n, d1, v1), _dense(n, d2, v2)
+    k_up0, k_pu0 = _dense(n, e1, w1), _dense(n, e2, w2)
+    # the free dofs of the contact points (the fixed ones carry no entries by design)
+    cols = rng.choice(np.unique(e2[w2 != 0.0]), size=24, replace=False)
+    h = 1e-5 * np.abs(u0).max()  # the moment's differences: round-off 1e-16 M / h
+    fd_pu = np.zeros(len(cols))
+    for i, j in enumerate(cols):
+        e = np.zeros_like(u0)
+        e[j] = h
+        fd_pu[i] = -(terms(u0 + e, psi0)[0] - terms(u0 - e, psi0)[0]) / (2 * h)
+    rel = lambda a, b: np.linalg.norm(a - b) / np.linalg.norm(b)
+    assert rel(k_up, fd_up) < 1e-5 and rel(k_pu[cols], fd_pu) < 1e-5
+    assert kpp == pytest.approx(fd_pp, rel=1e-5)
+    assert rel(k_up0, fd_up) > 1e-3 and rel(k_pu0[cols], fd_pu) > 1e-3

@@ -250,7 +250,9 @@ def _patch_cycle(p0: float, v: float, n: int = 10, area: float = 1e-6):
         z_bin_m=area / 4e-4,
     )
     fields = types.SimpleNamespace(
-        facet_image_index=np.array([[0]]), facet_image_area_m2=np.array([[area]])
+        facet_image_index=np.array([[0]]),
+        facet_image_area_m2=np.array([[area]]),
+        pitch_angle_rad=2 * math.pi,  # this gear's pitch: the pinion's (a ratio of 1)
     )
     return types.SimpleNamespace(
         history=hist,

@@ -211,3 +211,107 @@ def test_bad_input_names_the_parameter_value_and_range():
     with pytest.raises(ParameterError, match="contact ratio"):
         profile_shifted_pair(30, 30, 2e-3, 30.0, addendum_coef=0.6, dedendum_coef=0.85)
     assert issubclass(ParameterError, ValueError)
+
+
+# --- the meshed geometry (GearPairGeometry / GearPair) with profile shift -------------------------
+
+#: A shifted pair of the kind users run (20/40 teeth, 20 deg, x1 = 0.4, x2 = 0.1), sharp tips, so
+#: that the tip form circles are the tip circles of ISO 21771.
+SHIFTED = dict(
+    module_mm=2.0,
+    teeth_pinion=20,
+    teeth_wheel=40,
+    pressure_angle_deg=20.0,
+    tooth_thickness_mm=math.pi,  # unthinned: zero backlash at the working centre distance
+    root_fillet_coefficient=0.3,
+    tip_round_coefficient=0.0,
+    bore_radius_mm=10.0,
+)
+
+
+@pytest.mark.parametrize("x1, x2", [(0.4, 0.1), (0.5, -0.3), (-0.1, 0.6)])
+def test_meshed_geometry_of_a_shifted_pair_is_iso_21771(x1, x2):
+    """GearPair of a shifted GearPairGeometry against profile_shifted_pair: centre distance,
+    working pressure angle, tip alteration, every radius, the tooth thicknesses, the start of
+    active profile, the contact ratio and the tip clearances; zero backlash when unthinned."""
+    g = GearPairGeometry(**SHIFTED, profile_shift_pinion=x1, profile_shift_wheel=x2)
+    pair = GearPair(g)
+    ref = profile_shifted_pair(20, 40, 2e-3, 20.0, x1, x2, rack_fillet_coef=0.3)
+    close = lambda a, b: a == pytest.approx(b, rel=1e-11, abs=1e-15)
+    assert close(g.center_distance * 1e-3, ref.centre_distance_m)
+    assert close(math.degrees(pair.operating_pressure_angle_rad), ref.working_pressure_angle_deg)
+    assert close(g.tip_alteration_coefficient, ref.tip_alteration_coef)
+    assert close(pair.contact_ratio, ref.contact_ratio)
+    assert close(pair.tip_clearance_m[0], ref.tip_clearance1_m)
+    assert close(pair.tip_clearance_m[1], ref.tip_clearance2_m)
+    assert abs(pair.backlash_circular_m) < 1e-15
+    for body, i in (("pinion", 1), ("wheel", 2)):
+        prof = pair.profile(body)
+        for mine, iso in (
+            (prof.base_radius_m, f"base_radius{i}_m"),
+            (prof.operating_pitch_radius_m, f"working_pitch_radius{i}_m"),
+            (prof.tip_radius_m, f"tip_radius{i}_m"),
+            (prof.root_radius_m, f"root_radius{i}_m"),
+            (prof.reference_thickness_m, f"tooth_thickness{i}_m"),
+            (prof.tip_thickness_m, f"tip_thickness{i}_m"),
+            (prof.form_radius_m, f"root_form_radius{i}_m"),
+            (pair.start_of_active_profile_m(body), f"start_of_active_profile{i}_m"),
+        ):
+            assert close(mine, getattr(ref, iso)), (body, iso)
+
+
+def test_thinning_of_a_shifted_pair_gives_its_backlash():
+    """tooth_thickness_mm below pi m / 2 thins each shifted tooth by ds = pi m / 2 - s on the
+    reference circle: the circular backlash on the working pitch circle is
+    ds (r_w1 / r_1 + r_w2 / r_2) = 2 ds cos(alpha) / cos(alpha_w)."""
+    ds = 0.1
+    g = GearPairGeometry(
+        **{**SHIFTED, "tooth_thickness_mm": math.pi - ds},
+        profile_shift_pinion=0.4,
+        profile_shift_wheel=0.1,
+    )
+    pair = GearPair(g)
+    expected = (
+        2 * ds * 1e-3 * math.cos(math.radians(20.0)) / math.cos(pair.operating_pressure_angle_rad)
+    )
+    assert pair.backlash_circular_m == pytest.approx(expected, rel=1e-12)
+    # the thesis pair is the unshifted case of the same reading of tooth_thickness_mm
+    thesis = GearPairGeometry()
+    assert GearPair(thesis).backlash_circular_m == pytest.approx(
+        2 * (math.pi - thesis.tooth_thickness_mm) * 1e-3, rel=1e-12
+    )
+
+
+def test_a_given_centre_distance_with_shifts():
+    """With center_distance_mm given the shifts keep it: a larger one than the working centre
+    distance adds backlash (no tip shortening beyond the ISO k); a smaller one is refused, naming
+    center_distance_mm and the working centre distance."""
+    free = GearPairGeometry(**SHIFTED, profile_shift_pinion=0.4, profile_shift_wheel=0.1)
+    a_w = free.center_distance
+    wider = GearPairGeometry(
+        **SHIFTED, profile_shift_pinion=0.4, profile_shift_wheel=0.1, center_distance_mm=a_w + 0.05
+    )
+    assert GearPair(wider).backlash_circular_m > 0
+    assert wider.tip_alteration_coefficient == pytest.approx(
+        free.tip_alteration_coefficient + 0.05 / 2.0, rel=1e-12
+    )
+    with pytest.raises(ParameterError, match=r"geometry\.center_distance_mm .*working centre"):
+        GearPairGeometry(
+            **SHIFTED,
+            profile_shift_pinion=0.4,
+            profile_shift_wheel=0.1,
+            center_distance_mm=a_w - 0.05,
+        )
+
+
+def test_bad_shifts_name_the_shift():
+    """A shift that points the tip or lets the rack undercut the flank is refused naming the
+    gear's shift coefficient; outside -3..3 likewise."""
+    with pytest.raises(ParameterError, match=r"profile_shift_pinion = 2\.0 .*pointed"):
+        GearPairGeometry(**SHIFTED, profile_shift_pinion=2.0)
+    with pytest.raises(ParameterError, match=r"profile_shift_pinion = 1\.5 .*into its fillet"):
+        GearPairGeometry(**SHIFTED, profile_shift_pinion=1.5)
+    with pytest.raises(ParameterError, match=r"profile_shift_pinion = -0\.6 .*undercuts"):
+        GearPairGeometry(**{**SHIFTED, "teeth_pinion": 14}, profile_shift_pinion=-0.6)
+    with pytest.raises(ParameterError, match=r"profile_shift_wheel = 4\.0"):
+        GearPairGeometry(**SHIFTED, profile_shift_wheel=4.0)

@@ -38,6 +38,7 @@ from gearfem.contact.kinematics import _affine_coords, evaluate, project, segmen
 from gearfem.contact.options import ContactOptions
 from gearfem.contact.rigid import RigidMotion
 from gearfem.contact.surface import ContactSurface
+from gearfem.contact.tangent import PointGeometry, geometric_factors, torque_border
 from gearfem.core.errors import GearfemError
 
 
@@ -66,6 +67,11 @@ class ContactPoints:
     slope: np.ndarray  # dp/d(λ − εg): 1 where active (0..1 with pressure smoothing)
     Ns: np.ndarray  # (n, nn)
     Nm: np.ndarray  # (n, nn)
+    # for the geometric tangent (gearfem.contact.tangent)
+    frozen_slip: np.ndarray | None = None  # (n, 3) the frozen s₀ ŝ is made from (None: not frozen)
+    nodes: np.ndarray | None = None  # (n, 2 nn, 3) placed slave, then master facet nodes
+    # the active points' (indices, U, V, e_β) once assembled (rotation_terms reuses them)
+    geometric: tuple | None = None
 
     @property
     def num_points(self) -> int:
@@ -399,7 +405,8 @@ class ContactInterface:
         pressure, slope, active = self._pressure(trial, valid)
         vrel = place.slave_motion.velocity(x) - place.master_motion.velocity(x)
         vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
-        s_hat = self._slip_direction(vt, normal, seg.slip_direction if frozen else None)
+        frozen_slip = seg.slip_direction if frozen else None
+        s_hat = self._slip_direction(vt, normal, frozen_slip)
         mu = self.options.friction_coefficient
         traction = pressure[:, None] * (normal - mu * s_hat)
         return ContactPoints(
@@ -422,6 +429,8 @@ class ContactInterface:
             slope=slope,
             Ns=Ns,
             Nm=Nm,
+            frozen_slip=frozen_slip,
+            nodes=np.concatenate([place.xs[fs], place.xm[fm]], axis=1),
         )
 
     def multipliers_at(
@@ -588,7 +597,16 @@ class ContactInterface:
                     ),
                     shape=(k, len(local_ids)),
                 )
-                K = (B.T @ C).tocoo()
+                if self.options.geometric_tangent:
+                    U, V = self._geometric_factors(ps, pts, act, dirn, Rs, Rm, free)
+                    r4 = np.repeat(np.arange(4 * k).reshape(k, 4), m, axis=0).reshape(k, m, 4)
+                    shape = (4 * k, len(local_ids))
+                    cols4 = np.broadcast_to(inv[:, :, None], (k, m, 4))
+                    Ub = sp.csr_matrix((U.ravel(), (r4.ravel(), cols4.ravel())), shape=shape)
+                    Vb = sp.csr_matrix((V.ravel(), (r4.ravel(), cols4.ravel())), shape=shape)
+                    K = (B.T @ C + Ub.T @ Vb).tocoo()
+                else:
+                    K = (B.T @ C).tocoo()
                 nz = K.data != 0.0
                 rows.append(local_ids[K.row[nz]])
                 cols.append(local_ids[K.col[nz]])
@@ -599,6 +617,28 @@ class ContactInterface:
         if not matrix:
             return res, None
         return res, (cat(rows, np.int64), cat(cols, np.int64), cat(vals, np.float64))
+
+    def _geometric_factors(self, ps, pts, act, dirn, Rs, Rm, free):
+        """The geometric tangent's factors (U, V), each (k, m, 4), of the active points ``act``
+        (:func:`gearfem.contact.tangent.geometric_tangent`) in the bodies' frames over the points'
+        dofs (slave nodes, then master nodes, 3 each), masked where the dofs are fixed: the
+        variation of the closest point, the normal and the frozen slip direction that the
+        tangent W ε ρ γᵀ leaves out. The global-frame factors are kept on ``pts`` for
+        :meth:`rotation_terms`."""
+        geo, frozen = _point_geometry(pts, act, ps.master.ref)
+        U, V, e = geometric_factors(
+            geo, pts.dA[act] * pts.pressure[act], dirn[act], self.options.friction_coefficient,
+            frozen,
+        )  # fmt: skip
+        pts.geometric = (act, geo, frozen, (U, V, e))
+        k, nn = len(act), pts.Ns.shape[1]
+        mask = free[act][..., None]  # (k, 2, nn, 3, 1): per dof
+        return tuple(
+            np.where(mask, _to_body_frames(F.reshape(k, 2, nn, 3, 4), Rs, Rm), 0.0).reshape(
+                k, -1, 4
+            )
+            for F in (U, V)
+        )
 
     # -------------------------------------------------------------------------------------------
     def rotation_terms(
@@ -654,10 +694,37 @@ class ContactInterface:
             rho = np.where(free, rho, 0.0).reshape(len(pts.dA), -1)
             gam = np.where(free, gam, 0.0).reshape(len(pts.dA), -1)
             sel = act
+            v_up_pts = (w * beta)[:, None] * rho
+            v_pu_pts = (w * mcoef)[:, None] * gam
+            if self.options.geometric_tangent and np.any(act):
+                a_idx = np.flatnonzero(act)
+                kept = pts.geometric
+                if kept is not None and np.array_equal(kept[0], a_idx):
+                    _, geo, frozen, factors = kept
+                else:
+                    geo, frozen = _point_geometry(pts, a_idx, ps.master.ref)
+                    factors = None
+                wp = pts.dA[a_idx] * pts.pressure[a_idx]
+                d = dirn[a_idx]
+                nn = pts.Ns.shape[1]
+                r_glob = -wp[:, None, None] * np.concatenate(
+                    [pts.Ns[a_idx][:, :, None] * d[:, None, :],
+                     -pts.Nm[a_idx][:, :, None] * d[:, None, :]], axis=1,
+                )  # fmt: skip
+                g_up, g_pu, g_pp = torque_border(
+                    geo, wp, d, mu, frozen, r_glob.reshape(len(a_idx), -1), pts.nodes[a_idx],
+                    pts.x[a_idx], axis, c, "slave" if sign > 0 else "master", factors,
+                )  # fmt: skip
+                k = len(a_idx)
+                mask = free[a_idx]  # (k, 2, nn, 3)
+                for v_pts, g in ((v_up_pts, g_up), (v_pu_pts, g_pu)):
+                    g = _to_body_frames(g.reshape(k, 2, nn, 3), Rs, Rm)
+                    v_pts[a_idx] += np.where(mask, g, 0.0).reshape(k, -1)
+                kpp += float(np.sum(g_pp))
             d_up.append(dofs[sel].ravel())
-            v_up.append(((w * beta)[:, None] * rho)[sel].ravel())
+            v_up.append(v_up_pts[sel].ravel())
             d_pu.append(dofs[sel].ravel())
-            v_pu.append(((w * mcoef)[:, None] * gam)[sel].ravel())
+            v_pu.append(v_pu_pts[sel].ravel())
         cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)
         return (
             M,
@@ -725,6 +792,43 @@ class ContactInterface:
             for ps, new in zip(self.passes, updated):
                 ps.lam[:] = new
         return worst
+
+
+def _point_geometry(
+    pts: ContactPoints, idx: np.ndarray, ref_m
+) -> tuple[PointGeometry, np.ndarray | None]:
+    """What :mod:`gearfem.contact.tangent` needs of the points ``idx`` (the master facet's shape
+    functions, tangents and curvature at the foot, from one tabulation with second derivatives),
+    and their frozen slip directions (None when ŝ is not frozen)."""
+    nn = pts.Ns.shape[1]
+    xm = pts.nodes[idx, nn:]
+    tab = ref_m.tabulate(pts.zeta[idx], 2)  # N, N_,1, N_,2, N_,11, N_,12, N_,22: (6, k, nn)
+    xd = np.matmul(tab[:, :, None, :], xm[None])[:, :, 0, :]  # (6, k, 3)
+    normal = pts.normal[idx]
+    b = np.einsum("jkd,kd->kj", xd[3:], normal)  # n·x_11, n·x_12, n·x_22
+    geo = PointGeometry(
+        Ns=pts.Ns[idx],
+        Nm=pts.Nm[idx],
+        dNm=np.moveaxis(tab[1:3], 0, 1),
+        tau=np.moveaxis(xd[1:3], 0, 1),
+        curvature=np.stack([b[:, [0, 1]], b[:, [1, 2]]], axis=1),
+        normal=normal,
+        gap=pts.gap[idx],
+    )
+    return geo, None if pts.frozen_slip is None else pts.frozen_slip[idx]
+
+
+def _to_body_frames(F: np.ndarray, Rs: np.ndarray, Rm: np.ndarray) -> np.ndarray:
+    """Per-point arrays over the global coordinates of the slave's and the master's nodes,
+    ``(k, 2, nn, 3, ...)``, in the bodies' frames: each node's 3-block times R_bᵀ (residual rows
+    R_bᵀ r; displacement columns, Δx = R_b Δu)."""
+    out = np.empty_like(F)
+    for b, R in ((0, Rs), (1, Rm)):
+        if F.ndim == 4:  # (k, 2, nn, 3): vectors
+            out[:, b] = F[:, b] @ R
+        else:  # (k, 2, nn, 3, c): columns of vectors
+            out[:, b] = np.matmul(R.T, F[:, b])
+    return out
 
 
 def _box_pairs(xs: np.ndarray, xm: np.ndarray, margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

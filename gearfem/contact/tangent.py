@@ -135,12 +135,12 @@ def geometric_tangent(
         mu: Friction coefficient.
         frozen_slip: (n, 3) the frozen s₀ (None: frictionless, or ŝ not a function of n).
     """
-    U, V, _ = _factors(geo, weight_pressure, direction, mu, frozen_slip)
+    U, V, _ = geometric_factors(geo, weight_pressure, direction, mu, frozen_slip)
     return U, V
 
 
-def _factors(geo, weight_pressure, direction, mu, frozen_slip):
-    """(U, V) of :func:`geometric_tangent` and the e_β they were made with."""
+def geometric_factors(geo, weight_pressure, direction, mu, frozen_slip):
+    """(U, V) of :func:`geometric_tangent` and the e_β (n, 2, 3) they were made with."""
     n = len(geo.gap)
     ns, nm = geo.Ns.shape[1], geo.Nm.shape[1]
     Jz, G = projection_jacobians(geo)
@@ -170,6 +170,7 @@ def torque_border(
     axis: np.ndarray,
     centre: np.ndarray,
     controlled: str,
+    factors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The geometric parts of the torque border of a body turning by ψ about ``axis`` through
     ``centre`` (the interface's ``rotation_terms``), per point, in the global frame.
@@ -189,6 +190,8 @@ def torque_border(
         nodes: (n, ns + nm, 3) the current positions of the point's nodes (slave, then master).
         point: (n, 3) the slave point x.
         axis: (3,) the unit rotation axis a; centre: (3,) a point c on it.
+        factors: (U, V, e) of these points as :func:`geometric_factors` returns them, when the
+            caller has them already (the interface assembles the displacement block first).
 
     Returns:
         (k_up, k_pu) each (n, 3 (ns + nm)), and k_pp (n,).
@@ -203,7 +206,7 @@ def torque_border(
     v = np.zeros((n, ns + nm, 3))
     v[:, own] = np.cross(a, nodes[:, own] - centre)
     v = v.reshape(n, -1)
-    U, V, e = _factors(geo, weight_pressure, direction, mu, frozen_slip)
+    U, V, e = factors or geometric_factors(geo, weight_pressure, direction, mu, frozen_slip)
     k_up = np.einsum("pmc,pc->pm", U, np.einsum("pmc,pm->pc", V, v))
     frame = np.zeros((n, ns + nm, 3))
     frame[:, own] = -np.cross(a, residual.reshape(n, ns + nm, 3)[:, own])
@@ -223,6 +226,7 @@ def torque_border(
 __all__ = [
     "PointGeometry",
     "frozen_slip_jacobian",
+    "geometric_factors",
     "geometric_tangent",
     "projection_jacobians",
     "torque_border",

@@ -108,14 +108,24 @@ def source_files(*modules: str) -> dict[str, Path]:
         if path is None:
             continue
         seen[name] = path
-        tree = ast.parse(path.read_text())
-        for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-                todo.append(node.module)
-                todo.extend(f"{node.module}.{a.name}" for a in node.names)  # submodules
-            elif isinstance(node, ast.Import):
-                todo.extend(a.name for a in node.names)
+        todo.extend(_module_facts(path)[0])
     return seen
+
+
+@functools.cache
+def _module_facts(path: Path) -> tuple[tuple[str, ...], str]:
+    """What a module imports (the names :func:`source_files` follows) and its code without
+    docstrings (:func:`_code_of`), from one parse of the file, once per process (as
+    :func:`source_hash`: the code a process runs is the code it imported)."""
+    tree = ast.parse(path.read_text())
+    imports: list[str] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            imports.append(node.module)
+            imports.extend(f"{node.module}.{a.name}" for a in node.names)  # submodules
+        elif isinstance(node, ast.Import):
+            imports.extend(a.name for a in node.names)
+    return tuple(imports), _code_of_tree(tree)
 
 
 @functools.cache
@@ -133,9 +143,13 @@ def source_hash(*modules: str, length: int = 16) -> str:
 
 
 def _code_of(path: Path) -> str:
+    """The code of the module at ``path`` without its docstrings and comments."""
+    return _code_of_tree(ast.parse(path.read_text()))
+
+
+def _code_of_tree(tree: ast.Module) -> str:
     """The module's code without its docstrings and comments (``ast.dump`` of its tree): what
-    the module computes, not how it is explained."""
-    tree = ast.parse(path.read_text())
+    the module computes, not how it is explained. Changes ``tree``."""
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
         if (
@@ -159,5 +173,5 @@ def code_hash(*modules: str, length: int = 12) -> str:
     h = hashlib.sha256()
     for name in sorted(seen):
         h.update(name.encode())
-        h.update(_code_of(seen[name]).encode())
+        h.update(_module_facts(seen[name])[1].encode())
     return h.hexdigest()[:length]

@@ -348,7 +348,9 @@ def reference_instances(cycle, bands: ContactBands) -> Instances:
     p = np.concatenate(pts) if pts else np.zeros(0, dtype=np.int64)
     j = np.concatenate(tgt) if tgt else np.zeros(0, dtype=np.int64)
     w = np.concatenate(wts) if wts else np.zeros(0)
-    w = w * dphi / (2.0 * math.pi) * norm * bands.heat_norm * bands.fraction[bands.band[p]]
+    # over this gear's revolution: 2π z_b / z_1 of the pinion's angle (as the cycle's average)
+    revolution = 2.0 * math.pi * cycle.pitch_angle_rad / f.pitch_angle_rad
+    w = w * dphi / revolution * norm * bands.heat_norm * bands.fraction[bands.band[p]]
     return Instances(p, j, w, bands.band[p], np.arange(bands.num_bands), n_ref)
 
 

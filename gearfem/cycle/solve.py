@@ -509,8 +509,11 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[s
         P = np.stack([_gather(p, comm) for p in facet_press[b]])
         fmap = image_map(sx, fx, center, shift, 2.0 * np.sqrt(sec_area))
         dphi = pitch / H.shape[0]
-        # revolution average: (1 / 2π) Σ_positions Σ_images (heat density at the image) Δφ
-        flux = periodic_sum(H / area[None, :], fmap) * dphi / (2.0 * math.pi)
+        # revolution average over this gear's revolution, 2π z_b / z_1 of the pinion's angle φ
+        # (the images span it: z_b images of a pinion pitch each), per unit ω₁:
+        # (z_1 / (2π z_b)) Σ_positions Σ_images (heat density at the image) Δφ
+        revolution = 2.0 * math.pi * pitch / pitch_b
+        flux = periodic_sum(H / area[None, :], fmap) * dphi / revolution
         pmax = periodic_max(P, fmap)
         kinds = _facet_kinds(model, b, model.reference_surfaces[b])
         out[b] = BodyFields(

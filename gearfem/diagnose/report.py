@@ -32,6 +32,7 @@ from gearfem.diagnose.margins import FoldMargin, fold_margins
 from gearfem.diagnose.margins import markdown as margins_markdown
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
 from gearfem.diagnose.vv20 import Comparison, input_uncertainty
+from gearfem.geometry.involute import GearPair
 from gearfem.instruments.options import ProbeOptions
 from gearfem.uncertainty import DIAGNOSIS_CODE, provenance, run_uncertainty
 
@@ -401,8 +402,8 @@ def design_case(case: Case) -> Case:
     if ins.probes:
         return case
     g = case.geometry
-    r_ref = 0.5 * g.module_mm * g.teeth_pinion
-    r_root = r_ref - g.dedendum_coefficient * g.module_mm
+    pinion = GearPair(g).pinion  # the root circle of a shifted pinion too
+    r_ref, r_root = 1e3 * pinion.reference_radius_m, 1e3 * pinion.root_radius_m
     probes = {
         "web": ProbeOptions(kind="thermocouple", radius_mm=0.5 * (g.bore_radius_mm + r_root)),
         "rim": ProbeOptions(kind="side_face", radius_mm=0.5 * (r_root + r_ref)),

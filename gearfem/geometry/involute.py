@@ -29,7 +29,10 @@ operating thickness ``s_w`` on the operating pitch circle); the rack's tooth is 
 gear's space at the reference circle (``p - s``), i.e. the thinning for backlash is in the tool,
 so the root circle stays at ``r - h_f m`` exactly. The root fillet is therefore the trochoid
 envelope of the rack's tip round, tangent to the involute at the form circle and to the root
-circle. No profile shift (addendum and dedendum are measured from the reference circle).
+circle. With a profile shift x (ISO 21771) the rack is moved x m away from the gear's centre:
+the dedendum becomes ``(h_f - x) m``, the tooth at the reference circle ``2 x m tan(alpha)``
+thicker, and the addendum ``(h_a + x + k) m`` with the tip shortening k of the pair
+(:class:`GearPairGeometry`); the rack generating the root is then the shifted one.
 
 Tip edges: both tip corners of every tooth are rounded with a circle of radius
 ``rho_a = c_a m`` (``tip_round_coefficient``; 0 = sharp) that touches the tip circle from inside
@@ -128,7 +131,22 @@ class GearPairGeometry:
             :attr:`ToothProfile.max_tip_round_radius_m`
             (0.2449 m for the thesis pair, whose tooth is only 0.513 mm thick at the tip circle).
         bore_radius_mm: Inner radius of the (filled) gear body [mm]; the surface held by the hub.
-        center_distance_mm: Operating centre distance a [mm]; ``None`` = ``m (z1 + z2) / 2``.
+        center_distance_mm: Operating centre distance a [mm]; ``None`` = ``m (z1 + z2) / 2``
+            without profile shift, the shifted pair's working centre distance with one.
+        profile_shift_pinion, profile_shift_wheel: Profile shift coefficients x1, x2 (ISO 21771:
+            the generating rack moved x m away from the gear's centre; -3 to 3; 0 is stored as
+            None, so that an unshifted pair keeps its cache and resolution keys). Both 0: the
+            pair above. Otherwise each gear is the shifted rack's: its thickness on the reference
+            circle ``m (pi/2 + 2 x tan(alpha)) - ds`` with the thinning of the unshifted tooth,
+            ``ds = pi m / 2 - tooth_thickness_mm`` (``tooth_thickness_mm`` is then read as the
+            unshifted tooth's thickness on the reference circle, which it is for the thesis
+            pair), its root radius ``r - (h_f - x) m`` and its tip radius ``r + (h_a + x + k) m``
+            with the tip shortening ``k = min(0, y - (x1 + x2))``, ``y m = a_w - a``, which keeps
+            the unshifted pair's tip clearance. Without a given ``center_distance_mm`` the
+            centre distance is the working one of the shifts, at which the unthinned teeth mesh
+            without backlash: ``inv(alpha_w) = inv(alpha) + 2 tan(alpha) (x1 + x2) / (z1 + z2)``,
+            ``a_w = a cos(alpha) / cos(alpha_w)`` (:mod:`gearfem.geometry.profile_shift` gives
+            the same relations with the pair's analytic values).
     """
 
     module_mm: float = 2.0
@@ -143,6 +161,8 @@ class GearPairGeometry:
     tip_round_coefficient: float = 0.1
     bore_radius_mm: float = 15.0
     center_distance_mm: float | None = None
+    profile_shift_pinion: float | None = None
+    profile_shift_wheel: float | None = None
 
     def __post_init__(self) -> None:
         p = "geometry."
@@ -187,6 +207,10 @@ class GearPairGeometry:
                 "center_distance_mm",
                 require_positive(p + "center_distance_mm", self.center_distance_mm),
             )
+        for key in ("profile_shift_pinion", "profile_shift_wheel"):
+            if getattr(self, key) is not None:
+                x = require_range(p + key, getattr(self, key), -3.0, 3.0)
+                set_(key, None if x == 0.0 else x)  # 0 is stored as None: the unshifted keys
         _check_pair(self)  # derived feasibility: raises ParameterError naming the parameter
 
     def teeth(self, body: str) -> int:
@@ -199,12 +223,57 @@ class GearPairGeometry:
         """Rotational speed of ``body`` [rpm] when the pinion turns at ``pinion_speed_rpm``."""
         return pinion_speed_rpm * self.teeth_pinion / self.teeth(body)
 
+    def profile_shift(self, body: str) -> float:
+        """Profile shift coefficient x of ``body`` (0 without)."""
+        x = self.profile_shift_pinion if body == "pinion" else self.profile_shift_wheel
+        return x or 0.0
+
+    @property
+    def shifted(self) -> bool:
+        """True when a gear has a profile shift."""
+        return self.profile_shift_pinion is not None or self.profile_shift_wheel is not None
+
+    @property
+    def reference_center_distance_mm(self) -> float:
+        """a = m (z1 + z2) / 2 [mm]."""
+        return 0.5 * self.module_mm * (self.teeth_pinion + self.teeth_wheel)
+
     @property
     def center_distance(self) -> float:
-        """Operating centre distance a [mm]."""
+        """Operating centre distance a [mm]: the given one, else the shifts' working centre
+        distance (the reference one without shift)."""
         if self.center_distance_mm is not None:
             return self.center_distance_mm
-        return 0.5 * self.module_mm * (self.teeth_pinion + self.teeth_wheel)
+        if not self.shifted:
+            return self.reference_center_distance_mm
+        return self.working_center_distance_mm
+
+    @property
+    def working_center_distance_mm(self) -> float:
+        """a_w [mm]: the centre distance at which the shifted, unthinned teeth mesh without
+        backlash (ISO 21771); the reference one without shift."""
+        alpha = math.radians(self.pressure_angle_deg)
+        z_sum = self.teeth_pinion + self.teeth_wheel
+        x_sum = self.profile_shift("pinion") + self.profile_shift("wheel")
+        inv_w = inv(alpha) + 2.0 * math.tan(alpha) * x_sum / z_sum
+        if inv_w <= 0.0:
+            limit = -z_sum * inv(alpha) / (2.0 * math.tan(alpha))
+            raise ParameterError(
+                "geometry.profile_shift_wheel",
+                self.profile_shift("wheel"),
+                f"x1 + x2 > {limit:.4g}",
+                "no working pressure angle for this shift sum",
+            )
+        return self.reference_center_distance_mm * math.cos(alpha) / math.cos(inv_inverse(inv_w))
+
+    @property
+    def tip_alteration_coefficient(self) -> float:
+        """k = min(0, y - (x1 + x2)), y = (a_w - a) / m: the tip shortening of both gears (0
+        without shift)."""
+        if not self.shifted:
+            return 0.0
+        y = (self.center_distance - self.reference_center_distance_mm) / self.module_mm
+        return min(0.0, y - (self.profile_shift("pinion") + self.profile_shift("wheel")))
 
 
 MIN_TEETH = 6
@@ -639,19 +708,40 @@ class GearPair:
         common = dict(
             module_m=self.module_m,
             pressure_angle_rad=self.pressure_angle_rad,
-            operating_thickness_m=g.tooth_thickness_mm * mm,
-            addendum_coefficient=g.addendum_coefficient,
-            dedendum_coefficient=g.dedendum_coefficient,
             root_fillet_coefficient=g.root_fillet_coefficient,
             bore_radius_m=g.bore_radius_mm * mm,
             tip_round_coefficient=g.tip_round_coefficient,
         )
-        self.pinion = ToothProfile(self.z1, operating_pitch_radius_m=rw1, **common)
-        self.wheel = ToothProfile(self.z2, operating_pitch_radius_m=rw2, **common)
+        self.pinion = ToothProfile(
+            self.z1, operating_pitch_radius_m=rw1, **self._form(g, "pinion", rw1), **common
+        )
+        self.wheel = ToothProfile(
+            self.z2, operating_pitch_radius_m=rw2, **self._form(g, "wheel", rw2), **common
+        )
         rb_sum = self.pinion.base_radius_m + self.wheel.base_radius_m
         self.operating_pressure_angle_rad = math.acos(min(1.0, rb_sum / self.center_distance_m))
         self.base_pitch_m = 2.0 * math.pi * self.pinion.base_radius_m / self.z1
         self.ratio = self.z2 / self.z1
+
+    def _form(self, g: GearPairGeometry, body: str, rw: float) -> dict[str, float]:
+        """One gear's operating thickness and addendum and dedendum coefficients: the given
+        ones without shift, the shifted rack's with one (see :class:`GearPairGeometry`)."""
+        s_w = g.tooth_thickness_mm * 1e-3
+        if not g.shifted:
+            return dict(
+                operating_thickness_m=s_w,
+                addendum_coefficient=g.addendum_coefficient,
+                dedendum_coefficient=g.dedendum_coefficient,
+            )
+        x, m, a = g.profile_shift(body), self.module_m, self.pressure_angle_rad
+        r = 0.5 * m * g.teeth(body)
+        s = m * (0.5 * math.pi + 2.0 * x * math.tan(a)) - (0.5 * math.pi * m - s_w)
+        a_w = math.acos(min(1.0, r * math.cos(a) / rw))
+        return dict(
+            operating_thickness_m=2.0 * rw * (s / (2.0 * r) + inv(a) - inv(a_w)),
+            addendum_coefficient=g.addendum_coefficient + x + g.tip_alteration_coefficient,
+            dedendum_coefficient=g.dedendum_coefficient - x,
+        )
 
     def profile(self, body: str) -> ToothProfile:
         if body == "pinion":
@@ -861,7 +951,17 @@ def _check_pair(g: GearPairGeometry) -> None:
         pitch_mm = 1e3 * 2 * math.pi * prof.operating_pitch_radius_m / prof.teeth
         if prof.operating_thickness_m * 1e3 >= pitch_mm:
             fail("tooth_thickness_mm", f"< {pitch_mm:.4g} mm", f"thicker than the {body}'s pitch")
-    if pair.backlash_circular_m < 0:
+    # zero backlash (unthinned shifted teeth at their working centre distance) within round-off
+    overlap = pair.backlash_circular_m < -1e-12 * pair.operating_circular_pitch_m
+    if overlap and g.shifted and g.center_distance_mm is not None:
+        fail(
+            "center_distance_mm",
+            "a larger value",
+            "negative backlash: the shifted teeth do not fit in each other's gaps at this centre "
+            f"distance (leave it out for the shifts' working centre distance, "
+            f"{g.working_center_distance_mm:.4g} mm)",
+        )
+    if overlap:
         fail(
             "tooth_thickness_mm",
             f"<= {0.5e3 * pair.operating_circular_pitch_m:.4g} mm",
@@ -875,11 +975,27 @@ def _check_pair(g: GearPairGeometry) -> None:
                 f"< {prof.reference_radius_m / prof.module_m:.4g}",
                 f"{body} root radius <= 0",
             )
-        if not (prof.reference_thickness_m > 0 and prof.rack_half_width_m > 0):
+        positive_width = prof.reference_thickness_m > 0 and prof.rack_half_width_m > 0
+        if not positive_width and g.profile_shift(body) != 0.0:
+            fail(
+                f"profile_shift_{body}",
+                "a shift giving the tooth and the rack's tooth a positive width at the reference "
+                "circle",
+                body,
+            )
+        if not positive_width:
             fail(
                 "tooth_thickness_mm",
                 "a thickness giving a tooth of positive width at the reference circle",
                 body,
+            )
+        shift_key = f"profile_shift_{body}"
+        if prof.tip_thickness_m <= 0.0 and g.profile_shift(body) > 0.0:
+            fail(
+                shift_key,
+                "a smaller shift",
+                f"the {body} tooth is pointed below its tip circle (tip thickness "
+                f"{mm(prof.tip_thickness_m)})",
             )
         if prof.tip_thickness_m <= 0.0:
             fail(
@@ -901,6 +1017,13 @@ def _check_pair(g: GearPairGeometry) -> None:
                 f"(0, {rho_max / prof.module_m:.4g}]",
                 f"the rack tip radius does not fit on the {body}'s generating rack tooth "
                 f"(full-round tip)",
+            )
+        if prof.is_undercut() and g.profile_shift(body) != 0.0:
+            fail(
+                shift_key,
+                "a larger shift",
+                f"the generating rack undercuts the {body} flank (undercut margin "
+                f"{mm(prof.undercut_margin_m)})",
             )
         if prof.is_undercut():
             fail(
@@ -949,6 +1072,14 @@ def _check_pair(g: GearPairGeometry) -> None:
         )
     for body, prof in gears:
         sap = pair.mating_tip_circle_reach_m(body)  # conservative: as if the mating tip were sharp
+        if sap < prof.form_radius_m and g.shifted:
+            fail(
+                f"profile_shift_{body}",
+                "another shift of the pair",
+                f"the mating tip reaches below the {body}'s involute into its fillet (start of "
+                f"active profile of the sharp mating tip {1e3 * sap:.3f} mm < form radius "
+                f"{1e3 * prof.form_radius_m:.3f} mm)",
+            )
         if sap < prof.form_radius_m:
             fail(
                 "addendum_coefficient",

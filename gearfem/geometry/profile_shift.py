@@ -37,9 +37,9 @@ shift that makes a tip pointed or a root radius negative, a shift sum whose work
 does not exist, a centre distance below the sum of the base radii, a mate's tip that reaches past
 the base-tangent point (involute interference), a contact ratio below 1.
 
-Not yet connected (docs/materials.md): the meshed geometry (:mod:`gearfem.geometry.involute`,
-``GearPairGeometry``) has no profile shift yet; this module gives the analytic values a shifted
-mesh will be checked against.
+The meshed geometry (:class:`gearfem.geometry.involute.GearPairGeometry`,
+``profile_shift_pinion``/``_wheel``) builds the same pair; this module gives the analytic values
+it is checked against (tests/test_profile_shift.py).
 """
 
 from __future__ import annotations
