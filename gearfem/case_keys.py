@@ -29,6 +29,7 @@ import typing
 from collections.abc import Iterator
 
 from gearfem.config import Case, load_case
+from gearfem.core.doctables import markdown_table
 from gearfem.core.errors import ParameterError
 
 _NAME = "NAME"
@@ -207,13 +208,13 @@ def _options_type(tp: object) -> type | None:
 
 
 def _tables(cls: type, default: object, builtin: object, prefix: str) -> Iterator[Table]:
-    """The tables of options class ``cls`` under ``prefix``: ``default`` is the instance a case
-    file that leaves the table out gets (None: a table that is then absent), ``builtin`` the
-    built-in case's."""
+    """The table of options class ``cls`` under ``prefix``, then the tables of its fields that are
+    options classes: ``default`` is the instance a case file that leaves the table out gets (None:
+    a table that is then absent), ``builtin`` the built-in case's."""
     hints = typing.get_type_hints(cls)
     doc = docstring_entries(cls)
     checks = accepted_values(cls)
-    keys = []
+    keys, subtables = [], []
     for f in dataclasses.fields(cls):
         tp = hints[f.name]
         value = getattr(default, f.name) if default is not None else _default(f)
@@ -221,10 +222,10 @@ def _tables(cls: type, default: object, builtin: object, prefix: str) -> Iterato
         sub = _options_type(tp)
         name = f"{prefix}.{f.name}" if prefix else f.name
         if sub is not None:
-            yield from _tables(sub, value, ours, name)
+            subtables += _tables(sub, value, ours, name)
             continue
         if typing.get_origin(tp) is dict and dataclasses.is_dataclass(typing.get_args(tp)[1]):
-            yield from _tables(typing.get_args(tp)[1], None, None, f"{name}.{_NAME}")
+            subtables += _tables(typing.get_args(tp)[1], None, None, f"{name}.{_NAME}")
             continue
         shown = toml_value(value)
         theirs = toml_value(ours) if builtin is not None else shown
@@ -242,6 +243,7 @@ def _tables(cls: type, default: object, builtin: object, prefix: str) -> Iterato
         (inspect.getdoc(cls) or "").split("\n\n")[0].replace("\n", " ")
     )
     yield Table(prefix, cls, summary, tuple(keys), absent=ABSENT.get(prefix, ""))
+    yield from subtables
 
 
 def _default(f: dataclasses.Field) -> object:
@@ -264,9 +266,7 @@ def case_tables(case: Case | None = None) -> tuple[Table, ...]:
     """Every table of the case file, the top level first, in the order of :class:`Case`'s
     fields, with each key's default and its value in ``case`` (None: the built-in case) where
     that differs (:attr:`Key.builtin`)."""
-    tables = list(_tables(Case, Case(), case if case is not None else load_case(None), ""))
-    top = [t for t in tables if t.name == ""]
-    return tuple(top + [t for t in tables if t.name != ""])
+    return tuple(_tables(Case, Case(), case if case is not None else load_case(None), ""))
 
 
 def undocumented() -> list[str]:
@@ -290,14 +290,19 @@ def markdown() -> str:
         where = f"`{t.options.__module__}.{t.options.__name__}`"
         absent = f" Left out, the case takes {t.absent}." if t.absent else ""
         parts.append(f"### {title}\n\n{t.summary} ({where}){absent}")
-        rows = ["| key | default | built-in case | accepted | meaning |", "|---|---|---|---|---|"]
-        rows += [
-            f"| `{k.name}` | `{_cell(k.default)}` | "
-            + (f"`{_cell(k.builtin)}`" if k.builtin else "")
-            + f" | {_cell(k.accepted)} | {_cell(k.meaning)} |"
+        rows = [
+            (
+                f"`{k.name}`",
+                f"`{_cell(k.default)}`",
+                f"`{_cell(k.builtin)}`" if k.builtin else "",
+                _cell(k.accepted),
+                _cell(k.meaning),
+            )
             for k in t.keys
         ]
-        parts.append("\n".join(rows))
+        parts.append(
+            markdown_table(("key", "default", "built-in case", "accepted", "meaning"), rows)
+        )
     return "\n\n".join(parts)
 
 
