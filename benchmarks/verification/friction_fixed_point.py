@@ -40,9 +40,8 @@ import argparse
 import dataclasses
 import time
 
-import numpy as np
 from mpi4py import MPI
-from one_case import observed_fields, scratch_directory, steady_case
+from one_case import CycleLoads, observed_fields, scratch_directory, steady_case
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
@@ -117,7 +116,7 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
         mu_of = {c.thermal.body: stages.thermal["friction"]["mu_heat_weighted"]}
         for body, summ in stages.others.items():
             mu_of[body] = summ["friction"]["mu_heat_weighted"]
-        loads = np.array([v for v in stages.cycle.tooth_load_N.values()])
+        loads = CycleLoads.of(stages.cycle, c.operating.speed_rpm)
         rows.append(
             Iterate(
                 mu_cycle=p.mu_cycle,
@@ -126,8 +125,8 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
                 mu_wheel=float(mu_of["wheel"]),
                 friction_heat_W=p.friction_power_law_W,
                 torque_loss_Nm=torque.torque_loss_Nm,
-                te_mean_um=float(np.mean(stages.cycle.te_m)) * 1e6,
-                largest_load_N=float(loads.max()),
+                te_mean_um=loads.te_mean_um,
+                largest_load_N=loads.largest_load_N,
                 camera_C=cam,
                 camera_900_C=cam_900,
                 wall_s=p.wall_time_s,
