@@ -118,6 +118,12 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/materials.md", "steel_pom_demo"),),
         case="demos/steel_pom.toml",
     ),
+    Regeneration(
+        "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --case demos/steel_pom.toml "
+        "--points 1000/2,1000/4,2000/2 --block vdi2736_gearfem_steel_pom --docs",
+        (("docs/materials.md", "vdi2736_gearfem_steel_pom"),),
+        case="demos/steel_pom.toml",
+    ),
 )
 
 
