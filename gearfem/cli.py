@@ -166,7 +166,7 @@ def cycle_mu_note(case, torque, loop) -> str | None:
     return (
         f"note: the friction law's effective mu is {mu_eff:.4f} at the end value, the cycle's "
         f"{mu_c:g}: the pressures, loads and U_max are the cycle's at {mu_c:g}; [friction] "
-        'cycle_mu = "law" solves the cycle at the law\'s mu (docs/friction.md)'
+        'cycle_mu = "law" solves the cycle with the law\'s mu at each contact (docs/friction.md)'
     )
 
 
@@ -262,7 +262,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         _say(
             f"the cycle solved at the friction law's mu: {len(loop.passes)} cycle(s), "
             + "; ".join(
-                f"mu {p.mu_cycle:.4f} -> {p.mu_effective:.4f} ({p.change:+.4f})"
+                f"mu {p.mu_cycle:.4f} -> {p.mu_effective:.4f} ({p.mu_effective - p.mu_cycle:+.4f})"
+                + (
+                    ""
+                    if p.field_change is None
+                    else f", per band {p.mu_band_range[0]:.3f}-{p.mu_band_range[1]:.3f}, "
+                    f"moved by {p.field_change:.4f} (at most {p.field_change_max:.4f})"
+                )
                 for p in loop.passes
             )
             + f"; the readings are the cycle's at mu {loop.mu:.4f} (tolerance {loop.tolerance:g})"

@@ -102,7 +102,7 @@ class Case:
             # the step sits at the gears' polymer's T_g (PEEK 450G: the DMA's 143 C)
             tg = self._polymer_glass_transition_C()
             object.__setattr__(self, "friction", dataclasses.replace(f, glass_transition_C=tg))
-        if f.cycle_mu == "law":
+        if f.cycle_mu != "constant":
             if self.sources.mode != "cycle" or not self.sources.friction:
                 raise ParameterError(
                     "friction.cycle_mu",

@@ -48,6 +48,7 @@ from gearfem.cycle.cache import (
     cycle_key,
 )
 from gearfem.cycle.cache import load as load_cycle
+from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.measures import pitch_point_band_pressure_Pa
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.report import write_cycle_outputs
@@ -182,18 +183,29 @@ class CycleMuPass(JsonRecord):
     friction_power_cycle_W: float
     cycle_key: str
     wall_time_s: float
+    # with a mu per contact ([friction] cycle_mu = "law"): how far the law's mu at the bands
+    # moved from the mu the cycle had there, heat-weighted mean and largest at a loaded band
+    # (FrictionField.change_from), and the range of the law's band mu (None: the cycle takes
+    # one mu, cycle_mu = "effective")
+    field_change: float | None = None
+    field_change_max: float | None = None
+    mu_band_range: tuple[float, float] | None = None
 
     @property
     def change(self) -> float:
-        """How far the law moves the cycle's mu in this pass (mu_effective − mu_cycle)."""
+        """How far the law moves the cycle's mu in this pass: the heat-weighted mean move at the
+        contact bands (a mu per contact), or mu_effective − mu_cycle (one mu)."""
+        if self.field_change is not None:
+            return self.field_change
         return self.mu_effective - self.mu_cycle
 
 
 @dataclasses.dataclass(frozen=True)
 class CycleMuLoop(JsonRecord):
     """``summary.json`` "cycle_mu": the passes of the cycle ↔ heat fixed point in the cycle's mu
-    (``[friction] cycle_mu = "law"``). The run's readings are the last pass's, whose cycle was
-    solved at ``mu``; converged: its change is below ``tolerance``."""
+    (``[friction] cycle_mu = "law"``, a mu per contact, or ``"effective"``, one mu). The run's
+    readings are the last pass's, whose cycle was solved at ``mu`` (with a mu per contact: that
+    cycle's mean mu, the field about it); converged: its change is below ``tolerance``."""
 
     passes: tuple[CycleMuPass, ...]
     tolerance: float
@@ -265,7 +277,8 @@ def pair_mesh(case: Case, comm: MPI.Comm, cache_dir: Path | None = None):
     return build_gear_mesh(case.geometry, case.mesh, comm, cache_dir=cache_dir, bodies=BODIES)
 
 
-def case_cycle_key(case: Case) -> str:
+def case_cycle_key(case: Case, friction_field: FrictionField | None = None) -> str:
+    """The cache key of the case's cycle (solved with ``friction_field``'s mu when given)."""
     return cycle_key(
         case.geometry,
         case.mesh,
@@ -273,6 +286,7 @@ def case_cycle_key(case: Case) -> str:
         case.contact,
         case.cycle,
         case.operating.torque_Nm,
+        friction_field,
     )
 
 
@@ -295,9 +309,11 @@ def cycle(
     cache_dir: Path | None = None,
     rebuild: bool = False,
     progress=None,
+    friction_field: FrictionField | None = None,
 ):
-    """The structural cycle of the case's torque (cached). Returns (CycleResult, directory,
-    from_cache).
+    """The structural cycle of the case's torque (cached), solved with ``friction_field``'s mu at
+    each contact when given (else ``contact.friction_coefficient``). Returns (CycleResult,
+    directory, from_cache).
 
     On several ranks with ``[cycle] parallel = "positions"`` (the condensed solver's default)
     every rank builds the whole model on its own (the mesh is meshed once, on rank 0, and read by
@@ -323,12 +339,13 @@ def cycle(
 
     return cached_cycle(
         factory,
-        case_cycle_key(case),
+        case_cycle_key(case, friction_field),
         comm,
         cache_dir=cache_dir,
         rebuild=rebuild,
         progress=progress,
         world=comm if spread else None,
+        friction_field=friction_field,
     )
 
 
@@ -905,6 +922,9 @@ def thermal_field(
                 recording.recorder.record(
                     "steady", None, out["steady_state_C"], recording.heat(rec.balance)
                 )
+        if case.friction.cycle_mu == "law" and cycle_result is not None and src.friction:
+            # the law's mu per contact band at the run's end value, for the next cycle
+            out["contact_band_mu"] = contact_band_mu(problem, gm, case, cycle_result)
         if friction is not None:
             friction.update(friction_branches(problem, case, end, steady, branch_search))
             out["friction"] = friction
@@ -935,13 +955,11 @@ def thermal_field(
     return summary, field
 
 
-def friction_outputs(
-    problem, gear_mesh, case: Case, cyc, out_dir: str | Path, write_plot: bool
-) -> dict[str, Any]:
-    """The friction of the run at its last state (any law): heat, mu, contact and flash
-    temperatures, Peclet numbers; the flank maps (``friction_maps.png``, when plotting)."""
+def case_friction_model(problem, gear_mesh, case: Case, cyc):
+    """The case's friction law's flux on ``problem``'s gear (the sources' own model when they
+    have one; collective)."""
     src, body = case.sources, case.thermal.body
-    model = friction_model(
+    return friction_model(
         problem,
         gear_mesh,
         body,
@@ -955,6 +973,25 @@ def friction_outputs(
         src.flux_reconstruction,
         case.friction.band_model,
     )
+
+
+def contact_band_mu(problem, gear_mesh, case: Case, cyc) -> dict[str, list]:
+    """The friction law's mu per band of the cycle's contact history that heats the gear of
+    ``problem``, at its current temperature (collective): ``{"band": history band indices,
+    "mu": [...]}``, what the next cycle of the fixed point in the cycle's mu takes
+    (:func:`thermal_stages`)."""
+    model = case_friction_model(problem, gear_mesh, case, cyc)
+    band, mu = model.history_band_mu(evaluate_at(problem, model))
+    return {"band": [int(b) for b in band], "mu": [float(m) for m in mu]}
+
+
+def friction_outputs(
+    problem, gear_mesh, case: Case, cyc, out_dir: str | Path, write_plot: bool
+) -> dict[str, Any]:
+    """The friction of the run at its last state (any law): heat, mu, contact and flash
+    temperatures, Peclet numbers; the flank maps (``friction_maps.png``, when plotting)."""
+    body = case.thermal.body
+    model = case_friction_model(problem, gear_mesh, case, cyc)
     state = evaluate_at(problem, model)
     out = friction_summary(model, state)
     maps = flank_maps(model, state, gear_mesh.center(body))
@@ -1167,32 +1204,44 @@ def thermal_stages(
     """The structural cycle (cached) and the thermal runs on it (:func:`observed_thermal`), with
     the cycle's mu as ``[friction] cycle_mu`` says (collective).
 
-    ``"constant"``: one cycle at ``contact.friction_coefficient``. ``"law"``: the cycle ↔ heat
-    fixed point in the cycle's mu. Pass k solves the cycle at mu_k (mu_0 = ``start_mu``, default
-    the case's mu), the thermal runs on it, and reads the law's effective mu at their end value
-    (the steady state when the run computes one), mu_eff = mu_k P_law / P_cycle: P_law the
+    ``"constant"``: one cycle at ``contact.friction_coefficient``. ``"effective"`` and ``"law"``:
+    the cycle ↔ heat fixed point. Pass k solves the cycle at mu_k (mu_0 = ``start_mu``, default the
+    case's mu, everywhere), the thermal runs on it, and reads at their end value (the steady state
+    when the run computes one) the law's effective mu, mu_eff = mu_k P_law / P_cycle: P_law the
     friction heat of both gears' models at that state (the torque meters' reading), P_cycle the
-    cycle's own friction power at mu_k. It stops when |mu_eff − mu_k| < ``cycle_mu_tolerance``
-    (the last pass is the run's) and otherwise solves again at mu_{k+1} = mu_eff (rounded to
-    :attr:`~gearfem.contact.friction.FrictionOptions.cycle_mu_step`); not converged
-    after ``cycle_mu_max_passes`` cycles raises ConvergenceError with the passes' mu. Each cycle
-    is stored under its own mu (the cycle's key holds the contact options). ``on_pass(k, case_k,
-    stages_k, pass_k)`` is called after every pass (a study reads more of each)."""
+    cycle's own friction power. ``"effective"`` solves the next cycle at mu_eff everywhere and stops
+    when |mu_eff − mu_k| < ``cycle_mu_tolerance``. ``"law"`` solves it with the law's mu at each
+    contact band (:class:`~gearfem.cycle.friction_field.FrictionField`, each gear's pass at that
+    gear's contact temperature; ``contact.friction_coefficient`` set to mu_eff, the mu where the
+    field has no band) and stops when the law's mu at the bands has moved by less than the
+    tolerance, on heat-weighted mean, from the mu the cycle had there. Every mu is rounded to
+    :attr:`~gearfem.contact.friction.FrictionOptions.cycle_mu_step`; the last pass is the run's; not
+    converged after ``cycle_mu_max_passes`` cycles raises ConvergenceError with the passes' mu. Each
+    cycle is stored under its own mu (the cycle's key holds the contact options and the field's
+    digest). ``on_pass(k, case_k, stages_k, pass_k)`` is called after every pass (a study reads more
+    of each)."""
     f = case.friction
-    law_mu = case.sources.mode == "cycle" and f.cycle_mu == "law"
+    loop_mu = case.sources.mode == "cycle" and f.cycle_mu != "constant"
+    per_contact = loop_mu and f.cycle_mu == "law"
     mu = case.contact.friction_coefficient if start_mu is None else float(start_mu)
-    if law_mu and start_mu is not None:
+    if loop_mu and start_mu is not None:
         mu = f.rounded_cycle_mu(mu)
+    field: FrictionField | None = None
     passes: list[CycleMuPass] = []
     cycle_s = thermal_s = 0.0  # over every pass
-    for k in range(f.cycle_mu_max_passes if law_mu else 1):
-        c = case_at_cycle_mu(case, mu) if law_mu else case
+    for k in range(f.cycle_mu_max_passes if loop_mu else 1):
+        c = case_at_cycle_mu(case, mu) if loop_mu else case
         t0 = time.perf_counter()
         cyc, cdir, cached = None, None, False
         if c.sources.mode == "cycle":
             with ProgressBar(comm) as bar:
                 cyc, cdir, cached = cycle(
-                    c, comm, mesh_cache, cache_dir, progress=bar.update if progress else None
+                    c,
+                    comm,
+                    mesh_cache,
+                    cache_dir,
+                    progress=bar.update if progress else None,
+                    friction_field=field,
                 )
         t1 = time.perf_counter()
         th, others, snapshot = observed_thermal(
@@ -1202,7 +1251,7 @@ def thermal_stages(
         t2 = time.perf_counter()
         cycle_s, thermal_s = cycle_s + (t1 - t0), thermal_s + (t2 - t1)
         loop = None
-        if law_mu:
+        if loop_mu:
             reading = on_root(
                 comm,
                 lambda: read_torque(
@@ -1212,35 +1261,68 @@ def thermal_stages(
                     heat=snapshot.mesh_heat_W(snapshot.label_of(None)),
                 ),
             )
+            new_field = field_change = field_max = band_range = None
+            if per_contact:
+                new_field = law_field(cyc, {c.thermal.body: th, **others}, f.cycle_mu_step)
+                field_change, field_max = new_field.change_from(field if field is not None else mu)
+                band_range = (float(np.min(new_field.mu)), float(np.max(new_field.mu)))
             passes.append(
                 CycleMuPass(
                     mu_cycle=mu,
                     mu_effective=reading.effective_mu(mu),
                     friction_power_law_W=reading.friction_power_W,
                     friction_power_cycle_W=reading.cycle_friction_power_W,
-                    cycle_key=case_cycle_key(c),
+                    cycle_key=case_cycle_key(c, field),
                     wall_time_s=t2 - t0,
+                    field_change=field_change,
+                    field_change_max=field_max,
+                    mu_band_range=band_range,
                 )
             )
             loop = CycleMuLoop(passes=tuple(passes), tolerance=f.cycle_mu_tolerance)
             log.info(
-                "cycle mu pass %d: cycle mu %.4f, the law's effective mu %.4f (change %+.4f)",
-                k, mu, passes[-1].mu_effective, passes[-1].change,
+                "cycle mu pass %d: cycle mu %.4f, the law's effective mu %.4f (change %+.4f)%s",
+                k, mu, passes[-1].mu_effective, passes[-1].mu_effective - mu,
+                "" if band_range is None else (
+                    f"; the law's mu per band {band_range[0]:.4f}-{band_range[1]:.4f}, moved by "
+                    f"{field_change:.4f} on heat-weighted mean, at most {field_max:.4f}"
+                ),
             )  # fmt: skip
+            field = new_field
         stages = ThermalStages(c, cyc, cdir, cached, th, others, snapshot, loop, cycle_s, thermal_s)
         if on_pass is not None:
             on_pass(k, c, stages, passes[-1] if passes else None)
-        if not law_mu or abs(passes[-1].change) < f.cycle_mu_tolerance:
+        if not loop_mu or abs(passes[-1].change) < f.cycle_mu_tolerance:
             return stages
         mu = f.rounded_cycle_mu(passes[-1].mu_effective)
     raise ConvergenceError(
         "cycle <-> heat fixed point in the cycle's mu",
-        f"the law's effective mu still moved by {passes[-1].change:+.4g} (tolerance "
+        f"the law's mu still moved by {passes[-1].change:+.4g} (tolerance "
         f"{f.cycle_mu_tolerance:g}) after {len(passes)} cycles; cycle mu per pass: "
         + ", ".join(f"{p.mu_cycle:.4f}" for p in passes),
         step=f"{case.operating.speed_rpm:g} rpm / {case.operating.torque_Nm:g} N m",
         iteration=len(passes),
     )
+
+
+def law_field(cyc, summaries: dict[str, dict[str, Any]], step: float) -> FrictionField:
+    """The friction field of the law's mu per contact band that the gears' thermal summaries
+    hold (``"contact_band_mu"``, :func:`contact_band_mu`) on the cycle ``cyc``'s history."""
+    band, mu = [], []
+    for body in BODIES:
+        if body not in summaries or "contact_band_mu" not in summaries[body]:
+            raise ParameterError(
+                "friction.cycle_mu",
+                "law",
+                "thermal runs of both gears with the law's mu per contact band "
+                "(the torque meters enabled)",
+                f"the {body}'s run has none",
+            )
+        got = summaries[body]["contact_band_mu"]
+        band.extend(got["band"])
+        mu.extend(got["mu"])
+    centres = {b: np.asarray(v) for b, v in cyc.info["centres_m"].items()}
+    return FrictionField.from_bands(cyc.history, centres, np.array(band), np.array(mu), step)
 
 
 def headline(

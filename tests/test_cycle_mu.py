@@ -53,10 +53,13 @@ def _out(comm: MPI.Comm, factory, name: str) -> Path:
 
 
 @pytest.mark.slow
-def test_the_cycle_is_solved_again_at_the_laws_effective_mu(tmp_path_factory):
+@pytest.mark.parametrize("cycle_mu", ["law", "effective"])
+def test_the_cycle_is_solved_again_at_the_laws_effective_mu(tmp_path_factory, cycle_mu):
+    """A constant law: its mu per contact band is its one mu, so both couplings take the same
+    two cycles (the second with the law's 0.3 at every contact) and read the same."""
     comm = MPI.COMM_WORLD
     base = _small_steady()
-    law = dataclasses.replace(base, friction=FrictionOptions(mu=0.3, cycle_mu="law"))
+    law = dataclasses.replace(base, friction=FrictionOptions(mu=0.3, cycle_mu=cycle_mu))
     out = _out(comm, tmp_path_factory, "law")
     got = pipeline.run(law, out, comm, progress=False)
     loop = got.cycle_mu
@@ -69,6 +72,12 @@ def test_the_cycle_is_solved_again_at_the_laws_effective_mu(tmp_path_factory):
     # pass 1: the cycle at 0.3 (the effective mu on the cycle_mu_step grid) is the fixed point
     assert second.mu_cycle == law.friction.rounded_cycle_mu(first.mu_effective) == 0.3
     assert abs(second.change) < 1e-6
+    if cycle_mu == "law":  # the law's mu at every band, 0.3 (moved by 0.2 from the first cycle)
+        assert first.mu_band_range == pytest.approx((0.3, 0.3), abs=1e-12)
+        assert first.field_change == pytest.approx(0.2, abs=1e-12)
+        assert got.cycle is not None
+    else:
+        assert first.field_change is None and first.mu_band_range is None
     assert second.cycle_key != first.cycle_key and loop.mu == second.mu_cycle
     # the run reads what a run with its cycle solved at that mu reads
     c = got.cycle

@@ -55,15 +55,19 @@ friction heat of any law is recomputed from that history with the pressures of t
 the law depends on temperature, at every thermal step and Newton iteration
 (:mod:`gearfem.coupling.friction_heat`). ``cycle_mu`` says which mu the cycle is solved with:
 ``"constant"`` (default), the case's ``contact.friction_coefficient`` (the law's effect on the
-pressures is neglected); ``"law"``, the cycle ↔ heat fixed point in the cycle's one mu
-(:func:`gearfem.pipeline.thermal_stages`): the cycle is solved again at the law's effective
-mu at the run's thermal state, mu_eff = mu_c P_law / P_cycle (the constant mu that dissipates what
-the law does, as the torque meters read it), until mu_c moves by less than ``cycle_mu_tolerance``
-(at most ``cycle_mu_max_passes`` cycles; not converged raises ConvergenceError). Each cycle's
-mu is rounded to a fiftieth of the tolerance (:meth:`FrictionOptions.cycle_mu_step`), so that runs
-whose effective mu differs in round-off solve and store the same cycle. One effective mu
-is a first-order coupling: the law's mu differs between contacts and the cycle takes one value for
-all of them. Numpy only (no DOLFINx): ``config`` reads it.
+pressures is neglected); ``"law"`` and ``"effective"``, the cycle ↔ heat fixed point
+(:func:`gearfem.pipeline.thermal_stages`). ``"law"``: the cycle is solved again with the law's mu
+at each contact band at the run's thermal state (each gear's pass at that gear's contact
+temperature, pressure and sliding speed; :mod:`gearfem.cycle.friction_field`), until the law's mu
+at the contact bands moves by less than ``cycle_mu_tolerance`` (heat-weighted mean) from the mu
+the cycle had there.
+``"effective"``: one mu for every contact, the law's effective mu at the run's thermal state,
+mu_eff = mu_c P_law / P_cycle (the constant mu that dissipates what the law does, as the torque
+meters read it), until mu_c moves by less than the tolerance: a first-order coupling, kept to
+measure what the law's mu per contact adds. Either stops after at most ``cycle_mu_max_passes``
+cycles (not converged raises ConvergenceError). Each mu is rounded to a fiftieth of the
+tolerance (:meth:`FrictionOptions.cycle_mu_step`), so that runs whose mu differs in round-off
+solve and store the same cycle. Numpy only (no DOLFINx): ``config`` reads it.
 
 **A new friction law** is a new value of ``law`` (or of a factor's form) here: its parameters as
 fields with units in their names, validated in ``__post_init__``, its value and temperature
@@ -95,7 +99,7 @@ FLASH_HALF_WIDTH_RANGE_UM = (1.0, 5000.0)
 #: How each gear's pass of the contact history is scaled (``pass_balance``).
 PASS_BALANCES = ("cycle", "tooth")
 #: Which mu the structural cycle is solved with (``cycle_mu``, see the module docstring).
-CYCLE_MUS = ("constant", "law")
+CYCLE_MUS = ("constant", "law", "effective")
 MU_MAX = 2.0
 #: Width of the glass-transition step used by default (K): the DMA loss peak of PEEK 450G rises
 #: from H = 0.014 at 129 C to 0.047 at 144 C (data/peek450g/hysteresis.csv), about 11 K for the
@@ -218,8 +222,10 @@ class FrictionOptions:
             ``"cycle"`` (scaled once over the cycle) or ``"tooth"`` (at every position and tooth
             pair).
         cycle_mu: The mu the structural cycle is solved with: ``"constant"`` (``[contact]
-            friction_coefficient``) or ``"law"`` (the law's effective mu, iterated with the heat).
-        cycle_mu_tolerance: The cycle ↔ heat iteration stops when the cycle's mu moves by less.
+            friction_coefficient``), ``"law"`` (the law's mu at each contact, iterated with the
+            heat) or ``"effective"`` (the law's effective mu at every contact, iterated).
+        cycle_mu_tolerance: The cycle ↔ heat iteration stops when the cycle's mu moves by less
+            (``"law"``: the heat-weighted mean move at the contact bands).
         cycle_mu_max_passes: Cycles that iteration may solve at most (not converged: an error).
     """
 

@@ -59,6 +59,7 @@ class ContactPoints:
     pressure: np.ndarray  # Pa
     active: np.ndarray  # bool
     slip_direction: np.ndarray  # (n, 3) ŝ (regularised unit slip direction)
+    mu: np.ndarray  # friction coefficient at each point (its slave facet's)
     slip_velocity: (
         np.ndarray
     )  # (n, 3) v_T, kinematic tangential relative velocity (slave - master), m/s
@@ -81,9 +82,17 @@ class ContactPoints:
     def slip_speed(self) -> np.ndarray:
         return np.linalg.norm(self.slip_velocity, axis=1)
 
-    def friction_power_density(self, mu: float) -> np.ndarray:
-        """Power dissipated by friction per unit area, −t_T·v_T = μ p ŝ·v_T (W/m²)."""
-        return mu * self.pressure * np.einsum("pd,pd->p", self.slip_direction, self.slip_velocity)
+    def friction_power_density(self) -> np.ndarray:
+        """Power dissipated by friction per unit area, −t_T·v_T = μ p ŝ·v_T (W/m²), with each
+        point's μ."""
+        return (
+            self.mu * self.pressure * np.einsum("pd,pd->p", self.slip_direction, self.slip_velocity)
+        )
+
+    @property
+    def direction(self) -> np.ndarray:
+        """d = n − μ ŝ (n, 3): the traction on the slave is p d."""
+        return self.normal - self.mu[:, None] * self.slip_direction
 
 
 @dataclasses.dataclass
@@ -93,6 +102,7 @@ class _Pass:
     weight: float
     eps: np.ndarray  # per local slave facet
     lam: np.ndarray  # (nf, n_fixed) multipliers at the fixed points
+    mu: np.ndarray | None = None  # per local slave facet (None: the options' friction coefficient)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -238,6 +248,39 @@ class ContactInterface:
             self.passes.append(_Pass(s, m, w, eps, lam))
         self._tri_points, self._tri_weights = _triangle_rule(options.quadrature_degree)
         self._segments: list[Segmentation] | None = None
+
+    # -------------------------------------------------------------------------------------------
+    def set_friction(self, facet_mu: list[np.ndarray] | None) -> None:
+        """The friction coefficient of the next solves: per pass, mu on each local slave facet
+        (a cycle solved with a friction law's mu,
+        :class:`gearfem.cycle.friction_field.FrictionField`), or None:
+        ``options.friction_coefficient`` everywhere."""
+        if facet_mu is None:
+            for ps in self.passes:
+                ps.mu = None
+            return
+        if len(facet_mu) != len(self.passes):
+            raise GearfemError(
+                f"set_friction: {len(facet_mu)} arrays of mu for {len(self.passes)} passes"
+            )
+        out = []
+        for ps, mu in zip(self.passes, facet_mu):
+            mu = np.asarray(mu, dtype=float)
+            if mu.shape != (ps.slave.local.num_facets,):
+                raise GearfemError(
+                    f"set_friction: mu of shape {mu.shape} for the {ps.slave.local.num_facets} "
+                    f"local facets of {ps.slave.name!r}"
+                )
+            if not np.all(np.isfinite(mu)) or np.any(mu < 0.0):
+                raise GearfemError(f"set_friction: mu on {ps.slave.name!r} not finite and >= 0")
+            out.append(mu)
+        for ps, mu in zip(self.passes, out):
+            ps.mu = mu
+
+    def facet_centroids(self) -> list[np.ndarray]:
+        """Per pass, the reference centroid (body frame as built) of each local slave facet
+        (nf, 3): where :meth:`set_friction`'s mu of a facet is looked up."""
+        return [ps.slave.local.X.mean(axis=1) for ps in self.passes]
 
     # -------------------------------------------------------------------------------------------
     def reset_multipliers(self) -> None:
@@ -407,8 +450,8 @@ class ContactInterface:
         vt = vrel - np.einsum("pd,pd->p", vrel, normal)[:, None] * normal
         frozen_slip = seg.slip_direction if frozen else None
         s_hat = self._slip_direction(vt, normal, frozen_slip)
-        mu = self.options.friction_coefficient
-        traction = pressure[:, None] * (normal - mu * s_hat)
+        mu = np.full(len(fs), self.options.friction_coefficient) if ps.mu is None else ps.mu[fs]
+        traction = pressure[:, None] * (normal - mu[:, None] * s_hat)
         return ContactPoints(
             slave=ps.slave.name,
             master=ps.master.name,
@@ -423,6 +466,7 @@ class ContactInterface:
             pressure=pressure,
             active=active,
             slip_direction=s_hat,
+            mu=mu,
             slip_velocity=vt,
             traction=traction,
             eps=eps,
@@ -546,13 +590,12 @@ class ContactInterface:
         Dofs are global; Dirichlet-fixed dofs are left out.
         """
         rdofs, rvals, rows, cols, vals = [], [], [], [], []
-        mu = self.options.friction_coefficient
         for ps, pts in zip(self.passes, points):
             if pts.num_points == 0:
                 continue
             sdata, mdata = ps.slave.local, ps.master.gathered()
             Rs, Rm = motions[ps.slave.body].R, motions[ps.master.body].R
-            dirn = pts.normal - mu * pts.slip_direction
+            dirn = pts.direction
             rho_s, rho_m = dirn @ Rs, -(dirn @ Rm)  # R^T v for row vectors
             gam_s, gam_m = pts.normal @ Rs, -(pts.normal @ Rm)
             nn = pts.Ns.shape[1]
@@ -627,8 +670,7 @@ class ContactInterface:
         :meth:`rotation_terms`."""
         geo, frozen = _point_geometry(pts, act, ps.master.ref)
         U, V, e = geometric_factors(
-            geo, pts.dA[act] * pts.pressure[act], dirn[act], self.options.friction_coefficient,
-            frozen,
+            geo, pts.dA[act] * pts.pressure[act], dirn[act], pts.mu[act], frozen,
         )  # fmt: skip
         pts.geometric = (act, geo, frozen, (U, V, e))
         k, nn = len(act), pts.Ns.shape[1]
@@ -656,7 +698,6 @@ class ContactInterface:
         mot = motions[body]
         axis = np.asarray(mot.axis, float) / np.linalg.norm(mot.axis)
         c = np.asarray(mot.center) + np.asarray(mot.translation_m)
-        mu = self.options.friction_coefficient
         M = kpp = 0.0
         d_up, v_up, d_pu, v_pu = [], [], [], []
         for ps, pts in zip(self.passes, points):
@@ -665,7 +706,7 @@ class ContactInterface:
             sign = 1.0 if ps.slave.body == body else -1.0
             lever = pts.x - c
             beta = sign * np.einsum("pd,pd->p", np.cross(axis, lever), pts.normal)
-            dirn = pts.normal - mu * pts.slip_direction
+            dirn = pts.direction
             mcoef = sign * np.einsum("d,pd->p", axis, np.cross(lever, dirn))
             M += float(np.sum(pts.dA * pts.pressure * mcoef))
             act = pts.active
@@ -712,8 +753,9 @@ class ContactInterface:
                      -pts.Nm[a_idx][:, :, None] * d[:, None, :]], axis=1,
                 )  # fmt: skip
                 g_up, g_pu, g_pp = torque_border(
-                    geo, wp, d, mu, frozen, r_glob.reshape(len(a_idx), -1), pts.nodes[a_idx],
-                    pts.x[a_idx], axis, c, "slave" if sign > 0 else "master", factors,
+                    geo, wp, d, pts.mu[a_idx], frozen, r_glob.reshape(len(a_idx), -1),
+                    pts.nodes[a_idx], pts.x[a_idx], axis, c, "slave" if sign > 0 else "master",
+                    factors,
                 )  # fmt: skip
                 k = len(a_idx)
                 mask = free[a_idx]  # (k, 2, nn, 3)

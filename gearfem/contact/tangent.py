@@ -109,11 +109,12 @@ def frozen_slip_jacobian(frozen: np.ndarray, normal: np.ndarray) -> np.ndarray:
     return np.where(ok[:, None, None], dsh_dst @ dst_dn, 0.0)
 
 
-def _direction_tangents(geo: PointGeometry, mu: float, frozen_slip: np.ndarray | None):
-    """e_β = (I − μ ∂ŝ/∂n) τ_β (n, 2, 3): Δd = e_β G^β Δx."""
+def _direction_tangents(geo: PointGeometry, mu: float | np.ndarray, frozen_slip: np.ndarray | None):
+    """e_β = (I − μ ∂ŝ/∂n) τ_β (n, 2, 3): Δd = e_β G^β Δx (μ one value or one per point)."""
     proj = np.broadcast_to(np.eye(3), (len(geo.gap), 3, 3))
-    if mu != 0.0 and frozen_slip is not None:
-        proj = proj - mu * frozen_slip_jacobian(frozen_slip, geo.normal)
+    mu = np.asarray(mu, dtype=float)
+    if frozen_slip is not None and np.any(mu != 0.0):
+        proj = proj - np.reshape(mu, (-1, 1, 1)) * frozen_slip_jacobian(frozen_slip, geo.normal)
     return np.einsum("pij,paj->pai", proj, geo.tau)
 
 
@@ -121,7 +122,7 @@ def geometric_tangent(
     geo: PointGeometry,
     weight_pressure: np.ndarray,
     direction: np.ndarray,
-    mu: float,
+    mu: float | np.ndarray,
     frozen_slip: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Factors (U, V), each (n, 3 (ns + nm), 4), of the points' geometric tangents K_geo = U Vᵀ
@@ -132,7 +133,7 @@ def geometric_tangent(
         geo: The points' geometry.
         weight_pressure: (n,) W p (zero off contact: no term).
         direction: (n, 3) d = n − μ ŝ.
-        mu: Friction coefficient.
+        mu: Friction coefficient (one value, or one per point).
         frozen_slip: (n, 3) the frozen s₀ (None: frictionless, or ŝ not a function of n).
     """
     U, V, _ = geometric_factors(geo, weight_pressure, direction, mu, frozen_slip)
@@ -162,7 +163,7 @@ def torque_border(
     geo: PointGeometry,
     weight_pressure: np.ndarray,
     direction: np.ndarray,
-    mu: float,
+    mu: float | np.ndarray,
     frozen_slip: np.ndarray | None,
     residual: np.ndarray,
     nodes: np.ndarray,

@@ -664,6 +664,19 @@ class FrictionFlux:
         dq = np.bincount(self._pair_target, weights=dmuT * self._pair_weight, minlength=n)
         return FluxState(q, dq, self._pair, muT, T, theta, self._fpv)
 
+    def band_mu(self, state: FluxState) -> tuple[np.ndarray, np.ndarray]:
+        """Per band of :attr:`bands` (its order): the heat-weighted mean mu of the band's
+        instances at ``state``, Σ h mu / Σ h with h an instance's heat per unit mu (the one mu
+        that dissipates on the band what the law does there), and Σ h (collective: the sums are
+        reduced over the instances' ranks). A band without heat has mu NaN."""
+        nb = self.bands.num_bands
+        b = self.bands.band[self.inst.point]
+        s0 = self._reduce(np.bincount(b, weights=self._hw, minlength=nb))
+        s1 = self._reduce(np.bincount(b, weights=self._hw * state.mu, minlength=nb))
+        mu = np.full(nb, np.nan)
+        np.divide(s1, s0, out=mu, where=s0 > 0)
+        return mu, s0
+
 
 def reference_flux(
     cycle,
@@ -810,6 +823,17 @@ class ThermalFrictionFlux:
             )
         self.law = law
         self.flux = self.flux.with_law(law)
+
+    def history_band_mu(self, state: FluxState) -> tuple[np.ndarray, np.ndarray]:
+        """The law's mu at ``state`` per band of the cycle's contact history that heats this
+        gear: (history band indices, mu) (:meth:`FrictionFlux.band_mu`; bands without heat left
+        out; collective)."""
+        bands = self.bands
+        mu, _ = self.flux.band_mu(state)
+        history_band = np.empty(bands.num_bands, dtype=np.int64)
+        history_band[bands.band] = self._contact[0].history.band[bands.event]
+        keep = np.isfinite(mu)
+        return history_band[keep], mu[keep]
 
     def update(self, surface_mean_K: np.ndarray) -> None:
         tr = self.transfer

@@ -27,6 +27,7 @@ from gearfem.contact.compliance import ComplianceStore
 from gearfem.core.io import jsonable
 from gearfem.core.params import to_dict
 from gearfem.core.provenance import code_hash
+from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import ContactHistory
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
@@ -71,8 +72,16 @@ def _code_hash() -> str:
 
 
 def cycle_key(
-    geometry, mesh_options, materials: dict, contact, cycle_options, torque_Nm: float
+    geometry,
+    mesh_options,
+    materials: dict,
+    contact,
+    cycle_options,
+    torque_Nm: float,
+    friction_field: FrictionField | None = None,
 ) -> str:
+    """The cache key of a cycle (see the module docstring); ``friction_field``: the mu at each
+    contact the cycle is solved with, by its digest (None: the contact options' one mu)."""
     data = {
         "geometry": to_dict(geometry),
         "mesh": to_dict(mesh_options),
@@ -86,6 +95,8 @@ def cycle_key(
         "torque_Nm": float(torque_Nm),
         "code": _code_hash(),
     }
+    if friction_field is not None:
+        data["friction_field"] = friction_field.digest()
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
@@ -140,6 +151,10 @@ def save(result: CycleResult, directory: str | Path, replace: bool = True) -> Pa
     if result.history is not None:
         for k, v in result.history.arrays().items():
             arrays[f"history__{k}"] = v
+    field = result.friction_field
+    if field is not None:
+        for k, v in field.arrays().items():
+            arrays[f"friction_field__{k}"] = v
     np.savez_compressed(tmp / "cycle.npz", **arrays)
     meta: dict[str, Any] = {k: getattr(result, k) for k in _SCALARS}
     meta.update(
@@ -147,6 +162,7 @@ def save(result: CycleResult, directory: str | Path, replace: bool = True) -> Pa
         info=result.info,
         periodicity=jsonable(result.periodicity),
         history_z_bin_m=None if result.history is None else result.history.z_bin_m,
+        friction_field=None if field is None else {"z_bin_m": field.z_bin_m, "step": field.step},
         fields={
             b: {"tooth_angle_rad": f.tooth_angle_rad, "pitch_angle_rad": f.pitch_angle_rad}
             for b, f in result.fields.items()
@@ -188,6 +204,8 @@ def load(directory: str | Path) -> CycleResult:
         )
     teeth = sorted(int(k.split("__")[1]) for k in arr if k.startswith("tooth_load_N__"))
     hist = {k.split("__", 1)[1]: v for k, v in arr.items() if k.startswith("history__")}
+    ff = {k.split("__", 1)[1]: v for k, v in arr.items() if k.startswith("friction_field__")}
+    ff_meta = meta.get("friction_field")
     return CycleResult(
         **{k: meta[k] for k in _SCALARS},
         **{k: arr[k] for k in _ARRAYS},
@@ -201,6 +219,9 @@ def load(directory: str | Path) -> CycleResult:
         periodicity=meta.get("periodicity"),
         info=meta.get("info", {}),
         history=ContactHistory.from_arrays(hist, meta["history_z_bin_m"]) if hist else None,
+        friction_field=(
+            FrictionField.from_arrays(ff, ff_meta["z_bin_m"], ff_meta["step"]) if ff_meta else None
+        ),
     )
 
 

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import ContactHistory
 
 
@@ -71,6 +72,8 @@ class CycleResult:
     periodicity: dict | None = None
     info: dict = dataclasses.field(default_factory=dict)
     history: ContactHistory | None = None  # the contact points of every position
+    # the mu the cycle was solved with at each contact (None: friction_coefficient everywhere)
+    friction_field: FrictionField | None = None
 
     # derived ----------------------------------------------------------------------------------
     @property

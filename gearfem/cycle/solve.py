@@ -30,6 +30,7 @@ from gearfem.contact.elasticity import elastic_stress
 from gearfem.contact.kinematics import evaluate
 from gearfem.core.errors import GearfemError
 from gearfem.core.facets import FacetReference
+from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import HistoryRecorder
 from gearfem.cycle.model import GearContactModel
 from gearfem.cycle.periodic import (
@@ -140,6 +141,7 @@ class PositionRecord:
     pinion_torque_Nm: float
     wheel_torque_Nm: float  # contact moment on the wheel
     friction_power_W_per_rad_s: float  # ∫ μ p v_s dA per unit ω₁
+    friction_power_per_mu_W_per_rad_s: float  # ∫ p v_s dA per unit ω₁ (per unit μ)
     p_max_Pa: float
     p_max_mid_Pa: float  # largest pressure in the middle half of the face width
     root_stress_Pa: dict[str, float]  # largest principal root stress per gear
@@ -149,6 +151,7 @@ class PositionRecord:
     uzawa_iterations: int
     wall_time_s: float
     facet_heat_W_per_rad_s: dict[str, np.ndarray]  # friction heat per local slave facet
+    facet_heat_per_mu_W_per_rad_s: dict[str, np.ndarray]  # the same per unit μ
     facet_pressure_Pa: dict[str, np.ndarray]  # mean pressure per local slave facet
     cell_strain_energy_J_m3: np.ndarray  # per local cell
 
@@ -170,18 +173,19 @@ class _PositionProbe:
 
     def solve(self, phi: float) -> PositionRecord:
         model, comm, teeth = self.model, self.model.comm, self.teeth
-        mu = model.contact.friction_coefficient
         t0 = time.perf_counter()
         rep = model.solve_position(phi, f"pinion angle {math.degrees(phi):.3f} deg")
         points = model.problem.last_points[0]
-        pf = pmax = pmid = 0.0
+        pf = pf1 = pmax = pmid = 0.0
         load = dict.fromkeys(teeth, 0.0)
         load_S = dict.fromkeys(teeth, 0.0)
-        facet_heat, facet_press = {}, {}
+        facet_heat, facet_heat1, facet_press = {}, {}, {}
         for ps, pts in zip(model.interface.passes, points):
             slave = ps.slave.body
-            q = pts.friction_power_density(mu)
+            q = pts.friction_power_density()
+            q1 = pts.pressure * np.einsum("pd,pd->p", pts.slip_direction, pts.slip_velocity)
             pf += float(np.sum(pts.dA * q))
+            pf1 += float(np.sum(pts.dA * q1))
             if pts.num_points:
                 pmax = max(pmax, float(pts.pressure.max()))
                 mid = np.abs(pts.x[:, 2] - self.z_mid_m) <= 0.5 * self.z_mid_m
@@ -191,6 +195,7 @@ class _PositionProbe:
             # heat and pressure per slave facet from this pass alone (undo the pass weight)
             dA = pts.dA / ps.weight
             facet_heat[slave] = np.bincount(pts.facet, weights=dA * q, minlength=nf)
+            facet_heat1[slave] = np.bincount(pts.facet, weights=dA * q1, minlength=nf)
             area = np.bincount(pts.facet, weights=dA, minlength=nf)
             pint = np.bincount(pts.facet, weights=dA * pts.pressure, minlength=nf)
             facet_press[slave] = np.where(area > 0, pint / np.where(area > 0, area, 1.0), 0.0)
@@ -220,6 +225,7 @@ class _PositionProbe:
             pinion_torque_Nm=pinion_torque,
             wheel_torque_Nm=model.problem.last_state.moment_Nm,
             friction_power_W_per_rad_s=comm.allreduce(pf, op=MPI.SUM),
+            friction_power_per_mu_W_per_rad_s=comm.allreduce(pf1, op=MPI.SUM),
             p_max_Pa=comm.allreduce(pmax, op=MPI.MAX),
             p_max_mid_Pa=comm.allreduce(pmid, op=MPI.MAX),
             root_stress_Pa=dict(root),
@@ -229,6 +235,7 @@ class _PositionProbe:
             uzawa_iterations=rep.uzawa_iterations,
             wall_time_s=time.perf_counter() - t0,
             facet_heat_W_per_rad_s=facet_heat,
+            facet_heat_per_mu_W_per_rad_s=facet_heat1,
             facet_pressure_Pa=facet_press,
             cell_strain_energy_J_m3=w,
         )
@@ -248,6 +255,27 @@ def _log_position(i: int, n: int, phi: float, rec: PositionRecord, rank: int | N
         rec.newton_iterations,
         rec.wall_time_s,
     )
+
+
+class _FacetFriction:
+    """mu of a :class:`FrictionField` on the interface's local slave facets, per position
+    (looked up at each facet's reference centroid: its radius from its gear's axis and its
+    face-width coordinate)."""
+
+    def __init__(self, model: GearContactModel, field: FrictionField) -> None:
+        self.model, self.field = model, field
+        self.places = []
+        for ps, c in zip(model.interface.passes, model.interface.facet_centroids()):
+            axis = np.asarray(model.gm.center(ps.slave.body))
+            self.places.append(
+                (ps.slave.body, np.linalg.norm(c[:, :2] - axis[:2], axis=1), c[:, 2])
+            )
+
+    def use(self, position: int) -> None:
+        """Solve the next positions with the field's mu of cycle position ``position``."""
+        self.model.interface.set_friction(
+            [self.field.at(position, body, r, z) for body, r, z in self.places]
+        )
 
 
 def position_blocks(n: int, size: int) -> list[range]:
@@ -274,11 +302,16 @@ def solve_cycle(
     check_periodicity: bool | None = None,
     progress=None,
     world: MPI.Comm | None = None,
+    friction_field: FrictionField | None = None,
 ) -> CycleResult:
     """Step the pinion angle through the cycle and collect the cycle results (collective).
 
     Args:
         model: The gear contact model (its torque and contact options).
+        friction_field: mu at each contact of each position (:mod:`gearfem.cycle.friction_field`:
+            a friction law's, from the thermal state of an earlier cycle); None: the model's
+            ``contact.friction_coefficient`` everywhere. The check position one pitch after the
+            start takes the first position's.
         progress: Optional callable(i, n, label) called after every position (rank 0 may print).
         world: With a model on one rank (``model.comm`` of size 1): the communicator of the ranks
             that each hold a copy of the same model. The positions are then dealt out over its
@@ -310,14 +343,22 @@ def solve_cycle(
     probe = _PositionProbe(model, se)
     records: list[PositionRecord] = []
     recorder = HistoryRecorder(model)
+    friction = _FacetFriction(model, friction_field) if friction_field is not None else None
+
+    def use_friction(position: int) -> None:
+        if friction is not None:
+            friction.use(position)
+
     if mine.start > 0 and len(mine):  # warm-up: the position before the block, not kept
         t0 = time.perf_counter()
+        use_friction(mine.start - 1)
         model.solve_position(
             phis[mine.start - 1],
             f"pinion angle {math.degrees(phis[mine.start - 1]):.3f} deg (warm-up)",
         )
         log.debug("warm-up position %d: %.1f s", mine.start, time.perf_counter() - t0)
     for i in mine:
+        use_friction(i)
         records.append(probe.solve(phis[i]))
         recorder.record(i)
         _log_position(i, n, phis[i], records[-1])
@@ -330,6 +371,7 @@ def solve_cycle(
     # the check position one pitch after the start: by the rank that solved the last position
     # (a warm start from it)
     if check and (not spread or world.rank == world.size - 1):
+        use_friction(0)  # the first position's contact, a tooth further round
         shifted = probe.solve(start + pitch)
         _log_position(n, n, start + pitch, shifted)
     if spread:
@@ -355,26 +397,31 @@ def solve_cycle(
 
     w_cells = np.array([r.cell_strain_energy_J_m3 for r in records])
     facet_heat = {b: [r.facet_heat_W_per_rad_s[b] for r in records] for b in BODIES}
+    facet_heat1 = {b: [r.facet_heat_per_mu_W_per_rad_s[b] for r in records] for b in BODIES}
     facet_press = {b: [r.facet_pressure_Pa[b] for r in records] for b in BODIES}
     friction_power = np.array([r.friction_power_W_per_rad_s for r in records])
-    fields = _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch)
-    # Each gear's flux distribution comes from the pass in which it is the slave; its magnitude is
-    # made to carry exactly the cycle-averaged friction power generated in the mesh (the raw
-    # mismatch, from the two passes' slightly different pressures and the periodic mapping, is
-    # reported). How that heat is split between the gears is the coupling's business
-    # (gearfem.coupling.options.SourceOptions.heat_fractions), not the cycle's.
-    mean_pf = float(np.mean(friction_power))
+    fields, tooth_heat1 = _sector_fields(
+        model, se, w_cells, facet_heat, facet_heat1, facet_press, pitch
+    )
+    # Each gear's flux distribution comes from the pass in which it is the slave, with that
+    # pass's mu. The two passes' pressures differ by a few per cent (and the periodic mapping
+    # collects the images only approximately): each gear's heat per unit mu is scaled to the
+    # mesh's, ∫ p ŝ·v_T dA of both passes, the raw ratio reported. With one mu everywhere each
+    # gear then carries exactly the friction power generated in the mesh; with a mu per contact
+    # (a friction field), the power its own pass's mu dissipates. How that heat is split between
+    # the gears is the coupling's business (gearfem.coupling.options.SourceOptions.heat_fractions),
+    # not the cycle's.
+    target = float(np.mean([r.friction_power_per_mu_W_per_rad_s for r in records]))
+    heated = float(np.mean(friction_power)) > 0.0
     balance = {}
     for b in BODIES:
-        z = gm.geometry.teeth(b)
-        raw = z * float(np.sum(fields[b].generated_flux_W_m2_per_rad_s * fields[b].facet_area_m2))
-        target = mean_pf
+        raw = gm.geometry.teeth(b) * tooth_heat1[b] / target if target > 0 else float("nan")
         if raw > 0.0:
-            fields[b].generated_flux_W_m2_per_rad_s *= target / raw
-        balance[f"{b}_flank_heat_raw_over_total"] = raw / target if target > 0 else float("nan")
-        if target > 0 and not RAW_FLANK_HEAT_RANGE[0] <= raw / target <= RAW_FLANK_HEAT_RANGE[1]:
+            fields[b].generated_flux_W_m2_per_rad_s /= raw
+        balance[f"{b}_flank_heat_raw_over_total"] = raw if heated else float("nan")
+        if heated and not RAW_FLANK_HEAT_RANGE[0] <= raw <= RAW_FLANK_HEAT_RANGE[1]:
             raise GearfemError(
-                f"the revolution average collects {raw / target:.3f} of the friction power "
+                f"the revolution average collects {raw:.3f} of the friction power "
                 f"generated in the mesh on the {b}'s reference tooth, outside "
                 f"{RAW_FLANK_HEAT_RANGE} (the two passes' pressures differ by a few per cent): "
                 "images of the heated facets are missing from the reference tooth"
@@ -416,9 +463,12 @@ def solve_cycle(
             "creep_ratio": model.creep_ratio,
             "speed_ratio": model.ratio,
             "slip_regularization_m_s": model.contact.slip_regularization_m_s,
+            # each gear's axis point (body frame as built): where a friction field's radii start
+            "centres_m": {b: [float(v) for v in gm.center(b)] for b in BODIES},
             **balance,
         },
         history=history,
+        friction_field=friction_field,
     )
 
 
@@ -475,9 +525,13 @@ def _cell_data(model: GearContactModel, se: _StrainEnergy, body: str):
     return cells, _gather(x, comm), _gather(se.volume[cells], comm)
 
 
-def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[str, BodyFields]:
+def _sector_fields(
+    model, se, w_cells, facet_heat, facet_heat_per_mu, facet_press, pitch
+) -> tuple[dict[str, BodyFields], dict[str, float]]:
+    """Each gear's fields on its reference tooth sector, and the revolution-averaged friction
+    heat per unit mu its reference tooth collects (W per rad/s)."""
     gm, comm = model.gm, model.comm
-    out = {}
+    out, heat_per_mu = {}, {}
     for b in BODIES:
         center = np.asarray(gm.center(b))
         z = gm.geometry.teeth(b)
@@ -514,6 +568,9 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[s
         # (z_1 / (2π z_b)) Σ_positions Σ_images (heat density at the image) Δφ
         revolution = 2.0 * math.pi * pitch / pitch_b
         flux = periodic_sum(H / area[None, :], fmap) * dphi / revolution
+        H1 = np.stack([_gather(h, comm) for h in facet_heat_per_mu[b]])
+        flux1 = periodic_sum(H1 / area[None, :], fmap) * dphi / revolution
+        heat_per_mu[b] = float(np.sum(flux1 * sec_area))
         pmax = periodic_max(P, fmap)
         kinds = _facet_kinds(model, b, model.reference_surfaces[b])
         out[b] = BodyFields(
@@ -533,7 +590,7 @@ def _sector_fields(model, se, w_cells, facet_heat, facet_press, pitch) -> dict[s
             np.stack([np.where(fmap.valid[m], fmap.index[m], -1) for m in fmap.images]),
             np.stack([np.where(fmap.valid[m], area[fmap.index[m]], 0.0) for m in fmap.images]),
         )
-    return out
+    return out, heat_per_mu
 
 
 def _facet_centres_and_areas(ref, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
