@@ -31,6 +31,7 @@ from collections.abc import Iterator
 from gearfem.config import Case, load_case
 from gearfem.core.doctables import markdown_table
 from gearfem.core.errors import ParameterError
+from gearfem.core.params import interval
 
 _NAME = "NAME"
 #: The name of a probe's table in the listing (each probe is a table of its own).
@@ -171,11 +172,13 @@ def _describe(check: str, bounds: list, keywords: list[ast.keyword], scope: dict
             return f"integer in [{lo}, {hi}]"
         return "integer" + (f" >= {lo}" if lo is not None else "")
     if check == "require_range" and len(bounds) >= 2 and _UNKNOWN not in bounds[:2]:
-        lb = "(" if kw.get("lo_open") is True else "["
-        rb = ")" if kw.get("hi_open") is True else "]"
         unit = kw.get("unit")
-        return f"{lb}{bounds[0]:g}, {bounds[1]:g}{rb}" + (
-            f" {unit}" if isinstance(unit, str) and unit else ""
+        return interval(
+            bounds[0],
+            bounds[1],
+            kw.get("lo_open") is True,
+            kw.get("hi_open") is True,
+            unit if isinstance(unit, str) else "",
         )
     return ""
 

@@ -58,11 +58,18 @@ def require_range(
     below = value <= lo if lo_open else value < lo
     above = value >= hi if hi_open else value > hi
     if below or above:
-        lb = "(" if lo_open else "["
-        rb = ")" if hi_open else "]"
-        allowed = f"{lb}{lo:g}, {hi:g}{rb}" + (f" {unit}" if unit else "")
-        raise ParameterError(name, value, allowed, reason)
+        raise ParameterError(name, value, interval(lo, hi, lo_open, hi_open, unit), reason)
     return float(value)
+
+
+def interval(
+    lo: float, hi: float, lo_open: bool = False, hi_open: bool = False, unit: str = ""
+) -> str:
+    """The allowed range of :func:`require_range` as its errors and the case-file reference
+    write it: "[0, 2]", "(0, 0.1] K"."""
+    lb = "(" if lo_open else "["
+    rb = ")" if hi_open else "]"
+    return f"{lb}{lo:g}, {hi:g}{rb}" + (f" {unit}" if unit else "")
 
 
 def require_int(name: str, value: int, lo: int | None = None, hi: int | None = None) -> int:
