@@ -105,6 +105,11 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/friction.md", "friction_fixed_point"),),
     ),
     Regeneration(
+        f"{_FRICTION}friction_fixed_point.py --mu-glassy 0.13 --cycle-mu effective "
+        "--docs docs/friction.md --block friction_fixed_point_effective",
+        (("docs/friction.md", "friction_fixed_point_effective"),),
+    ),
+    Regeneration(
         f"{_FRICTION}friction_fixed_point.py --mu-glassy 0.13 0.17 --start glassy "
         "--docs docs/friction.md --block friction_fixed_point_scan",
         (("docs/friction.md", "friction_fixed_point_scan"),),

@@ -1,37 +1,44 @@
-"""The cycle ↔ heat fixed point of a friction law, in the cycle's mu: how far the structural
-cycle's constant mu moves the readings of a law whose contacts run at another mu.
+"""The cycle ↔ heat fixed point of a friction law in the cycle's mu: how far the structural
+cycle's constant mu moves the readings of a law whose contacts run at another mu, with the law's
+mu at each contact in the cycle or one effective mu for all of them.
 
 The structural cycle is solved with one constant mu (``[contact] friction_coefficient``, 0.5 as
 in the thesis); the heat and the torque meters follow the case's friction law at every contact
 point, at its contact temperature (gearfem.coupling.friction_heat). docs/friction.md (block
 ``friction_tractions``) shows that a cycle at a glassy mu differs from one at 0.5 by more than
 u_num. This script runs the loop ``gearfem run`` runs with ``[friction] cycle_mu = "law"``
-(gearfem.pipeline.thermal_stages), in the one number the cycle takes, at each bench point
-(1000 rpm / 8 N m, 2000 rpm / 4 N m) of the built-in case under the glass-transition law:
+(``--cycle-mu law``, the default: the law's mu at each contact band of the cycle) or
+``"effective"`` (one effective mu for every contact) (gearfem.pipeline.thermal_stages), at each
+bench point (1000 rpm / 8 N m, 2000 rpm / 4 N m) of the built-in case under the glass-transition
+law:
 
-1. solve the cycle at mu_c (first the case's 0.5, or with ``--start glassy`` the glassy mu: the mu
-   of every contact of a gear at ambient, where a run from ambient starts);
+1. solve the cycle at mu_c everywhere (first the case's 0.5, or with ``--start glassy`` the glassy
+   mu: the mu of every contact of a gear at ambient, where a run from ambient starts), after the
+   first pass of ``law`` with the law's mu of the previous pass at each contact band;
 2. on it, the law's steady state (gearfem.thermal.branches: the lowest branch, by continuation),
    and beside it the run from ambient to 900 s;
 3. read the law's effective mu as the torque meters read it, mu_eff = mu_c · P_law / P_cycle (the
    law's friction power at the steady state over the cycle's own at mu_c: the mu of a
    constant-mu cycle that dissipates what the law does);
-4. mu_c <- mu_eff and repeat until mu_c changes by less than ``--tol`` (at most ``--max-iter``
+4. mu_c <- mu_eff (``law``: and the field of the band mu) and repeat until mu_c (``law``: the
+   band mu, heat-weighted mean move) changes by less than ``--tol`` (at most ``--max-iter``
    cycles; not converged is an error).
 
 Per iteration it prints mu_c, mu_eff, each gear's heat-weighted mu (its branch: above the glassy
 and rubbery mean, the gear runs hot), the law's friction heat, the torque loss, the transmission
 error, the largest tooth-pair load and the camera reading at 900 s (when the bench read it) and
 in the steady state, with the u_num of the case's
-resolution where a filed study measures the quantity. One effective mu is a first-order coupling:
-the law's mu differs between contacts (a hot and a cool gear run at different mu at the same time)
-and the cycle takes one value for all of them.
+resolution where a filed study measures the quantity; with ``law`` also the range of the law's
+band mu and how far it moved from the mu the cycle had at the bands (heat-weighted mean, largest).
+One effective mu is a first-order coupling: the law's mu differs between contacts (a hot and a
+cool gear run at different mu at the same time) and the cycle takes one value for all of them.
 
 Prints the table and, with ``--docs PAGE``, writes it into block ``--block`` (default
 ``friction_fixed_point``) of PAGE.
 
     mpirun -n 2 python benchmarks/verification/friction_fixed_point.py --mu-glassy 0.13 [0.17 ...] \
-        [--start glassy] [--points 2000/4] [--docs docs/friction.md --block friction_fixed_point]
+        [--start glassy] [--points 2000/4] [--cycle-mu law|effective] \
+        [--docs docs/friction.md --block friction_fixed_point]
 """
 
 from __future__ import annotations
@@ -75,6 +82,8 @@ class Iterate:
     camera_C: float
     camera_900_C: float
     wall_s: float
+    mu_band_range: tuple[float, float] | None  # the law's mu per band (None: one mu)
+    band_move: tuple[float, float] | None  # its move from the cycle's: weighted mean, largest
 
 
 def _end_reading(case, snap, comm):
@@ -130,6 +139,8 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
                 camera_C=cam,
                 camera_900_C=cam_900,
                 wall_s=p.wall_time_s,
+                mu_band_range=p.mu_band_range,
+                band_move=None if p.field_change is None else (p.field_change, p.field_change_max),
             )
         )
         if comm.rank == 0:
@@ -161,6 +172,12 @@ def main() -> None:
         help="operating points 'rpm/Nm,rpm/Nm' (default: the bench points)",
     )
     ap.add_argument("--tol", type=float, default=0.005, help="stop when mu_c moves less")
+    ap.add_argument(
+        "--cycle-mu",
+        choices=("law", "effective"),
+        default="law",
+        help="the cycle's mu: the law's at each contact band, or one effective mu",
+    )
     ap.add_argument("--max-iter", type=int, default=4, help="cycles per bench point at most")
     ap.add_argument(
         "--start",
@@ -171,7 +188,11 @@ def main() -> None:
     )
     ap.add_argument(
         "--block",
-        choices=("friction_fixed_point", "friction_fixed_point_scan"),
+        choices=(
+            "friction_fixed_point",
+            "friction_fixed_point_scan",
+            "friction_fixed_point_effective",
+        ),
         default="friction_fixed_point",
         help="block of --docs to write",
     )
@@ -192,7 +213,7 @@ def main() -> None:
         law = FrictionOptions(
             law="glass_transition",
             mu_glassy=mu_g,
-            cycle_mu="law",
+            cycle_mu=a.cycle_mu,
             cycle_mu_tolerance=a.tol,
             cycle_mu_max_passes=a.max_iter,
         )
@@ -215,9 +236,20 @@ def main() -> None:
     def branch(mu: float, mu_g: float) -> str:
         return "hot" if mu > 0.5 * (mu_g + mu_r) else "cool"
 
+    per_band = a.cycle_mu == "law"
+
+    def band_columns(it: Iterate) -> tuple[str, ...]:
+        if not per_band:
+            return ()
+        lo, hi = it.mu_band_range
+        mean, largest = it.band_move
+        return (f"{lo:.3f}-{hi:.3f}", f"{mean:.4f} ({largest:.3f})")
+
     table = markdown_table(
-        ("glassy mu", "operating point", "pass", "cycle mu", "law's effective mu",
-         "pinion mu (branch)", "wheel mu (branch)", "friction heat (W)", "torque loss (N m)",
+        ("glassy mu", "operating point", "pass", "cycle mu" + (" (mean)" if per_band else ""),
+         "law's effective mu")
+        + (("law's mu per band", "its move from the cycle's (largest)") if per_band else ())
+        + ("pinion mu (branch)", "wheel mu (branch)", "friction heat (W)", "torque loss (N m)",
          "TE mean (um)", "largest tooth-pair load (N)", "camera_max, 900 s (C)",
          "camera_max, steady (C)"),
         [
@@ -227,6 +259,7 @@ def main() -> None:
                 str(k),
                 f"{it.mu_cycle:.4f}",
                 f"{it.mu_effective:.4f}",
+                *band_columns(it),
                 f"{it.mu_pinion:.3f} ({branch(it.mu_pinion, g)})",
                 f"{it.mu_wheel:.3f} ({branch(it.mu_wheel, g)})",
                 f"{it.friction_heat_W:.2f}",
@@ -251,15 +284,31 @@ def main() -> None:
         f"--mu-glassy {mus}"
         + ("" if a.points == DEFAULT_POINTS else f" --points {a.points}")
         + ("" if a.start == "rubbery" else f" --start {a.start}")
+        + ("" if a.cycle_mu == "law" else f" --cycle-mu {a.cycle_mu}")
         + ("" if a.case is None else f" --case {a.case}")
     )
     note = (
         f"\n\n{which}, glass-transition friction (T_g {tg_C:g} C, rubbery mu "
         f"{mu_r:g}), ambient "
-        f"{base.thermal.ambient_C:g} C; the first cycle at the {a.start} mu; each pass solves the "
-        "cycle at the cycle mu, the run from "
-        "ambient to 900 s and the steady state it leads to, and reads the law's effective mu, "
-        "mu_c P_law / P_cycle, from the torque meters; a gear's mu is its heat-weighted mean at "
+        f"{base.thermal.ambient_C:g} C; the first cycle at the {a.start} mu everywhere; "
+        + (
+            "each later pass solves the cycle with the law's mu of the pass before at each "
+            "contact band (each gear's pass at its own contact temperature; the cycle mu, the "
+            "effective mu of the pass before, where a contact has no band), "
+            if per_band
+            else "each later pass solves the cycle at the effective mu of the pass before "
+            "everywhere, "
+        )
+        + "the run from ambient to 900 s and the steady state it leads to, and reads the law's "
+        "effective mu, mu_c P_law / P_cycle, from the torque meters"
+        + (
+            " and the law's mu per band at the steady state, with its heat-weighted mean move "
+            "from the mu the cycle had at the bands (and the largest at a band carrying 0.1 % "
+            "of the largest band's heat)"
+            if per_band
+            else ""
+        )
+        + "; a gear's mu is its heat-weighted mean at "
         "the steady state (hot above the mean of the glassy and the rubbery mu). "
         f"{u_text}. `{command}`, {time.perf_counter() - t_start:.0f} s."
     )
