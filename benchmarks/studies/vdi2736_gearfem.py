@@ -123,7 +123,12 @@ def main(argv: list[str] | None = None) -> None:
         default=DEFAULT_POINTS,
         help=f"operating points 'rpm/Nm,...' (default {DEFAULT_POINTS}, the VDI table's)",
     )
-    ap.add_argument("--block", default="vdi2736_gearfem", help="block of docs/materials.md")
+    ap.add_argument(
+        "--block",
+        choices=("vdi2736_gearfem", "vdi2736_gearfem_steel_pom"),
+        default="vdi2736_gearfem",
+        help="block of docs/materials.md (the PEEK pair's, the steel/POM demo's)",
+    )
     ap.add_argument("--out", type=Path, default=None, help="study directory (default results/)")
     ap.add_argument("--docs", action="store_true", help="write the block")
     args = ap.parse_args(argv)
