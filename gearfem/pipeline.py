@@ -204,8 +204,9 @@ class CycleMuPass(JsonRecord):
 class CycleMuLoop(JsonRecord):
     """``summary.json`` "cycle_mu": the passes of the cycle ↔ heat fixed point in the cycle's mu
     (``[friction] cycle_mu = "law"``, a mu per contact, or ``"effective"``, one mu). The run's
-    readings are the last pass's, whose cycle was solved at ``mu`` (with a mu per contact: that
-    cycle's mean mu, the field about it); converged: its change is below ``tolerance``."""
+    readings are the last pass's, whose cycle was solved at ``mu`` (with a mu per contact: the
+    mu where a contact has no band, the band field elsewhere); converged: its change is below
+    ``tolerance``."""
 
     passes: tuple[CycleMuPass, ...]
     tolerance: float
