@@ -262,11 +262,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         _say(
             f"the cycle solved at the friction law's mu: {len(loop.passes)} cycle(s), "
             + "; ".join(
-                f"mu {p.mu_cycle:.4f} -> {p.mu_effective:.4f} ({p.mu_effective - p.mu_cycle:+.4f})"
-                + (
-                    ""
+                (
+                    f"mu {p.mu_cycle:.4f} -> {p.mu_effective:.4f} "
+                    f"({p.mu_effective - p.mu_cycle:+.4f})"
                     if p.field_change is None
-                    else f", per band {p.mu_band_range[0]:.3f}-{p.mu_band_range[1]:.3f}, "
+                    else f"mu {p.mu_cycle:.4f} where a contact has no band, "
+                    f"{p.mu_cycle_mean:.4f} on heat-weighted mean -> {p.mu_effective:.4f}, "
+                    f"per band {p.mu_band_range[0]:.3f}-{p.mu_band_range[1]:.3f}, "
                     f"moved by {p.field_change:.4f} (at most {p.field_change_max:.4f})"
                 )
                 for p in loop.passes

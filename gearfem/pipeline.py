@@ -173,9 +173,13 @@ class Headline(JsonRecord):
 @dataclasses.dataclass(frozen=True)
 class CycleMuPass(JsonRecord):
     """One pass of the cycle ↔ heat fixed point in the cycle's mu (:func:`thermal_stages`): the
-    cycle solved at ``mu_cycle``, the case's thermal runs on it, and the friction law's effective
-    mu at their end value, ``mu_effective = mu_cycle P_law / P_cycle`` (the constant mu that
-    dissipates the law's friction power, as the torque meters read it)."""
+    cycle solved at ``mu_cycle`` (with a mu per contact: the mu of contacts without a band),
+    the case's thermal runs on it, and the friction law's effective mu at their end value,
+    ``mu_effective = mu_cycle_mean P_law / P_cycle`` (the constant mu that dissipates the law's
+    friction power, as the torque meters read it). ``mu_cycle_mean`` is the constant mu that
+    dissipates the cycle's own friction power (:meth:`CycleResult.mean_friction_coefficient
+    <gearfem.cycle.result.CycleResult.mean_friction_coefficient>`): ``mu_cycle`` with one mu,
+    the heat-weighted mean of the band field with a mu per contact."""
 
     mu_cycle: float
     mu_effective: float
@@ -190,6 +194,7 @@ class CycleMuPass(JsonRecord):
     field_change: float | None = None
     field_change_max: float | None = None
     mu_band_range: tuple[float, float] | None = None
+    mu_cycle_mean: float | None = None
 
     @property
     def change(self) -> float:
@@ -1208,13 +1213,15 @@ def thermal_stages(
     ``"constant"``: one cycle at ``contact.friction_coefficient``. ``"effective"`` and ``"law"``:
     the cycle ↔ heat fixed point. Pass k solves the cycle at mu_k (mu_0 = ``start_mu``, default the
     case's mu, everywhere), the thermal runs on it, and reads at their end value (the steady state
-    when the run computes one) the law's effective mu, mu_eff = mu_k P_law / P_cycle: P_law the
+    when the run computes one) the law's effective mu, mu_eff = m_k P_law / P_cycle: P_law the
     friction heat of both gears' models at that state (the torque meters' reading), P_cycle the
-    cycle's own friction power. ``"effective"`` solves the next cycle at mu_eff everywhere and stops
-    when |mu_eff − mu_k| < ``cycle_mu_tolerance``. ``"law"`` solves it with the law's mu at each
-    contact band (:class:`~gearfem.cycle.friction_field.FrictionField`, each gear's pass at that
-    gear's contact temperature; ``contact.friction_coefficient`` set to mu_eff, the mu where the
-    field has no band) and stops when the law's mu at the bands has moved by less than the
+    cycle's own friction power, m_k the constant mu that dissipates it (mu_k with one mu, the
+    heat-weighted mean of the band field with a mu per contact). ``"effective"`` solves the next
+    cycle at mu_eff everywhere and stops when |mu_eff − mu_k| < ``cycle_mu_tolerance``.
+    ``"law"`` solves it with the law's mu at each contact band
+    (:class:`~gearfem.cycle.friction_field.FrictionField`, each gear's pass at that gear's contact
+    temperature; ``contact.friction_coefficient`` set to mu_eff, the mu where the field has no
+    band) and stops when the law's mu at the bands has moved by less than the
     tolerance, on heat-weighted mean, from the mu the cycle had there. Every mu is rounded to
     :attr:`~gearfem.contact.friction.FrictionOptions.cycle_mu_step`; the last pass is the run's; not
     converged after ``cycle_mu_max_passes`` cycles raises ConvergenceError with the passes' mu. Each
@@ -1267,10 +1274,11 @@ def thermal_stages(
                 new_field = law_field(cyc, {c.thermal.body: th, **others}, f.cycle_mu_step)
                 field_change, field_max = new_field.change_from(field if field is not None else mu)
                 band_range = (float(np.min(new_field.mu)), float(np.max(new_field.mu)))
+            mu_mean = cyc.mean_friction_coefficient()
             passes.append(
                 CycleMuPass(
                     mu_cycle=mu,
-                    mu_effective=reading.effective_mu(mu),
+                    mu_effective=reading.effective_mu(mu_mean),
                     friction_power_law_W=reading.friction_power_W,
                     friction_power_cycle_W=reading.cycle_friction_power_W,
                     cycle_key=case_cycle_key(c, field),
@@ -1278,12 +1286,14 @@ def thermal_stages(
                     field_change=field_change,
                     field_change_max=field_max,
                     mu_band_range=band_range,
+                    mu_cycle_mean=mu_mean,
                 )
             )
             loop = CycleMuLoop(passes=tuple(passes), tolerance=f.cycle_mu_tolerance)
             log.info(
-                "cycle mu pass %d: cycle mu %.4f, the law's effective mu %.4f (change %+.4f)%s",
-                k, mu, passes[-1].mu_effective, passes[-1].mu_effective - mu,
+                "cycle mu pass %d: cycle mu %.4f (mean %.4f), the law's effective mu %.4f "
+                "(change %+.4f)%s",
+                k, mu, mu_mean, passes[-1].mu_effective, passes[-1].mu_effective - mu_mean,
                 "" if band_range is None else (
                     f"; the law's mu per band {band_range[0]:.4f}-{band_range[1]:.4f}, moved by "
                     f"{field_change:.4f} on heat-weighted mean, at most {field_max:.4f}"

@@ -173,6 +173,22 @@ def test_each_pass_takes_its_fields_mu_and_the_energy_balances(cycles):
 
 
 @pytest.mark.slow
+def test_the_mean_mu_of_a_field_cycle_weights_each_pass_by_its_heat(cycles):
+    """The constant mu that dissipates a field cycle's friction power is the mean of the passes'
+    0.2 and 0.4 weighted by each pass's heat per unit mu, ∫ p ŝ·v_T dA from the contact history,
+    not the cycle's fallback mu (0.5, contacts without a band); one mu: that mu."""
+    constant, _, split, _ = cycles
+    assert constant.mean_friction_coefficient() == constant.friction_coefficient == 0.5
+    h = split.history
+    w = h.pressure_Pa * h.dissipation_speed_m_s * h.weight_m2 * h.pass_weight
+    w_pinion, w_wheel = float(np.sum(w[h.of("pinion")])), float(np.sum(w[h.of("wheel")]))
+    want = (0.2 * w_pinion + 0.4 * w_wheel) / (w_pinion + w_wheel)
+    assert split.friction_coefficient == 0.5
+    assert split.mean_friction_coefficient() == pytest.approx(want, rel=1e-9)
+    assert 0.25 < want < 0.35, want  # both passes carry heat
+
+
+@pytest.mark.slow
 def test_a_law_whose_mu_differs_between_contacts_reaches_its_fixed_point(tmp_path_factory):
     """mu falling with the contact temperature (0.5 at 20 C to 0.2 at 200 C): the contacts run at
     different temperatures, so the law's mu differs between bands; the loop stops when it moves
@@ -193,6 +209,14 @@ def test_a_law_whose_mu_differs_between_contacts_reaches_its_fixed_point(tmp_pat
     assert 0.2 <= lo < hi - 0.01 and hi <= 0.5, (lo, hi)
     # at the fixed point the cycle dissipates what the law does, contact by contact
     assert last.friction_power_law_W == pytest.approx(last.friction_power_cycle_W, rel=0.02)
+    # the law's effective mu is read against the field's heat-weighted mean mu, not the fallback
+    for p in loop.passes[1:]:
+        assert 0.2 <= p.mu_cycle_mean <= 0.5, p.mu_cycle_mean  # the law's range
+        assert p.mu_effective == pytest.approx(
+            p.mu_cycle_mean * p.friction_power_law_W / p.friction_power_cycle_W, rel=1e-12
+        )
+    assert loop.passes[0].mu_cycle_mean == loop.passes[0].mu_cycle == 0.5
+    assert last.mu_effective == pytest.approx(last.mu_cycle_mean, rel=0.02)
     eff = dataclasses.replace(law, cycle_mu="effective")
     one = pipeline.run(
         dataclasses.replace(base, friction=eff), _out(comm, tmp_path_factory, "e"), comm,

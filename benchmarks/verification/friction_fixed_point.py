@@ -71,7 +71,8 @@ BENCH_TIME_S = 900.0
 class Iterate:
     """One pass of the loop at one bench point."""
 
-    mu_cycle: float
+    mu_cycle: float  # with a mu per contact: the mu of contacts without a band
+    mu_cycle_mean: float  # the constant mu that dissipates the cycle's friction power
     mu_effective: float
     mu_pinion: float
     mu_wheel: float
@@ -129,6 +130,7 @@ def fixed_point(case, start_mu: float, comm) -> list[Iterate]:
         rows.append(
             Iterate(
                 mu_cycle=p.mu_cycle,
+                mu_cycle_mean=p.mu_cycle_mean,
                 mu_effective=p.mu_effective,
                 mu_pinion=float(mu_of["pinion"]),
                 mu_wheel=float(mu_of["wheel"]),
@@ -246,8 +248,9 @@ def main() -> None:
         return (f"{lo:.3f}-{hi:.3f}", f"{mean:.4f} ({largest:.3f})")
 
     table = markdown_table(
-        ("glassy mu", "operating point", "pass", "cycle mu" + (" (mean)" if per_band else ""),
-         "law's effective mu")
+        ("glassy mu", "operating point", "pass")
+        + (("cycle mu (no band)", "cycle mu (mean)") if per_band else ("cycle mu",))
+        + ("law's effective mu",)
         + (("law's mu per band", "its move from the cycle's (largest)") if per_band else ())
         + ("pinion mu (branch)", "wheel mu (branch)", "friction heat (W)", "torque loss (N m)",
          "TE mean (um)", "largest tooth-pair load (N)", "camera_max, 900 s (C)",
@@ -258,6 +261,7 @@ def main() -> None:
                 f"{s:g} rpm, {t:g} N m",
                 str(k),
                 f"{it.mu_cycle:.4f}",
+                *((f"{it.mu_cycle_mean:.4f}",) if per_band else ()),
                 f"{it.mu_effective:.4f}",
                 *band_columns(it),
                 f"{it.mu_pinion:.3f} ({branch(it.mu_pinion, g)})",
@@ -300,7 +304,10 @@ def main() -> None:
             "everywhere, "
         )
         + "the run from ambient to 900 s and the steady state it leads to, and reads the law's "
-        "effective mu, mu_c P_law / P_cycle, from the torque meters"
+        "effective mu, m_c P_law / P_cycle (m_c the constant mu that dissipates the cycle's "
+        "friction power"
+        + (": the heat-weighted mean of its mu per contact" if per_band else "")
+        + "), from the torque meters"
         + (
             " and the law's mu per band at the steady state, with its heat-weighted mean move "
             "from the mu the cycle had at the bands (and the largest at a band carrying 0.1 % "

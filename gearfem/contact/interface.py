@@ -82,12 +82,15 @@ class ContactPoints:
     def slip_speed(self) -> np.ndarray:
         return np.linalg.norm(self.slip_velocity, axis=1)
 
-    def friction_power_density(self) -> np.ndarray:
+    def dissipation_speed(self) -> np.ndarray:
+        """ŝ·v_T (m/s): the slip speed along the friction direction, the friction power per unit
+        area is μ p times it."""
+        return np.einsum("pd,pd->p", self.slip_direction, self.slip_velocity)
+
+    def friction_power_density(self, mu: np.ndarray | float | None = None) -> np.ndarray:
         """Power dissipated by friction per unit area, −t_T·v_T = μ p ŝ·v_T (W/m²), with each
-        point's μ."""
-        return (
-            self.mu * self.pressure * np.einsum("pd,pd->p", self.slip_direction, self.slip_velocity)
-        )
+        point's μ (``mu``: another μ, 1.0 for the power per unit μ)."""
+        return (self.mu if mu is None else mu) * self.pressure * self.dissipation_speed()
 
     @property
     def direction(self) -> np.ndarray:

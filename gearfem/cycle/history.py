@@ -158,7 +158,7 @@ class HistoryRecorder:
                     "pass_weight": np.full(len(facet), ps.weight),
                     "pressure_Pa": pts.pressure[keep],
                     "slip_speed_m_s": np.linalg.norm(vt, axis=1),
-                    "dissipation_speed_m_s": np.einsum("pd,pd->p", pts.slip_direction[keep], vt),
+                    "dissipation_speed_m_s": pts.dissipation_speed()[keep],
                     "rolling_speed_m_s": tangential_speed(slave),
                     "mate_rolling_speed_m_s": tangential_speed(master),
                     "tooth": model.tooth_of_facet[slave]["local"][facet].astype(np.int64),

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from gearfem.core.errors import GearfemError
 from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import ContactHistory
 
@@ -122,6 +123,22 @@ class CycleResult:
 
     def mean_friction_power_W_per_rad_s(self) -> float:
         return float(np.mean(self.friction_power_W_per_rad_s))
+
+    def mean_friction_coefficient(self) -> float:
+        """The constant mu that dissipates the cycle's friction power on its contact pressures
+        and slips: ``friction_coefficient`` with one mu everywhere; with a friction field, the
+        heat-weighted mean ∫ μ p ŝ·v_T dA / ∫ p ŝ·v_T dA over the positions (from the history)."""
+        if self.friction_field is None:
+            return float(self.friction_coefficient)
+        if self.history is None:
+            raise GearfemError(
+                "a cycle solved with a friction field has no contact history: its mean mu "
+                "cannot be computed"
+            )
+        per_mu = float(np.mean(self.history.friction_power_W_per_rad_s(1.0, len(self.phi_rad))))
+        if per_mu <= 0.0:
+            return float(self.friction_coefficient)
+        return self.mean_friction_power_W_per_rad_s() / per_mu
 
     def tooth_heat_W_per_rad_s(self, body: str) -> float:
         """Friction heat generated at one tooth's flanks of ``body`` per unit ω₁ (before the split

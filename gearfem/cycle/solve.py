@@ -183,7 +183,7 @@ class _PositionProbe:
         for ps, pts in zip(model.interface.passes, points):
             slave = ps.slave.body
             q = pts.friction_power_density()
-            q1 = pts.pressure * np.einsum("pd,pd->p", pts.slip_direction, pts.slip_velocity)
+            q1 = pts.friction_power_density(mu=1.0)
             pf += float(np.sum(pts.dA * q))
             pf1 += float(np.sum(pts.dA * q1))
             if pts.num_points:
