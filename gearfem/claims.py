@@ -129,6 +129,18 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/materials.md", "vdi2736_gearfem_steel_pom"),),
         case="demos/steel_pom.toml",
     ),
+    Regeneration(
+        "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py "
+        "--case benchmarks/studies/cases/pom_pom.toml --block vdi2736_gearfem_pom_pom --docs",
+        (("docs/materials.md", "vdi2736_gearfem_pom_pom"),),
+        case="benchmarks/studies/cases/pom_pom.toml",
+    ),
+    Regeneration(
+        "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py "
+        "--case benchmarks/studies/cases/steel_pa66.toml --block vdi2736_gearfem_steel_pa66 --docs",
+        (("docs/materials.md", "vdi2736_gearfem_steel_pa66"),),
+        case="benchmarks/studies/cases/steel_pa66.toml",
+    ),
 )
 
 

@@ -22,6 +22,10 @@ printed without one.
     mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py [--docs]
     mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --case demos/steel_pom.toml \
         --points 1000/2,1000/4,2000/2 --block vdi2736_gearfem_steel_pom [--docs]
+    mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py \
+        --case benchmarks/studies/cases/pom_pom.toml --block vdi2736_gearfem_pom_pom [--docs]
+    mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py \
+        --case benchmarks/studies/cases/steel_pa66.toml --block vdi2736_gearfem_steel_pa66 [--docs]
 
 ``--docs`` writes block ``--block`` (default ``vdi2736_gearfem``) of docs/materials.md, headed by
 the provenance the runs recorded (resolution key, code hash, commit: ``gearfem claims`` and
@@ -125,9 +129,15 @@ def main(argv: list[str] | None = None) -> None:
     )
     ap.add_argument(
         "--block",
-        choices=("vdi2736_gearfem", "vdi2736_gearfem_steel_pom"),
+        choices=(
+            "vdi2736_gearfem",
+            "vdi2736_gearfem_steel_pom",
+            "vdi2736_gearfem_pom_pom",
+            "vdi2736_gearfem_steel_pa66",
+        ),
         default="vdi2736_gearfem",
-        help="block of docs/materials.md (the PEEK pair's, the steel/POM demo's)",
+        help="block of docs/materials.md (the PEEK pair's, the steel/POM demo's, the POM pair's "
+        "and the steel/PA66 pair's of benchmarks/studies/cases/)",
     )
     ap.add_argument("--out", type=Path, default=None, help="study directory (default results/)")
     ap.add_argument("--docs", action="store_true", help="write the block")
