@@ -143,7 +143,8 @@ def test_material_input_uncertainty_comes_from_the_library():
             table["thermal_conductivity_W_mK"] = k_override
         case = case_from_dict({"material": table})
         lib = library_material(name)
-        (k_label, (k_tr, k_scale)), (e_label, (e_tr, _)) = material_perturbations(case).items()
+        pert = material_perturbations(case).items()
+        (k_label, (k_tr, k_scale)), (c_label, (c_tr, c_scale)), (e_label, (e_tr, _)) = pert
         lo, hi = lib["thermal_conductivity_W_mK"].interval()
         delta, scale = uniform_step(lib.value("thermal_conductivity_W_mK"), lo, hi)
         k = k_tr(case).material.thermal_conductivity_W_mK
@@ -152,6 +153,15 @@ def test_material_input_uncertainty_comes_from_the_library():
         e = lib["emissivity"]
         delta, _ = uniform_step(e.value, *e.interval(), upper=1.0)
         assert e_tr(case).thermal.emissivity == pytest.approx(case.material.emissivity + delta)
+        # rho c_p: one input, stepped on the density by c_p's relative library step, scaled to
+        # the product's relative standard uncertainty (uniform intervals, u = width / sqrt(12))
+        rho, cp = lib["density_kg_m3"], lib["specific_heat_J_kgK"]
+        rel = uniform_step(cp.value, *cp.interval())[0] / cp.value
+        moved = c_tr(case).material
+        assert moved.density_kg_m3 == pytest.approx(case.material.density_kg_m3 * (1.0 + rel))
+        assert moved.specific_heat_J_kgK == case.material.specific_heat_J_kgK
+        u_rel = math.hypot(*(np.diff(v.interval())[0] / v.value for v in (rho, cp))) / math.sqrt(12)
+        assert c_scale * abs(rel) == pytest.approx(u_rel) and name in c_label
 
 
 def test_suggestion_after_a_full_model_failure_says_so():
@@ -192,20 +202,49 @@ def forward_models(library, points):
     assert, that a hidden effect in data from the full model is found, does not depend on the
     resolution), for ``library`` and its surrogate at the (speed, torque) ``points``, cached under
     cache_root()."""
-    from gearfem.config import load_case
     from gearfem.cycle.cache import cache_root
     from gearfem.diagnose.forward import FullModel, Surrogate
 
+    full = FullModel(coarse_forward_case(), MPI.COMM_SELF, times_s=G.TIMES_S, library=library)
+    return full, Surrogate(full, points, candidates=library, cache_dir=cache_root())
+
+
+def coarse_forward_case():
+    """The case of :func:`forward_models`."""
+    from gearfem.config import load_case
+
     case = load_case(ROOT / "tests" / "cases" / "coarse.toml")
-    case = dataclasses.replace(
+    return dataclasses.replace(
         case,
         thermal=dataclasses.replace(case.thermal, time_error_K=0.25),
         thermal_mesh=dataclasses.replace(
             case.mesh, periodic_cuts=True, teeth_in_model=1, refined_teeth=1
         ),
     )
-    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S, library=library)
-    return full, Surrogate(full, points, candidates=library, cache_dir=cache_root())
+
+
+@pytest.mark.slow
+def test_the_heat_capacity_moves_a_transient_not_a_steady_state():
+    """The rho c_p input of the V&V 20 input uncertainty acts where the physics says: on the
+    coarse model's transient sample (60 s) the rise falls, by at most the lumped limit 1/(1 +
+    rel) of all heat stored; the steady state of one material (constant mu, fixed heat split)
+    does not move (measured: 5e-9 K; 1e-6 K allowed)."""
+    from gearfem.diagnose.data import FIELD_QUANTITIES
+    from gearfem.diagnose.forward import FullModel
+    from gearfem.diagnose.report import material_perturbations
+
+    case = coarse_forward_case()
+    full = FullModel(case, MPI.COMM_SELF, times_s=G.TIMES_S, library=CLASSIC_LIBRARY)
+    ((transform, _),) = (v for k, v in material_perturbations(case).items() if "c_p" in k)
+    rel = transform(case).material.density_kg_m3 / case.material.density_kg_m3 - 1.0
+    amb = full.ambient_C
+    nominal = full.evaluate(1000.0, G.TORQUE_NM, amb)
+    moved = full.evaluate(1000.0, G.TORQUE_NM, amb, transform=transform)
+    t = G.TIMES_S[0]
+    for q in FIELD_QUANTITIES:
+        ratio = (moved[(q, t)] - amb) / (nominal[(q, t)] - amb)
+        assert 1.0 / (1.0 + rel) - 1e-3 < ratio < 1.0 - 0.1 * rel / (1.0 + rel), (q, ratio)
+        assert moved[(q, None)] == pytest.approx(nominal[(q, None)], abs=1e-6), q
 
 
 #: The classic surrogate's operating points: the generator's speeds at its torque.
@@ -866,13 +905,16 @@ def test_a_pair_of_two_materials_has_each_gears_material_inputs():
     pom = {"name": "POM", "hysteresis": [[20.0, 100.0], [0.01, 0.02]]}
     case = case_from_dict({"material": {"name": "steel"}, "material_wheel": pom})
     pert = material_perturbations(case)
-    assert len(pert) == 4
+    assert len(pert) == 6
     for body, name in (("pinion", "steel"), ("wheel", "POM")):
         other = "wheel" if body == "pinion" else "pinion"
         lib = library_material(name)
-        (k_tr, k_scale), (e_tr, _) = (
+        (k_tr, k_scale), (c_tr, _), (e_tr, _) = (
             v for label, v in pert.items() if f"{body}: {name} library" in label
         )
+        changed = c_tr(case).materials
+        assert changed[other] == case.materials[other]
+        assert changed[body].density_kg_m3 > case.materials[body].density_kg_m3
         lo, hi = lib["thermal_conductivity_W_mK"].interval()
         delta, scale = uniform_step(lib.value("thermal_conductivity_W_mK"), lo, hi)
         changed = k_tr(case).materials

@@ -84,13 +84,27 @@ def uniform_step(value: float, lo: float, hi: float, upper: float | None = None)
 
 
 def material_perturbations(case: Case) -> dict[str, tuple[Any, float]]:
-    """The material inputs of the V&V 20 input uncertainty: thermal conductivity and emissivity,
-    each uniform over its interval in the materials library (gearfem/data/materials, the case
-    material's ``name``), shifted to the case's value where the case overrides the library's. The
-    emissivity is the thermal model's (``[thermal] emissivity`` or the material's). A pair of two
-    materials (``[material_wheel]``, a steel pinion against a POM wheel, say) has each gear's
-    inputs apart, named by the gear; ``[thermal] emissivity``, which sets both gears', is one
-    input."""
+    """The material inputs of the V&V 20 input uncertainty: thermal conductivity, heat capacity
+    and emissivity, each uniform over its interval in the materials library
+    (gearfem/data/materials, the case material's ``name``), shifted to the case's value where the
+    case overrides the library's. The emissivity is the thermal model's (``[thermal] emissivity``
+    or the material's). A pair of two materials (``[material_wheel]``, a steel pinion against a
+    POM wheel, say) has each gear's inputs apart, named by the gear; ``[thermal] emissivity``,
+    which sets both gears', is one input.
+
+    Density and specific heat act on the thermal model only through their product rho c_p (the
+    enthalpy of a transient, the diffusivity of the flash temperature, the effusivity of the heat
+    split), so they are one input: the product moved by c_p's library step (upwards across the
+    interval's wider side), applied to the density so that a c_p(T) table moves alike, and
+    scaled to the product's relative standard uncertainty sqrt((u_rho/rho)^2 + (u_cp/c_p)^2)
+    with u = (hi - lo)/sqrt(12). It moves a steady state of one material with a constant
+    friction coefficient and a fixed heat split by nothing; a transient's samples, a pair of two
+    materials and a flash-temperature law by their sensitivity.
+
+    Not inputs: Young's modulus (each step a structural cycle per torque, minutes each; the
+    modulus of the thermal state, 19 % below 3.7 GPa, moved the camera by 1.0 K at 1000 rpm /
+    8 N m, docs/materials.md, against PEEK 450G's library interval of 3.6-4.0 GPa) and the
+    friction coefficient (a candidate of the diagnosis, not an input)."""
     mats = case.materials
     pair = mats["wheel"] != mats["pinion"]
     pert = {}
@@ -108,6 +122,22 @@ def material_perturbations(case: Case) -> dict[str, tuple[Any, float]]:
                 body, thermal_conductivity_W_mK=mat.thermal_conductivity_W_mK + delta
             ),
             scale,
+        )
+        # rho and c_p enter the thermal model only as their product (the enthalpy, the diffusivity
+        # of the flash temperature, the effusivity of the heat split): one step of the product,
+        # taken on the density so that a c_p(T) table moves with it, carries both intervals
+        rho, cp = lib["density_kg_m3"], lib["specific_heat_J_kgK"]
+        (rho_lo, rho_hi), (cp_lo, cp_hi) = rho.interval(), cp.interval()
+        step, _ = uniform_step(cp.value, cp_lo, cp_hi)
+        rel = step / cp.value
+        u_rel = math.hypot(rho_hi - rho_lo, (cp_hi - cp_lo) * rho.value / cp.value)
+        u_rel /= math.sqrt(12.0) * rho.value
+        pert[
+            f"heat capacity rho c_p ({rho_lo:.4g}-{rho_hi:.4g} kg/m^3 x {cp_lo:.4g}-{cp_hi:.4g} "
+            f"J/(kg K), uniform; {whose} library)"
+        ] = (
+            _replace_material(body, density_kg_m3=mat.density_kg_m3 * (1.0 + rel)),
+            u_rel / abs(rel),
         )
         if pair and case.thermal.emissivity is not None and body == "wheel":
             continue  # one emissivity for both gears: perturbed once, below the pinion's
