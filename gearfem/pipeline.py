@@ -51,6 +51,7 @@ from gearfem.cycle.cache import load as load_cycle
 from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.measures import pitch_point_band_pressure_Pa
 from gearfem.cycle.model import GearContactModel
+from gearfem.cycle.modulus_field import ModulusField
 from gearfem.cycle.report import write_cycle_outputs
 from gearfem.geometry.involute import GearPair
 from gearfem.geometry.mesh import build_gear_mesh, cache_gear_mesh
@@ -283,8 +284,13 @@ def pair_mesh(case: Case, comm: MPI.Comm, cache_dir: Path | None = None):
     return build_gear_mesh(case.geometry, case.mesh, comm, cache_dir=cache_dir, bodies=BODIES)
 
 
-def case_cycle_key(case: Case, friction_field: FrictionField | None = None) -> str:
-    """The cache key of the case's cycle (solved with ``friction_field``'s mu when given)."""
+def case_cycle_key(
+    case: Case,
+    friction_field: FrictionField | None = None,
+    moduli: ModulusField | None = None,
+) -> str:
+    """The cache key of the case's cycle (solved with ``friction_field``'s mu and the modulus
+    per cell of ``moduli`` when given)."""
     return cycle_key(
         case.geometry,
         case.mesh,
@@ -293,6 +299,7 @@ def case_cycle_key(case: Case, friction_field: FrictionField | None = None) -> s
         case.cycle,
         case.operating.torque_Nm,
         friction_field,
+        moduli,
     )
 
 
@@ -302,10 +309,11 @@ def case_cycle_dir(case: Case) -> Path:
     return cache_root() / "cycles" / case_cycle_key(case)
 
 
-def case_compliance_context(case: Case) -> str:
+def case_compliance_context(case: Case, moduli: ModulusField | None = None) -> str:
     """The part of the gear-compliance store key that comes from the case (mesh, elastic
-    constants, code); the store adds each gear's contact DOFs and supports."""
-    return compliance_context(case.geometry, case.mesh, case.materials)
+    constants, code) and the modulus field; the store adds each gear's contact DOFs and
+    supports."""
+    return compliance_context(case.geometry, case.mesh, case.materials, moduli)
 
 
 def cycle(
@@ -316,9 +324,11 @@ def cycle(
     rebuild: bool = False,
     progress=None,
     friction_field: FrictionField | None = None,
+    moduli: ModulusField | None = None,
 ):
     """The structural cycle of the case's torque (cached), solved with ``friction_field``'s mu at
-    each contact when given (else ``contact.friction_coefficient``). Returns (CycleResult,
+    each contact when given (else ``contact.friction_coefficient``) and with the modulus per cell
+    of ``moduli`` when given (else each material's constant modulus). Returns (CycleResult,
     directory, from_cache).
 
     On several ranks with ``[cycle] parallel = "positions"`` (the condensed solver's default)
@@ -339,13 +349,16 @@ def cycle(
             case.contact,
             case.operating.torque_Nm,
             case.cycle,
-            compliance_store=compliance_store(case.geometry, case.mesh, case.materials, cache_dir),
+            compliance_store=compliance_store(
+                case.geometry, case.mesh, case.materials, cache_dir, moduli
+            ),
             share=comm if spread else None,
+            moduli=moduli,
         )
 
     return cached_cycle(
         factory,
-        case_cycle_key(case, friction_field),
+        case_cycle_key(case, friction_field, moduli),
         comm,
         cache_dir=cache_dir,
         rebuild=rebuild,

@@ -1,26 +1,27 @@
-"""What a modulus that follows temperature would change, to first order: the built-in case's cycle
-with each gear's uniform modulus taken from its steady thermal state, iterated with the heat, beside
-the constant modulus.
+"""What a modulus that follows temperature changes: the built-in case's cycle with each gear's
+modulus taken from its steady thermal state, cell by cell and as one uniform value per gear, each
+iterated with the heat, beside the constant modulus.
 
 The structural cycle runs at the material's constant ``youngs_modulus_Pa`` (PEEK 450G: 3.7 GPa),
 while the teeth run far above room temperature. The library's E(T) of PEEK 450G (tensile,
 Drozdov & Christiansen 2021, ``gearfem/data/materials/peek450g.toml``) is flat to 130 C and falls
-to 1.7 GPa at 180 C, where the table ends. Cell-wise E(T) is not in the cycle; this script
-measures what a uniform modulus per gear does, the one with the teeth's volume-mean compliance at
-the steady state:
+to 1.7 GPa at 180 C, where the table ends. Two ways of giving the cycle that modulus:
 
-    1/E_eff = (1/V) sum_c V_c / E(T_c),
+* **cell by cell** (:mod:`gearfem.cycle.modulus_field`): every structural cell takes
+  E_c = E e(T_c), e the table relative to its first value, T_c the gear's steady temperature
+  at the cell (the thermal model's cell nearest its place on the reference tooth);
+* **uniform per gear**: the modulus of the teeth's volume-mean compliance at the steady state,
+  1/E_eff = (1/V) sum_c V_c / E(T_c), the sum over the cells of the modelled tooth above the
+  root circle, T_c the cell's mean nodal temperature (the first-order estimate).
 
-the sum over the cells of the modelled tooth above the root circle, T_c the cell's mean nodal
-temperature of the steady state (the gear's own thermal model). Beyond the table's last
-temperature the last value is used, so E_eff overestimates the modulus where the teeth run
-hotter (PEEK softens further above T_g); the share of the tooth volume beyond the table is
-reported. Each pass solves the cycle with both gears' E_eff of the
-previous pass's thermal state, until E_eff moves by less than ``--tolerance`` (relative); the first
-pass is the constant modulus. Reported per bench point: the moduli, the load sharing, the pitch
-and largest pressures, the transmission error, the friction heat, the hottest surface and the IR
-camera's steady reading, with u_num of the case's resolution where its refinement studies give
-one (docs/materials.md, block ``modulus_temperature``).
+Beyond the table's last temperature its last value is used in both, which overestimates the
+modulus where the teeth run hotter (PEEK softens further above T_g); the share of the tooth
+volume beyond the table is reported. Each pass after the first (the constant modulus) solves the
+cycle with the modulus of the previous pass's thermal state, until the gears' mean relative
+modulus moves by less than ``--tolerance``. Reported per bench point: the moduli, the load
+sharing, the pitch and largest pressures, the transmission error, the friction heat, the hottest
+surface and the IR camera's steady reading, with u_num of the case's resolution where its
+refinement studies give one (docs/materials.md, block ``modulus_temperature``).
 
     mpirun -n 2 python benchmarks/verification/modulus_temperature.py [--points 1000/8 2000/4] \
         [--tolerance 0.02] [--max-passes 3] [--docs docs/materials.md]
@@ -41,6 +42,7 @@ from gearfem.config import Case, load_case
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
 from gearfem.core.material_library import library_material
+from gearfem.cycle.modulus_field import GearTemperature, ModulusField
 from gearfem.geometry.involute import GearPair
 from gearfem.instruments.evaluate import evaluate
 from gearfem.instruments.snapshot import BodyField
@@ -90,19 +92,48 @@ def with_moduli(case: Case, moduli: dict[str, float]) -> Case:
     )
 
 
-def one_pass(case: Case, comm, table) -> tuple[dict[str, float], dict[str, ToothModulus]]:
-    """The cycle and the steady state of ``case``: its quantities and each gear's tooth modulus
-    at that state (collective)."""
-    cyc, _, _ = pipeline.cycle(case, comm)
+@dataclasses.dataclass(frozen=True)
+class Pass:
+    """One pass: the quantities of its cycle and steady state, each gear's uniform tooth modulus
+    at that state, the cell-wise field of that state, and the moduli its cycle ran with (GPa,
+    pinion / wheel: uniform, or the field's harmonic mean)."""
+
+    quantities: dict
+    tooth: dict[str, ToothModulus]
+    field: ModulusField
+    used_GPa: tuple[float, float]
+
+
+def state_field(snap, label: str, table) -> ModulusField:
+    """The cell-wise modulus field of both gears at the snapshot's ``label``."""
+    i = snap.label_index(label)
+    states = {
+        b: GearTemperature(f.nodes_m, f.cells, f.temperature_K[i], f.center_m, f.tooth_angles_rad)
+        for b, f in snap.bodies.items()
+    }
+    return ModulusField.from_temperatures(states, dict.fromkeys(BODIES, table))
+
+
+def one_pass(case: Case, comm, table, moduli: ModulusField | None = None) -> Pass:
+    """The cycle (with the modulus field ``moduli`` when given) and the steady state of ``case``:
+    its quantities, each gear's tooth modulus and the modulus field at that state
+    (collective)."""
+    cyc, _, _ = pipeline.cycle(case, comm, moduli=moduli)
     loads = CycleLoads.of(cyc, case.operating.speed_rpm)
     c = steady_case(case)
     snap = observed_fields(c, comm, cyc)
+    used = tuple(
+        case.materials[b].youngs_modulus_Pa
+        * (moduli.mean_relative(b) if moduli is not None else 1.0)
+        / GPA
+        for b in BODIES
+    )
 
     def read():
         label = snap.label_of(None)
         i = snap.label_index(label)
         pair = GearPair(case.geometry)
-        moduli = {
+        tooth = {
             b: tooth_modulus(
                 snap.bodies[b],
                 i,
@@ -113,10 +144,7 @@ def one_pass(case: Case, comm, table) -> tuple[dict[str, float], dict[str, Tooth
             for b in BODIES
         }
         q = {
-            "modulus, pinion / wheel (GPa)": (
-                case.materials["pinion"].youngs_modulus_Pa / GPA,
-                case.materials["wheel"].youngs_modulus_Pa / GPA,
-            ),
+            "modulus, pinion / wheel (GPa)": used,
             "effective contact ratio": loads.effective_contact_ratio,
             "largest tooth-pair load (N)": loads.largest_load_N,
             "pitch-point pressure, band (MPa)": loads.pitch_point_band_pressure_MPa,
@@ -130,25 +158,41 @@ def one_pass(case: Case, comm, table) -> tuple[dict[str, float], dict[str, Tooth
             .camera[label]
             .max_C,
         }
-        return q, moduli
+        return Pass(q, tooth, state_field(snap, label, table), used)
 
     return pipeline.on_root(comm, read)
 
 
-def fixed_point(base: Case, comm, table, tolerance: float, max_passes: int):
-    """The passes at one operating point: the constant modulus first, then each gear's E_eff of
-    the previous pass, until it moves by less than ``tolerance`` (relative)."""
-    passes = []
-    case = base
-    for _ in range(max_passes):
-        q, moduli = one_pass(case, comm, table)
-        passes.append((q, moduli))
-        used = {b: case.materials[b].youngs_modulus_Pa for b in BODIES}
-        new = {b: moduli[b].modulus_Pa for b in BODIES}
-        if len(passes) > 1 and all(abs(new[b] / used[b] - 1) < tolerance for b in BODIES):
+def uniform_fixed_point(base: Case, first: Pass, comm, table, tolerance: float, max_passes: int):
+    """The passes with each gear's uniform E_eff of the previous pass, after the constant
+    modulus's ``first``, until E_eff moves by less than ``tolerance`` (relative)."""
+    passes = [first]
+    while len(passes) < max_passes:
+        new = {b: passes[-1].tooth[b].modulus_Pa for b in BODIES}
+        passes.append(one_pass(with_moduli(base, new), comm, table))
+        now = {b: passes[-1].tooth[b].modulus_Pa for b in BODIES}
+        if all(abs(now[b] / new[b] - 1) < tolerance for b in BODIES):
             return passes, True
-        case = with_moduli(base, new)
     return passes, False
+
+
+def cellwise_fixed_point(base: Case, first: Pass, comm, table, tolerance: float, max_passes: int):
+    """The passes with the cell-wise field of the previous pass's state, after the constant
+    modulus's ``first``, until each gear's mean relative modulus moves by less than
+    ``tolerance``; also the largest change of a cell's relative modulus in the last pass."""
+    passes = [first]
+    change = float("nan")
+    while len(passes) < max_passes:
+        field = passes[-1].field
+        passes.append(one_pass(base, comm, table, field))
+        now = passes[-1].field
+        change = max(
+            float(np.max(np.abs(now.bodies[b].relative / field.bodies[b].relative - 1.0)))
+            for b in BODIES
+        )
+        if all(abs(now.mean_relative(b) / field.mean_relative(b) - 1) < tolerance for b in BODIES):
+            return passes, True, change
+    return passes, False, change
 
 
 def _cell(v) -> str:
@@ -173,8 +217,12 @@ def main() -> None:
     for point in a.points:
         speed, torque = (float(s) for s in point.split("/"))
         base = builtin.with_operating(speed_rpm=speed, torque_Nm=torque)
-        passes, settled = fixed_point(base, comm, table, a.tolerance, a.max_passes)
-        first, last = passes[0][0], passes[-1][0]
+        first = one_pass(base, comm, table)
+        uni, uni_settled = uniform_fixed_point(base, first, comm, table, a.tolerance, a.max_passes)
+        cell, cell_settled, cell_change = cellwise_fixed_point(
+            base, first, comm, table, a.tolerance, a.max_passes
+        )
+        q0, qu, qc = first.quantities, uni[-1].quantities, cell[-1].quantities
         u = {}
         keys = {
             "effective contact ratio": "effective_contact_ratio",
@@ -185,20 +233,22 @@ def main() -> None:
             "hottest surface, steady (C)": "max_surface_field",
             "camera_max, steady (C)": "camera_max",
         }
-        unc = run_uncertainty(base, {k: first[q] for q, k in keys.items()})
+        unc = run_uncertainty(base, {k: q0[q] for q, k in keys.items()})
         if unc is not None:
             u = {q: unc.u_num(k) for q, k in keys.items()}
+        diff = lambda x, y: "" if isinstance(x, tuple) else f"{y - x:+.3g}"
         rows = [
             (
                 q,
-                _cell(first[q]),
-                _cell(last[q]),
-                "" if isinstance(first[q], tuple) else f"{last[q] - first[q]:+.3g}",
+                _cell(q0[q]),
+                _cell(qu[q]),
+                _cell(qc[q]),
+                diff(q0[q], qc[q]),
                 f"{u[q]:.2g}" if u.get(q) is not None else "",
             )
-            for q in first
+            for q in q0
         ]
-        m0 = passes[0][1]
+        m0 = first.tooth
         rows.append(
             (
                 "tooth volume above T_g / beyond the E(T) table, constant-modulus state (%)",
@@ -209,27 +259,32 @@ def main() -> None:
                 "",
                 "",
                 "",
+                "",
             )
         )
-        moduli = " -> ".join(
-            "(" + ", ".join(f"{m[b].modulus_Pa / GPA:.3g}" for b in BODIES) + ")" for _, m in passes
+        steps = lambda passes: " -> ".join(
+            "(" + ", ".join(f"{x:.3g}" for x in p.used_GPa) + ")" for p in passes
         )
         head = (
-            f"**{speed:g} rpm / {torque:g} N m**: {len(passes)} passes, "
-            f"{'settled' if settled else 'not settled'} (E_eff pinion, wheel in GPa at each "
-            f"pass's steady state: {moduli})"
+            f"**{speed:g} rpm / {torque:g} N m**: uniform E_eff {len(uni)} passes, "
+            f"{'settled' if uni_settled else 'not settled'}; cell by cell {len(cell)} passes, "
+            f"{'settled' if cell_settled else 'not settled'}, the largest change of a cell's "
+            f"modulus in the last pass {100 * cell_change:.1f} % (pinion, wheel in GPa, each "
+            f"pass's cycle: uniform {steps(uni)}; cell by cell, harmonic mean {steps(cell)})"
         )
         table_md = markdown_table(
-            ("quantity", "constant modulus", "modulus of the thermal state", "difference",
-             "u_num at the case"),
+            ("quantity", "constant modulus", "uniform E_eff of the thermal state",
+             "E(T) cell by cell", "difference, cell by cell", "u_num at the case"),
             rows,
         )  # fmt: skip
         parts.append(head + "\n\n" + table_md)
     note = (
-        "\n\nThe built-in case (PEEK 450G, constant mu 0.5), each bench point's steady state; the "
-        "second column the last pass, whose cycle ran with each gear's E_eff of the pass before "
-        "(the harmonic volume mean of the library's E(T) over the modelled tooth; beyond 180 C "
-        "the table's last value, 1.7 GPa, which overestimates the modulus there). u_num "
+        "\n\nThe built-in case (PEEK 450G, constant mu 0.5), each bench point's steady state; "
+        "the second and third columns the last pass of each fixed point, whose cycle ran with "
+        "the modulus of the pass before: each gear's E_eff (the harmonic volume mean of the "
+        "library's E(T) over the modelled tooth) or each cell's E(T_c) "
+        "(gearfem.cycle.modulus_field); beyond 180 C the table's last value, 1.7 GPa, which "
+        "overestimates the modulus there. u_num "
         "from the refinement studies of the case's resolution (at 1000 rpm / 8 N m). `mpirun -n "
         f"{comm.size} python benchmarks/verification/modulus_temperature.py "
         f"--points {' '.join(a.points)}`."

@@ -73,6 +73,7 @@ from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.facets import FacetReference
 from gearfem.coupling.options import FluxReconstruction
 from gearfem.geometry.mesh import parse_group_name
+from gearfem.geometry.placement import tooth_local
 
 # Facet areas for the per-tooth normalisation: exact enough on curved P2 facets (tip rounds) that
 # the heat assembled with this rule equals the target to round-off (degree 2 left 2e-6).
@@ -224,20 +225,6 @@ def _balance(K: sps.csr_matrix, area: np.ndarray) -> np.ndarray:
         iteration=BALANCE_MAX_ITERATIONS,
         residual=err,
     )
-
-
-def tooth_local(
-    points: np.ndarray, center: np.ndarray, tooth_angles: np.ndarray, pitch: float, ref_angle: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Rotate points into the reference tooth's sector: (rotated points, index of their tooth)."""
-    p = np.asarray(points) - center
-    theta = np.arctan2(p[:, 1], p[:, 0])
-    d = np.angle(np.exp(1j * (theta[:, None] - np.asarray(tooth_angles)[None, :])))
-    k = np.argmin(np.abs(d), axis=1)
-    rot = ref_angle - np.asarray(tooth_angles)[k]
-    c, s = np.cos(rot), np.sin(rot)
-    out = np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]])
-    return out, k
 
 
 def subdivision_points(facet_type, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -4,10 +4,11 @@ A :class:`~gearfem.cycle.solve.CycleResult` is stored as ``cycle.npz`` (arrays) 
 ``cycle.json`` (scalars and metadata), written to a temporary name and renamed, so an interrupted
 run never leaves a result that looks complete. Results are cached under
 ``<cache>/cycles/<key>/`` with ``key`` a hash of everything that changes the structural answer:
-geometry, mesh options, materials, contact and cycle options (the solver among them), torque and
-the source of the contact/cycle code (speed does not enter: one cycle solve per torque serves every
-speed). The condensed solver's gear compliances are stored under ``<cache>/compliance/`` (one per
-mesh, material and contact surface set, whatever the torque: :func:`compliance_store`).
+geometry, mesh options, materials, contact and cycle options (the solver among them), torque, the
+source of the contact/cycle code, and the digests of a friction field or a modulus field the
+cycle is solved with (speed does not enter: one cycle solve per torque serves every speed). The
+condensed solver's gear compliances are stored under ``<cache>/compliance/`` (one per mesh,
+material, modulus field and contact surface set, whatever the torque: :func:`compliance_store`).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from gearfem.core.params import to_dict
 from gearfem.core.provenance import code_hash
 from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import ContactHistory
+from gearfem.cycle.modulus_field import ModulusField
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
 from gearfem.geometry.mesh import cache_key as mesh_cache_key
@@ -79,9 +81,11 @@ def cycle_key(
     cycle_options,
     torque_Nm: float,
     friction_field: FrictionField | None = None,
+    moduli: ModulusField | None = None,
 ) -> str:
     """The cache key of a cycle (see the module docstring); ``friction_field``: the mu at each
-    contact the cycle is solved with, by its digest (None: the contact options' one mu)."""
+    contact the cycle is solved with, by its digest (None: the contact options' one mu);
+    ``moduli``: the modulus per cell, by its digest (None: each material's constant one)."""
     data = {
         "geometry": to_dict(geometry),
         "mesh": to_dict(mesh_options),
@@ -97,15 +101,20 @@ def cycle_key(
     }
     if friction_field is not None:
         data["friction_field"] = friction_field.digest()
+    if moduli is not None:
+        data["moduli"] = moduli.digest()
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
-def compliance_context(geometry, mesh_options, materials: dict) -> str:
+def compliance_context(
+    geometry, mesh_options, materials: dict, moduli: ModulusField | None = None
+) -> str:
     """What a stored gear compliance depends on besides its body's DOFs and supports (which
     :class:`~gearfem.contact.compliance.ComplianceStore` adds): the pair mesh (its key), each
-    gear's elastic constants, and the code that computes it (the compliance module and the
-    stiffness form, with what they import). Torque, friction, contact and cycle options do not
-    enter: one compliance serves every operating point."""
+    gear's elastic constants and the modulus field scaling them (its digest), and the code that
+    computes it (the compliance module and the stiffness form, with what they import, and the
+    field's sampling). Torque, friction, contact and cycle options do not enter: one compliance
+    serves every operating point."""
     data = {
         "mesh_key": mesh_cache_key(geometry, mesh_options),
         "elastic": {
@@ -114,16 +123,24 @@ def compliance_context(geometry, mesh_options, materials: dict) -> str:
         },
         "code": code_hash("gearfem.contact.compliance", "gearfem.contact.elasticity"),
     }
+    if moduli is not None:
+        data["moduli"] = moduli.digest()
+        data["moduli_code"] = code_hash("gearfem.cycle.modulus_field")
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def compliance_store(
-    geometry, mesh_options, materials: dict, cache_dir: Path | None = None
+    geometry,
+    mesh_options,
+    materials: dict,
+    cache_dir: Path | None = None,
+    moduli: ModulusField | None = None,
 ) -> ComplianceStore:
-    """The store of the gear compliances under ``<cache>/compliance/``."""
+    """The store of the gear compliances under ``<cache>/compliance/`` (of the gears scaled by
+    ``moduli`` when given)."""
     return ComplianceStore(
         (cache_dir or cache_root()) / "compliance",
-        compliance_context(geometry, mesh_options, materials),
+        compliance_context(geometry, mesh_options, materials, moduli),
     )
 
 

@@ -32,6 +32,7 @@ from gearfem.contact.verification import hertz_line_contact
 from gearfem.core.errors import ParameterError
 from gearfem.core.materials import Material
 from gearfem.core.params import require_positive
+from gearfem.cycle.modulus_field import ModulusField
 from gearfem.cycle.options import CycleOptions
 from gearfem.geometry.mesh import GearMesh, parse_group_name
 
@@ -55,6 +56,9 @@ class GearContactModel:
             that each build this same model (to solve different positions of the cycle,
             :func:`gearfem.cycle.solve.solve_cycle`); the gears' compliances are computed once
             among them.
+        moduli: Young's modulus per cell of the gears it covers, from a thermal state
+            (:mod:`gearfem.cycle.modulus_field`; None: each material's constant modulus). The
+            compliance store's context must say which field (``compliance_store``).
 
     With the condensed solver, the contact surfaces are the parts of the teeth that can engage
     over the angles the cycle solves (:meth:`condensed_facets`); the other contact facets are
@@ -70,12 +74,23 @@ class GearContactModel:
         options: CycleOptions = CycleOptions(),  # noqa: B008 - frozen, immutable
         compliance_store: ComplianceStore | None = None,
         share: MPI.Comm | None = None,
+        moduli: ModulusField | None = None,
     ) -> None:
         require_positive("operating.torque_Nm", torque_Nm)
         if set(gm.bodies) != set(BODIES):
             raise ParameterError(
                 "bodies", gm.bodies, "both ('pinion', 'wheel') for the contact cycle"
             )
+        cell_materials = materials
+        if moduli is not None:
+            # the regularisation (penalty, pressure smoothing, Hertz widths) takes each gear's
+            # uniform modulus of the field's mean compliance (gearfem.cycle.modulus_field)
+            materials = {
+                b: dataclasses.replace(
+                    m, youngs_modulus_Pa=m.youngs_modulus_Pa * moduli.mean_relative(b)
+                )
+                for b, m in materials.items()
+            }
         self.gm, self.materials, self.torque_Nm, self.options = gm, materials, torque_Nm, options
         self.pair = gm.pair
         self._check_torque()
@@ -101,13 +116,19 @@ class GearContactModel:
         mesh = gm.mesh
         self.comm: MPI.Comm = mesh.comm
         self.V = fem.functionspace(mesh, ("Lagrange", mesh.geometry.cmaps[0].degree, (3,)))
-        # Lamé parameters per body (DG0)
+        # Lamé parameters per cell (DG0): each body's material, its modulus scaled per cell by
+        # the modulus field where one is given
         Q = fem.functionspace(mesh, ("DG", 0))
         self.lame_mu, self.lame_lambda = fem.Function(Q), fem.Function(Q)
+        self.moduli = moduli
         for b in BODIES:
             cells = gm.cells(b)
-            self.lame_mu.x.array[cells] = materials[b].lame_mu_Pa
-            self.lame_lambda.x.array[cells] = materials[b].lame_lambda_Pa
+            scale = 1.0
+            if moduli is not None:
+                x = mesh.geometry.x[mesh.geometry.dofmaps[0][cells]].mean(axis=1)
+                scale = moduli.relative_at(b, x, gm.center(b), gm.tooth_angles(b))
+            self.lame_mu.x.array[cells] = cell_materials[b].lame_mu_Pa * scale
+            self.lame_lambda.x.array[cells] = cell_materials[b].lame_lambda_Pa * scale
         self.lame_mu.x.scatter_forward()
         self.lame_lambda.x.scatter_forward()
         self.bcs = [

@@ -48,3 +48,17 @@ def placement(pair: GearPair, options: MeshOptions, body: str) -> BodyPlacement:
         ref_angle = math.pi - psi_w + pair.wheel_angle(rot_pinion)
     angles = ref_angle + (np.arange(n) - k_ref) * prof.pitch_angle_rad
     return BodyPlacement(body, center, angles, prof.pitch_angle_rad, k_ref, n == prof.teeth)
+
+
+def tooth_local(
+    points: np.ndarray, center: np.ndarray, tooth_angles: np.ndarray, pitch: float, ref_angle: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate points into the reference tooth's sector: (rotated points, index of their tooth)."""
+    p = np.asarray(points) - center
+    theta = np.arctan2(p[:, 1], p[:, 0])
+    d = np.angle(np.exp(1j * (theta[:, None] - np.asarray(tooth_angles)[None, :])))
+    k = np.argmin(np.abs(d), axis=1)
+    rot = ref_angle - np.asarray(tooth_angles)[k]
+    c, s = np.cos(rot), np.sin(rot)
+    out = np.column_stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]])
+    return out, k

@@ -1,0 +1,226 @@
+"""Young's modulus per cell from a thermal state (gearfem.cycle.modulus_field).
+
+* The sampling: a structural point takes the relative modulus e(T) of the nearest thermal cell
+  of the reference tooth after a turn by whole pitches, the same on every tooth; a gear without a
+  table keeps its modulus; e is rounded to the field's step, so that thermal states differing in
+  round-off give one digest, and a real change gives another.
+* The cycle: a uniform field is the constant modulus scaled (the same Lamé fields, the same
+  cycle to round-off); the cycle's and the compliances' cache keys hold the field's digest.
+* The chain: the field of a steady state of the small PEEK pair (its frames meet the structural
+  mesh's) softens the hot teeth, and the transmission error of its cycle lies between those of
+  the constant modulus and of the gear uniformly at its softest cell's modulus.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from scipy.spatial import Delaunay
+
+from gearfem import pipeline
+from gearfem.config import Case, case_from_dict
+from gearfem.contact import ContactOptions
+from gearfem.core.errors import ParameterError
+from gearfem.core.material_library import library_material
+from gearfem.core.materials import TemperatureTable
+from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
+from gearfem.cycle.modulus_field import GearTemperature, ModulusField
+from gearfem.geometry.options import BODIES, MeshOptions
+from gearfem.geometry.placement import tooth_local
+from gearfem.thermal.options import ThermalOptions
+
+#: E(T) of a polymer through its glass transition (Pa; only ratios matter)
+TABLE = TemperatureTable.from_celsius(
+    (20.0, 100.0, 150.0, 200.0), (3.6e9, 3.4e9, 1.8e9, 0.4e9), name="test E(T)"
+)
+PITCH = 2.0 * math.pi / 30.0
+ANGLES = np.array([0.5, 1.5, 2.5]) * PITCH  # three modelled teeth; the middle one is the reference
+
+
+def _sector_state(T_of_r) -> GearTemperature:
+    """A thermal 'mesh' of the three teeth's annulus (random tetrahedra are enough for sampling:
+    only their centroids and vertex temperatures are used), temperatures by radius."""
+    rng = np.random.default_rng(3)
+    n = 4000
+    r = rng.uniform(0.02, 0.032, n)
+    a = rng.uniform(0.0, 3.0 * PITCH, n)
+    z = rng.uniform(-0.003, 0.003, n)
+    nodes = np.column_stack([r * np.cos(a), r * np.sin(a), z])
+    cells = Delaunay(nodes).simplices
+    return GearTemperature(nodes, cells, T_of_r(r), np.zeros(3), ANGLES)
+
+
+def test_a_point_takes_the_nearest_reference_cell_on_every_tooth():
+    state = _sector_state(lambda r: 293.15 + 200.0 * (r - 0.02) / 0.012)
+    field = ModulusField.from_temperatures({"pinion": state}, {"pinion": TABLE})
+    bm = field.bodies["pinion"]
+    assert bm.reference_angle_rad == pytest.approx(ANGLES[1])
+    # structural points on a 30-tooth gear: a point and its copies whole pitches round
+    rng = np.random.default_rng(7)
+    r = rng.uniform(0.021, 0.031, 200)
+    a = ANGLES[1] + rng.uniform(-0.45, 0.45, 200) * PITCH
+    pts = np.column_stack([r * np.cos(a), r * np.sin(a), rng.uniform(-0.002, 0.002, 200)])
+    teeth = (np.arange(30) + 0.5) * PITCH
+    e_ref = field.relative_at("pinion", pts, np.zeros(3), teeth)
+    # the reference tooth's own points: the nearest thermal cell's rounded e
+    _, j = bm._tree.query(pts)
+    assert np.array_equal(e_ref, bm.relative[j])
+    for k in (-7, 1, 12):
+        c, s = math.cos(k * PITCH), math.sin(k * PITCH)
+        turned = pts @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        assert np.array_equal(field.relative_at("pinion", turned, np.zeros(3), teeth), e_ref)
+    # e follows the table at the cell's temperature, within the sampling's spread in radius
+    T_pts = 293.15 + 200.0 * (r - 0.02) / 0.012
+    exact = TABLE(T_pts) / TABLE.values[0]
+    assert np.median(np.abs(e_ref - exact)) < 0.05
+    assert e_ref.min() >= TABLE.values[-1] / TABLE.values[0] - 1e-12 and e_ref.max() <= 1.0
+    # a gear the field does not hold keeps its modulus
+    assert np.all(field.relative_at("wheel", pts, np.zeros(3), teeth) == 1.0)
+
+
+def test_the_digest_ignores_round_off_and_sees_a_change():
+    state = _sector_state(lambda r: 380.0 + 100.0 * (r - 0.02) / 0.012)
+    field = ModulusField.from_temperatures({"wheel": state}, {"wheel": TABLE})
+    e = field.bodies["wheel"].relative
+    assert np.allclose(np.log(e) / field.step, np.round(np.log(e) / field.step), atol=1e-6)
+    noisy = dataclasses.replace(state, temperature_K=state.temperature_K + 1e-9)
+    again = ModulusField.from_temperatures({"wheel": noisy}, {"wheel": TABLE})
+    assert again.digest() == field.digest()
+    warmer = dataclasses.replace(state, temperature_K=state.temperature_K + 2.0)
+    assert ModulusField.from_temperatures({"wheel": warmer}, {"wheel": TABLE}).digest() != (
+        field.digest()
+    )
+    beyond = field.bodies["wheel"].beyond_table  # T above 200 C: r > 0.02 + 0.012 * 93/100
+    assert 0.0 < beyond < 0.2
+    with pytest.raises(ParameterError, match="modulus_field.states"):
+        ModulusField.from_temperatures({"wheel": state}, {"pinion": TABLE})
+    with pytest.raises(ParameterError, match="modulus_field.step"):
+        ModulusField.from_temperatures({"wheel": state}, {"wheel": TABLE}, step=0.5)
+
+
+# ------------------------------------------------------------------------------- in the cycle
+
+TINY = MeshOptions(
+    teeth_in_model=4,
+    refined_teeth=3,
+    layers=2,
+    size_flank_mm=0.35,
+    size_tip_mm=0.35,
+    size_root_mm=0.45,
+    size_tooth_mm=1.5,
+    size_body_mm=5.0,
+)
+
+
+def _case(modulus_Pa: float | None = None) -> Case:
+    c = Case(
+        mesh=TINY,
+        contact=ContactOptions(friction_coefficient=0.0),
+        cycle=CycleOptions(positions_per_pitch=3, check_periodicity=False),
+    ).with_operating(torque_Nm=4.0)
+    if modulus_Pa is not None:
+        c = dataclasses.replace(
+            c, material=dataclasses.replace(c.material, youngs_modulus_Pa=modulus_Pa)
+        )
+    return c
+
+
+def _own_state(gm, body: str, T_of_r) -> GearTemperature:
+    """The structural mesh of ``body`` as its thermal state (coincident meshes: exact sampling)."""
+    mesh = gm.mesh
+    cells = gm.cells(body)
+    dofs = mesh.geometry.dofmaps[0][cells]
+    center = gm.center(body)
+    r = np.hypot(*(mesh.geometry.x[:, :2] - center[:2]).T)
+    return GearTemperature(mesh.geometry.x, dofs, T_of_r(r), center, gm.tooth_angles(body))
+
+
+def _cycle(case: Case, moduli: ModulusField | None = None, gm=None):
+    gm = gm or pipeline.pair_mesh(case, MPI.COMM_WORLD)
+    model = GearContactModel(
+        gm, case.materials, case.contact, case.operating.torque_Nm, case.cycle, moduli=moduli
+    )
+    return solve_cycle(model), model
+
+
+@pytest.mark.slow
+def test_a_uniform_field_is_the_constant_modulus_scaled():
+    case = _case()
+    gm = pipeline.pair_mesh(case, MPI.COMM_WORLD)
+    E = case.material.youngs_modulus_Pa
+    # uniform at 150 C: the constant modulus scaled by e(150 C), rounded
+    uniform = ModulusField.from_temperatures(
+        {b: _own_state(gm, b, lambda r: np.full_like(r, 423.15)) for b in BODIES},
+        dict.fromkeys(BODIES, TABLE),
+    )
+    e = float(uniform.bodies["pinion"].relative[0])
+    assert e == pytest.approx(1.8 / 3.6, rel=1e-3)
+    soft, model = _cycle(case, uniform, gm)
+    scaled, model_scaled = _cycle(_case(E * e))
+    assert np.allclose(model.lame_mu.x.array, model_scaled.lame_mu.x.array, rtol=1e-12)
+    assert np.allclose(soft.te_m, scaled.te_m, rtol=1e-8)
+
+
+def test_the_cache_keys_hold_the_field():
+    case = _case()
+    state = _sector_state(lambda r: 400.0 + 0.0 * r)
+    field = ModulusField.from_temperatures({"pinion": state}, {"pinion": TABLE})
+    other = ModulusField.from_temperatures(
+        {"pinion": dataclasses.replace(state, temperature_K=state.temperature_K + 20.0)},
+        {"pinion": TABLE},
+    )
+    keys = {pipeline.case_cycle_key(case, moduli=m) for m in (None, field, other)}
+    contexts = {pipeline.case_compliance_context(case, m) for m in (None, field, other)}
+    assert len(keys) == 3 and len(contexts) == 3
+    assert pipeline.case_cycle_key(case, moduli=field) == pipeline.case_cycle_key(
+        case, moduli=ModulusField.from_temperatures({"pinion": state}, {"pinion": TABLE})
+    )
+
+
+@pytest.mark.slow
+def test_a_thermal_state_of_the_chain_softens_its_hot_teeth(tmp_path):
+    """The whole path on the small PEEK pair: the cycle and the steady state of the constant
+    modulus, the field of that state (the thermal snapshot's frames meet the structural mesh's:
+    every structural cell of a gear lands within a thermal cell's reach on the reference tooth,
+    not in the gap between teeth), and the cycle of that field, whose transmission error lies
+    between the constant modulus's and that of the gear uniformly at its softest cell."""
+    case = case_from_dict({"name": "small PEEK pair", "material": {"name": "PEEK 450G"}})
+    case = dataclasses.replace(
+        case,
+        mesh=TINY,
+        cycle=CycleOptions(positions_per_pitch=4, check_periodicity=False),
+        thermal=ThermalOptions(mode="steady", degree=1, output_times_s=()),
+    ).with_operating(speed_rpm=2000.0, torque_Nm=7.0)
+    comm = MPI.COMM_SELF
+    table = library_material("PEEK 450G").tables["youngs_modulus_Pa"].table()
+    cold, _, _ = pipeline.cycle(case, comm)
+    _, _, snap = pipeline.observed_thermal(case, tmp_path, comm, cold, write_fields=False)
+    i = snap.label_index(snap.label_of(None))
+    states = {
+        b: GearTemperature(f.nodes_m, f.cells, f.temperature_K[i], f.center_m, f.tooth_angles_rad)
+        for b, f in snap.bodies.items()
+    }
+    field = ModulusField.from_temperatures(states, dict.fromkeys(states, table))
+    gm = pipeline.pair_mesh(case, comm)
+    x = gm.mesh.geometry.x
+    for b, bm in field.bodies.items():
+        cells = gm.cells(b)
+        pts = x[gm.mesh.geometry.dofmaps[0][cells]].mean(axis=1)
+        local, _ = tooth_local(pts, gm.center(b), gm.tooth_angles(b), 0.0, bm.reference_angle_rad)
+        d, _ = bm._tree.query(local)
+        f = snap.bodies[b]
+        edge = np.linalg.norm(f.nodes_m[f.cells[:, 1]] - f.nodes_m[f.cells[:, 0]], axis=1)
+        assert np.percentile(d, 99) < np.max(edge), b
+        assert field.mean_relative(b) < 1.0, b  # the hot teeth are softer
+    warm, _, _ = pipeline.cycle(case, comm, moduli=field)
+    e_min = min(float(bm.relative.min()) for bm in field.bodies.values())
+    E = case.material.youngs_modulus_Pa
+    softest = dataclasses.replace(case, material=dataclasses.replace(case.material,
+                                  youngs_modulus_Pa=E * e_min))  # fmt: skip
+    soft, _, _ = pipeline.cycle(softest, comm)
+    te = lambda c: float(np.mean(c.te_m))
+    assert te(cold) < te(warm) < te(soft)
