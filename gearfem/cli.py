@@ -275,6 +275,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
             )
             + f"; the readings are the cycle's at mu {loop.mu:.4f} (tolerance {loop.tolerance:g})"
         )
+    if summary.modulus is not None:
+        loop = summary.modulus
+        _say(
+            f"the cycle's modulus from the thermal state, cell by cell: {len(loop.passes)} "
+            "cycle(s); mean relative modulus pinion, wheel "
+            + "; ".join(
+                "{:.3f}, {:.3f} -> {:.3f}, {:.3f}".format(*p.relative_cycle, *p.relative_state)
+                + f" (moved {p.change:.4f}, a cell's at most {p.change_max:.3f})"
+                for p in loop.passes
+            )
+            + f"; tolerance {loop.tolerance:g}; share beyond the E(T) table "
+            + ", ".join(f"{100 * x:.0f} %" for x in loop.passes[-1].beyond_table)
+        )
     u = summary.numerical_uncertainty
     if u is not None:
         missing = f"; no study of: {', '.join(u.missing)}" if u.missing else ""

@@ -27,7 +27,8 @@ from gearfem.config import Case, load_case, write_case
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.io import prepare_output, read_json, write_json
 from gearfem.core.log import ProgressBar
-from gearfem.core.materials import ZERO_CELSIUS_K
+from gearfem.core.material_library import library_material
+from gearfem.core.materials import ZERO_CELSIUS_K, TemperatureTable
 from gearfem.core.provenance import versions
 from gearfem.core.results import JsonRecord
 from gearfem.core.tasks import run_split
@@ -51,7 +52,7 @@ from gearfem.cycle.cache import load as load_cycle
 from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.measures import pitch_point_band_pressure_Pa
 from gearfem.cycle.model import GearContactModel
-from gearfem.cycle.modulus_field import ModulusField
+from gearfem.cycle.modulus_field import GearTemperature, ModulusField
 from gearfem.cycle.report import write_cycle_outputs
 from gearfem.geometry.involute import GearPair
 from gearfem.geometry.mesh import build_gear_mesh, cache_gear_mesh
@@ -223,6 +224,33 @@ class CycleMuLoop(JsonRecord):
 
 
 @dataclasses.dataclass(frozen=True)
+class ModulusPass(JsonRecord):
+    """One pass of the cycle ↔ heat fixed point in the modulus (``[cycle] modulus =
+    "thermal_state"``, :func:`thermal_stages`): the pinion's and the wheel's mean relative modulus
+    (harmonic volume mean of e = E(T)/E) the pass's cycle was solved with and the one its thermal
+    state gives, how far the state's field moved from the cycle's (largest change of a gear's
+    mean, and of a cell's e), each gear's share of the thermal model's volume beyond its E(T)
+    table (its last value taken there), the cycle's key and the pass's wall time (s)."""
+
+    relative_cycle: tuple[float, float]
+    relative_state: tuple[float, float]
+    change: float
+    change_max: float
+    beyond_table: tuple[float, float]
+    cycle_key: str
+    wall_time_s: float
+
+
+@dataclasses.dataclass(frozen=True)
+class ModulusLoop(JsonRecord):
+    """``summary.json`` "modulus": the passes of the cycle ↔ heat fixed point in the modulus. The
+    run's readings are the last pass's; settled: its change is below ``tolerance``."""
+
+    passes: tuple[ModulusPass, ...]
+    tolerance: float
+
+
+@dataclasses.dataclass(frozen=True)
 class ThermalStages:
     """The cycle and thermal stages of a run (:func:`thermal_stages`): the case of the last
     cycle (its ``contact.friction_coefficient`` the mu that cycle was solved with), the cycle,
@@ -240,6 +268,7 @@ class ThermalStages:
     cycle_mu: CycleMuLoop | None
     cycle_s: float
     thermal_s: float
+    modulus: ModulusLoop | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -270,6 +299,8 @@ class RunSummary(JsonRecord):
     # the friction heat's split by contact temperature ([sources] heat_partition =
     # "contact_temperature"; else None)
     heat_split: HeatSplit | None = None
+    # the cycle <-> heat fixed point in the modulus ([cycle] modulus = "thermal_state"; else None)
+    modulus: ModulusLoop | None = None
     # what the run was computed with (gearfem.uncertainty.provenance; a figure quoted from it
     # carries this, gearfem.claims checks it):
     # resolution key, code hash of the run's modules, commit, date
@@ -645,7 +676,10 @@ def _observed_once(
 ) -> tuple[dict[str, Any], dict[str, dict[str, Any]], FieldSnapshot | None]:
     """:func:`observed_thermal` with the case's split; ``both``: run both gears whatever the
     instruments read; ``friction_report``: the friction report in every summary."""
-    record = needs_fields(case.instruments)
+    # the modulus of the thermal state needs both gears' fields
+    follows = modulus_follows_temperature(case)
+    record = needs_fields(case.instruments) or follows
+    both = both or follows
     main = case.thermal.body
     others = [b for b in (BODIES if both else instrument_bodies(case)) if b != main]
     bodies = [main] + (others if record or both else [])
@@ -1187,6 +1221,7 @@ def run(
         provenance=dataclasses.asdict(provenance(case)),
         cycle_mu=stages.cycle_mu,
         heat_split=HeatSplit.from_json(th["heat_split"]) if "heat_split" in th else None,
+        modulus=stages.modulus,
     )
     vers = versions(comm)
     if comm.rank == 0:
@@ -1205,6 +1240,46 @@ def case_at_cycle_mu(case: Case, mu: float) -> Case:
         contact=dataclasses.replace(case.contact, friction_coefficient=float(mu)),
         friction=case.friction.pinned_to(case.contact.friction_coefficient),
     )
+
+
+def modulus_follows_temperature(case: Case) -> bool:
+    """Whether the case's cycle takes its modulus from the thermal state (``[cycle] modulus =
+    "thermal_state"`` with heat sources from the cycle)."""
+    return case.sources.mode == "cycle" and case.cycle.modulus == "thermal_state"
+
+
+def modulus_tables(case: Case) -> dict[str, TemperatureTable]:
+    """Each polymer gear's E(T) table of the materials library (a steel gear keeps its constant
+    modulus); a ParameterError when ``[cycle] modulus = "thermal_state"`` finds none."""
+    tables = {}
+    for b in BODIES:
+        lib = library_material(case.materials[b].name)
+        if lib.kind == "steel":
+            continue
+        table = lib.tables.get("youngs_modulus_Pa")
+        if table is None:
+            raise ParameterError(
+                "cycle.modulus",
+                "thermal_state",
+                "a polymer with an E(T) table in the materials library (PEEK 450G)",
+                f'the {b}\'s {lib.name} has none: set modulus = "constant" and its '
+                "youngs_modulus_Pa at the running temperature",
+            )
+        tables[b] = table.table()
+    return tables
+
+
+def state_modulus_field(snapshot: FieldSnapshot, tables: dict[str, TemperatureTable]):
+    """The modulus field of the gears in ``tables`` at the snapshot's end value (the steady state
+    when the run computed one)."""
+    i = snapshot.label_index(snapshot.label_of(None))
+    states = {}
+    for b in tables:
+        f = snapshot.bodies[b]
+        states[b] = GearTemperature(
+            f.nodes_m, f.cells, f.temperature_K[i], f.center_m, f.tooth_angles_rad
+        )
+    return ModulusField.from_temperatures(states, tables)
 
 
 def thermal_stages(
@@ -1240,7 +1315,13 @@ def thermal_stages(
     converged after ``cycle_mu_max_passes`` cycles raises ConvergenceError with the passes' mu. Each
     cycle is stored under its own mu (the cycle's key holds the contact options and the field's
     digest). ``on_pass(k, case_k, stages_k, pass_k)`` is called after every pass (a study reads more
-    of each)."""
+    of each).
+
+    With ``[cycle] modulus = "thermal_state"`` the same passes carry the modulus: pass k's cycle
+    takes the modulus field of pass k − 1's thermal state (:mod:`gearfem.cycle.modulus_field`;
+    pass 0 the constant modulus), until each gear's mean relative modulus moves by less than
+    ``modulus_tolerance`` (:class:`ModulusLoop`); the run ends when every loop has settled, and a
+    loop not settled after its passes raises ConvergenceError."""
     f = case.friction
     loop_mu = case.sources.mode == "cycle" and f.cycle_mu != "constant"
     per_contact = loop_mu and f.cycle_mu == "law"
@@ -1249,8 +1330,15 @@ def thermal_stages(
         mu = f.rounded_cycle_mu(mu)
     field: FrictionField | None = None
     passes: list[CycleMuPass] = []
+    follows = modulus_follows_temperature(case)
+    tables = modulus_tables(case) if follows else {}
+    moduli: ModulusField | None = None
+    moduli_passes: list[ModulusPass] = []
     cycle_s = thermal_s = 0.0  # over every pass
-    for k in range(f.cycle_mu_max_passes if loop_mu else 1):
+    n_passes = max(
+        f.cycle_mu_max_passes if loop_mu else 1, case.cycle.modulus_max_passes if follows else 1
+    )
+    for k in range(n_passes):
         c = case_at_cycle_mu(case, mu) if loop_mu else case
         t0 = time.perf_counter()
         cyc, cdir, cached = None, None, False
@@ -1263,6 +1351,7 @@ def thermal_stages(
                     cache_dir,
                     progress=bar.update if progress else None,
                     friction_field=field,
+                    moduli=moduli,
                 )
         t1 = time.perf_counter()
         th, others, snapshot = observed_thermal(
@@ -1294,7 +1383,7 @@ def thermal_stages(
                     mu_effective=reading.effective_mu(mu_mean),
                     friction_power_law_W=reading.friction_power_W,
                     friction_power_cycle_W=reading.cycle_friction_power_W,
-                    cycle_key=case_cycle_key(c, field),
+                    cycle_key=case_cycle_key(c, field, moduli),
                     wall_time_s=t2 - t0,
                     field_change=field_change,
                     field_change_max=field_max,
@@ -1312,20 +1401,70 @@ def thermal_stages(
                     f"{field_change:.4f} on heat-weighted mean, at most {field_max:.4f}"
                 ),
             )  # fmt: skip
+        moduli_loop, new_moduli = None, None
+        if follows:
+            new_moduli = on_root(comm, lambda: state_modulus_field(snapshot, tables))
+            change, change_max = new_moduli.change_from(moduli)
+            rel = lambda m: tuple(m.mean_relative(b) if m is not None else 1.0 for b in BODIES)
+            moduli_passes.append(
+                ModulusPass(
+                    relative_cycle=rel(moduli),
+                    relative_state=rel(new_moduli),
+                    change=change,
+                    change_max=change_max,
+                    beyond_table=tuple(
+                        new_moduli.bodies[b].beyond_table if b in new_moduli.bodies else 0.0
+                        for b in BODIES
+                    ),
+                    cycle_key=case_cycle_key(c, field if loop_mu else None, moduli),
+                    wall_time_s=t2 - t0,
+                )
+            )
+            moduli_loop = ModulusLoop(tuple(moduli_passes), case.cycle.modulus_tolerance)
+            log.info(
+                "modulus pass %d: mean relative modulus pinion, wheel %.4f, %.4f in the cycle, "
+                "%.4f, %.4f at its thermal state (change %.4f, a cell's at most %.4f)",
+                k, *moduli_passes[-1].relative_cycle, *moduli_passes[-1].relative_state,
+                change, change_max,
+            )  # fmt: skip
+        if loop_mu:
             field = new_field
-        stages = ThermalStages(c, cyc, cdir, cached, th, others, snapshot, loop, cycle_s, thermal_s)
+        stages = ThermalStages(
+            c, cyc, cdir, cached, th, others, snapshot, loop, cycle_s, thermal_s, moduli_loop
+        )
         if on_pass is not None:
             on_pass(k, c, stages, passes[-1] if passes else None)
-        if not loop_mu or abs(passes[-1].change) < f.cycle_mu_tolerance:
+        mu_done = not loop_mu or abs(passes[-1].change) < f.cycle_mu_tolerance
+        modulus_done = not follows or moduli_passes[-1].change < case.cycle.modulus_tolerance
+        if mu_done and modulus_done:
             return stages
-        mu = f.rounded_cycle_mu(passes[-1].mu_effective)
+        if loop_mu and len(passes) >= f.cycle_mu_max_passes and not mu_done:
+            break
+        if follows and len(moduli_passes) >= case.cycle.modulus_max_passes and not modulus_done:
+            break
+        if loop_mu:
+            mu = f.rounded_cycle_mu(passes[-1].mu_effective)
+        moduli = new_moduli
+    where = f"{case.operating.speed_rpm:g} rpm / {case.operating.torque_Nm:g} N m"
+    if loop_mu and abs(passes[-1].change) >= f.cycle_mu_tolerance:
+        raise ConvergenceError(
+            "cycle <-> heat fixed point in the cycle's mu",
+            f"the law's mu still moved by {passes[-1].change:+.4g} (tolerance "
+            f"{f.cycle_mu_tolerance:g}) after {len(passes)} cycles; cycle mu per pass: "
+            + ", ".join(f"{p.mu_cycle:.4f}" for p in passes),
+            step=where,
+            iteration=len(passes),
+        )
     raise ConvergenceError(
-        "cycle <-> heat fixed point in the cycle's mu",
-        f"the law's mu still moved by {passes[-1].change:+.4g} (tolerance "
-        f"{f.cycle_mu_tolerance:g}) after {len(passes)} cycles; cycle mu per pass: "
-        + ", ".join(f"{p.mu_cycle:.4f}" for p in passes),
-        step=f"{case.operating.speed_rpm:g} rpm / {case.operating.torque_Nm:g} N m",
-        iteration=len(passes),
+        "cycle <-> heat fixed point in the modulus",
+        f"the gears' mean relative modulus still moved by {moduli_passes[-1].change:.4g} "
+        f"(tolerance {case.cycle.modulus_tolerance:g}) after {len(moduli_passes)} cycles; "
+        "pinion, wheel per pass: "
+        + ", ".join(
+            f"({p.relative_state[0]:.4f}, {p.relative_state[1]:.4f})" for p in moduli_passes
+        ),
+        step=where,
+        iteration=len(moduli_passes),
     )
 
 

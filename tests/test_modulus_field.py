@@ -182,45 +182,51 @@ def test_the_cache_keys_hold_the_field():
 
 
 @pytest.mark.slow
-def test_a_thermal_state_of_the_chain_softens_its_hot_teeth(tmp_path):
-    """The whole path on the small PEEK pair: the cycle and the steady state of the constant
-    modulus, the field of that state (the thermal snapshot's frames meet the structural mesh's:
-    every structural cell of a gear lands within a thermal cell's reach on the reference tooth,
-    not in the gap between teeth), and the cycle of that field, whose transmission error lies
-    between the constant modulus's and that of the gear uniformly at its softest cell."""
+def test_the_run_iterates_the_modulus_with_the_heat_to_a_fixed_point(tmp_path):
+    """``[cycle] modulus = "thermal_state"`` on the small PEEK pair at a hot point: the first
+    cycle at the constant modulus, the next with the field of its steady state, until the gears'
+    mean relative modulus settles (ModulusLoop); the thermal snapshot's frames meet the
+    structural mesh's (every structural cell of a gear lands within a thermal cell's reach on
+    the reference tooth, not in the gap between teeth); the hot teeth are softer, and the
+    transmission error of the last cycle lies between the constant modulus's and that of the gear
+    uniformly at its softest cell's modulus."""
     case = case_from_dict({"name": "small PEEK pair", "material": {"name": "PEEK 450G"}})
     case = dataclasses.replace(
         case,
         mesh=TINY,
-        cycle=CycleOptions(positions_per_pitch=4, check_periodicity=False),
+        cycle=CycleOptions(positions_per_pitch=4, check_periodicity=False, modulus="thermal_state"),
         thermal=ThermalOptions(mode="steady", degree=1, output_times_s=()),
+        instruments=dataclasses.replace(
+            case.instruments, camera=dataclasses.replace(case.instruments.camera, enabled=False)
+        ),
     ).with_operating(speed_rpm=2000.0, torque_Nm=7.0)
     comm = MPI.COMM_SELF
+    cycles = []
+    stages = pipeline.thermal_stages(
+        case, tmp_path, comm, progress=False, write_fields=False, write_plot=False,
+        on_pass=lambda k, c, st, p: cycles.append(st.cycle),
+    )  # fmt: skip
+    loop = stages.modulus
+    assert loop is not None and len(loop.passes) == len(cycles) >= 2
+    first, last = loop.passes[0], loop.passes[-1]
+    assert first.relative_cycle == (1.0, 1.0) and last.change < loop.tolerance
+    assert all(0.3 < x < 1.0 for x in last.relative_state)  # the hot teeth are softer
+    assert last.relative_cycle == pytest.approx(loop.passes[-2].relative_state, rel=1e-12)
     table = library_material("PEEK 450G").tables["youngs_modulus_Pa"].table()
-    cold, _, _ = pipeline.cycle(case, comm)
-    _, _, snap = pipeline.observed_thermal(case, tmp_path, comm, cold, write_fields=False)
-    i = snap.label_index(snap.label_of(None))
-    states = {
-        b: GearTemperature(f.nodes_m, f.cells, f.temperature_K[i], f.center_m, f.tooth_angles_rad)
-        for b, f in snap.bodies.items()
-    }
-    field = ModulusField.from_temperatures(states, dict.fromkeys(states, table))
+    field = pipeline.state_modulus_field(stages.snapshot, dict.fromkeys(BODIES, table))
     gm = pipeline.pair_mesh(case, comm)
     x = gm.mesh.geometry.x
     for b, bm in field.bodies.items():
-        cells = gm.cells(b)
-        pts = x[gm.mesh.geometry.dofmaps[0][cells]].mean(axis=1)
+        pts = x[gm.mesh.geometry.dofmaps[0][gm.cells(b)]].mean(axis=1)
         local, _ = tooth_local(pts, gm.center(b), gm.tooth_angles(b), 0.0, bm.reference_angle_rad)
         d, _ = bm._tree.query(local)
-        f = snap.bodies[b]
+        f = stages.snapshot.bodies[b]
         edge = np.linalg.norm(f.nodes_m[f.cells[:, 1]] - f.nodes_m[f.cells[:, 0]], axis=1)
         assert np.percentile(d, 99) < np.max(edge), b
-        assert field.mean_relative(b) < 1.0, b  # the hot teeth are softer
-    warm, _, _ = pipeline.cycle(case, comm, moduli=field)
     e_min = min(float(bm.relative.min()) for bm in field.bodies.values())
     E = case.material.youngs_modulus_Pa
     softest = dataclasses.replace(case, material=dataclasses.replace(case.material,
                                   youngs_modulus_Pa=E * e_min))  # fmt: skip
     soft, _, _ = pipeline.cycle(softest, comm)
     te = lambda c: float(np.mean(c.te_m))
-    assert te(cold) < te(warm) < te(soft)
+    assert te(cycles[0]) < te(cycles[-1]) < te(soft)

@@ -31,6 +31,7 @@ from gearfem.core.provenance import code_hash
 from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import ContactHistory
 from gearfem.cycle.modulus_field import ModulusField
+from gearfem.cycle.options import MODULUS_LOOP_KEYS
 from gearfem.cycle.result import BodyFields, CycleResult
 from gearfem.cycle.solve import solve_cycle
 from gearfem.geometry.mesh import cache_key as mesh_cache_key
@@ -94,8 +95,13 @@ def cycle_key(
         "materials": {b: to_dict(m) for b, m in materials.items()},
         "contact": to_dict(contact),
         # how the ranks share the work changes the result only within the solver's tolerance,
-        # like the number of ranks: not part of the key
-        "cycle": {k: v for k, v in to_dict(cycle_options).items() if k != "parallel"},
+        # like the number of ranks: not part of the key; nor the modulus fixed point's options
+        # (which cycles are solved; the field's digest below says what one holds)
+        "cycle": {
+            k: v
+            for k, v in to_dict(cycle_options).items()
+            if k != "parallel" and k not in MODULUS_LOOP_KEYS
+        },
         "torque_Nm": float(torque_Nm),
         "code": _code_hash(),
     }

@@ -180,6 +180,23 @@ class ModulusField:
             return 1.0
         return float(bm.volume_m3.sum() / np.sum(bm.volume_m3 / bm.relative))
 
+    def change_from(self, previous: ModulusField | None) -> tuple[float, float]:
+        """How far this field moved from ``previous`` (None: the constant modulus, e = 1): the
+        largest relative change of a gear's :meth:`mean_relative`, and the largest of a cell's
+        e (the two fields of one thermal model's cells)."""
+        mean = cell = 0.0
+        for b, bm in self.bodies.items():
+            before = previous.bodies.get(b) if previous is not None else None
+            old = before.relative if before is not None else np.ones_like(bm.relative)
+            if old.shape != bm.relative.shape:
+                raise ParameterError(
+                    "modulus_field.previous", old.shape, f"a field on the same cells as {b}'s"
+                )
+            old_mean = previous.mean_relative(b) if before is not None else 1.0
+            mean = max(mean, abs(self.mean_relative(b) / old_mean - 1.0))
+            cell = max(cell, float(np.max(np.abs(bm.relative / old - 1.0))))
+        return mean, cell
+
     def digest(self) -> str:
         """Hash of what the field gives a cycle (the cycle's and the compliances' cache keys)."""
         h = hashlib.sha256(f"step={self.step!r}".encode())

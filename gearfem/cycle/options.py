@@ -15,6 +15,13 @@ SOLVERS = ("condensed", "full")
 #: How a cycle uses several MPI ranks (``[cycle] parallel``).
 PARALLEL_MODES = ("positions", "mesh")
 
+#: Where the cycle's Young's modulus comes from (``[cycle] modulus``).
+MODULUS_MODES = ("constant", "thermal_state")
+
+#: The options of the cycle <-> heat fixed point in the modulus: they decide which cycles are
+#: solved, not what a cycle holds (its modulus field's digest does), so not part of its key.
+MODULUS_LOOP_KEYS = ("modulus", "modulus_tolerance", "modulus_max_passes")
+
 
 @dataclasses.dataclass(frozen=True)
 class CycleOptions:
@@ -71,6 +78,18 @@ class CycleOptions:
             solver's tolerance (a block's first position starts from zero contact force), so the
             choice, like the number of ranks, is not part of the stored cycle's key. The full
             solver always distributes the mesh.
+        modulus: Where the cycle's Young's modulus comes from. ``"constant"``: each material's
+            ``youngs_modulus_Pa``. ``"thermal_state"``: cell by cell from the gears' thermal state
+            through the material's E(T) table, E_c = E e(T_c) with e the table relative to its
+            first value (:mod:`gearfem.cycle.modulus_field`), iterated with the heat: the first
+            cycle at the constant modulus, each next one with the field of the previous thermal
+            state, until each gear's mean relative modulus (harmonic volume mean) moves by less
+            than ``modulus_tolerance``; both gears' thermal models are run. Needs a material with
+            an E(T) table (the library's PEEK 450G); a steel gear keeps its modulus.
+        modulus_tolerance: Relative change of a gear's mean relative modulus below which the
+            fixed point has settled.
+        modulus_max_passes: Cycles the fixed point may take; not settled after as many raises
+            ConvergenceError naming each pass's moduli.
     """
 
     positions_per_pitch: int = 24
@@ -85,6 +104,9 @@ class CycleOptions:
     solver: str = "condensed"
     condensed_margin_pitches: float = 0.5
     parallel: str = "positions"
+    modulus: str = "constant"
+    modulus_tolerance: float = 0.02
+    modulus_max_passes: int = 4
 
     def __post_init__(self) -> None:
         require_int("cycle.positions_per_pitch", self.positions_per_pitch, 2, 2000)
@@ -103,6 +125,9 @@ class CycleOptions:
         require_choice("cycle.solver", self.solver, SOLVERS)
         require_range("cycle.condensed_margin_pitches", self.condensed_margin_pitches, 0.0, 10.0)
         require_choice("cycle.parallel", self.parallel, PARALLEL_MODES)
+        require_choice("cycle.modulus", self.modulus, MODULUS_MODES)
+        require_range("cycle.modulus_tolerance", self.modulus_tolerance, 0.0, 0.5, lo_open=True)
+        require_int("cycle.modulus_max_passes", self.modulus_max_passes, 1, 20)
 
     @property
     def positions_over_ranks(self) -> bool:
