@@ -230,3 +230,22 @@ def test_the_run_iterates_the_modulus_with_the_heat_to_a_fixed_point(tmp_path):
     soft, _, _ = pipeline.cycle(softest, comm)
     te = lambda c: float(np.mean(c.te_m))
     assert te(cycles[0]) < te(cycles[-1]) < te(soft)
+
+
+def test_a_modulus_from_the_thermal_state_needs_a_table_and_a_run():
+    """A gear of a material without an E(T) table (POM) cannot take its modulus from the thermal
+    state, a steel gear keeps its own; the diagnosis, whose runs share one cycle per torque,
+    refuses the fixed point: each error names the key."""
+    from gearfem.diagnose.forward import FullModel
+
+    follows = {"modulus": "thermal_state"}
+    pom = {"name": "POM", "hysteresis": [[20.0, 100.0], [0.01, 0.02]]}
+    with pytest.raises(ParameterError, match=r"cycle\.modulus.*wheel's POM has none"):
+        pipeline.modulus_tables(case_from_dict({"material_wheel": pom, "cycle": follows}))
+    steel_peek = case_from_dict({"material": {"name": "steel"}, "cycle": follows})
+    steel_peek = dataclasses.replace(steel_peek, material_wheel=Case().material)
+    assert set(pipeline.modulus_tables(steel_peek)) == {"wheel"}
+    with pytest.raises(ParameterError, match=r"cycle\.modulus"):
+        FullModel(case_from_dict({"cycle": follows}), MPI.COMM_SELF)
+    with pytest.raises(ParameterError, match=r"cycle\.modulus_tolerance"):
+        CycleOptions(modulus_tolerance=0.0)

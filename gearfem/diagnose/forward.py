@@ -116,6 +116,15 @@ class FullModel:
         self.library = library
         self.quantities = tuple(dict.fromkeys(q for q in quantities if q not in FIELD_QUANTITIES))
         check_instrument_quantities(case, self.quantities)
+        if case.cycle.modulus != "constant":
+            # each run takes the case's stored cycle of its torque; the cycle <-> heat fixed
+            # point in the modulus is gearfem run's (pipeline.thermal_stages)
+            raise ParameterError(
+                "cycle.modulus",
+                case.cycle.modulus,
+                '"constant" in a diagnosis (its runs share one cycle per torque)',
+                "set youngs_modulus_Pa to the modulus at the running temperature instead",
+            )
         self._tmp = None
         if work_dir is None:
             name = tempfile.mkdtemp(prefix="gearfem-diagnose-") if self.comm.rank == 0 else None
