@@ -282,7 +282,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             "cycle(s); mean relative modulus pinion, wheel "
             + "; ".join(
                 "{:.3f}, {:.3f} -> {:.3f}, {:.3f}".format(*p.relative_cycle, *p.relative_state)
-                + f" (moved {p.change:.4f}, a cell's at most {p.change_max:.3f})"
+                + f" (a cell's e moved by at most {p.change_max:.3f}, the mean by {p.change:.4f})"
                 for p in loop.passes
             )
             + f"; tolerance {loop.tolerance:g}; share beyond the E(T) table "

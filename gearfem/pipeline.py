@@ -227,9 +227,10 @@ class CycleMuLoop(JsonRecord):
 class ModulusPass(JsonRecord):
     """One pass of the cycle ↔ heat fixed point in the modulus (``[cycle] modulus =
     "thermal_state"``, :func:`thermal_stages`): the pinion's and the wheel's mean relative modulus
-    (harmonic volume mean of e = E(T)/E) the pass's cycle was solved with and the one its thermal
-    state gives, how far the state's field moved from the cycle's (largest change of a gear's
-    mean, and of a cell's e), each gear's share of the thermal model's volume beyond its E(T)
+    (harmonic volume mean of e = E(T)/E over its thermal model) the pass's cycle was solved with
+    and the one its thermal state gives, how far the state's field moved from the cycle's
+    (largest change of a gear's mean, and of a cell's e: the fixed point's measure), each gear's
+    share of the thermal model's volume beyond its E(T)
     table (its last value taken there), the cycle's key and the pass's wall time (s)."""
 
     relative_cycle: tuple[float, float]
@@ -244,7 +245,8 @@ class ModulusPass(JsonRecord):
 @dataclasses.dataclass(frozen=True)
 class ModulusLoop(JsonRecord):
     """``summary.json`` "modulus": the passes of the cycle ↔ heat fixed point in the modulus. The
-    run's readings are the last pass's; settled: its change is below ``tolerance``."""
+    run's readings are the last pass's; settled: no cell's e moved by ``tolerance`` or more in it
+    (``change_max``)."""
 
     passes: tuple[ModulusPass, ...]
     tolerance: float
@@ -1319,9 +1321,9 @@ def thermal_stages(
 
     With ``[cycle] modulus = "thermal_state"`` the same passes carry the modulus: pass k's cycle
     takes the modulus field of pass k − 1's thermal state (:mod:`gearfem.cycle.modulus_field`;
-    pass 0 the constant modulus), until each gear's mean relative modulus moves by less than
-    ``modulus_tolerance`` (:class:`ModulusLoop`); the run ends when every loop has settled, and a
-    loop not settled after its passes raises ConvergenceError."""
+    pass 0 the constant modulus), until no cell's relative modulus moves by
+    ``modulus_tolerance`` or more (:class:`ModulusLoop`); the run ends when every loop has
+    settled, and a loop not settled after its passes raises ConvergenceError."""
     f = case.friction
     loop_mu = case.sources.mode == "cycle" and f.cycle_mu != "constant"
     per_contact = loop_mu and f.cycle_mu == "law"
@@ -1435,7 +1437,7 @@ def thermal_stages(
         if on_pass is not None:
             on_pass(k, c, stages, passes[-1] if passes else None)
         mu_done = not loop_mu or abs(passes[-1].change) < f.cycle_mu_tolerance
-        modulus_done = not follows or moduli_passes[-1].change < case.cycle.modulus_tolerance
+        modulus_done = not follows or moduli_passes[-1].change_max < case.cycle.modulus_tolerance
         if mu_done and modulus_done:
             return stages
         if loop_mu and len(passes) >= f.cycle_mu_max_passes and not mu_done:
@@ -1457,9 +1459,9 @@ def thermal_stages(
         )
     raise ConvergenceError(
         "cycle <-> heat fixed point in the modulus",
-        f"the gears' mean relative modulus still moved by {moduli_passes[-1].change:.4g} "
+        f"a cell's relative modulus still moved by {moduli_passes[-1].change_max:.4g} "
         f"(tolerance {case.cycle.modulus_tolerance:g}) after {len(moduli_passes)} cycles; "
-        "pinion, wheel per pass: "
+        "the gears' mean relative modulus, pinion, wheel per pass: "
         + ", ".join(
             f"({p.relative_state[0]:.4f}, {p.relative_state[1]:.4f})" for p in moduli_passes
         ),
