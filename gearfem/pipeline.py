@@ -230,8 +230,8 @@ class ModulusPass(JsonRecord):
     (harmonic volume mean of e = E(T)/E over its thermal model) the pass's cycle was solved with
     and the one its thermal state gives, how far the state's field moved from the cycle's
     (largest change of a gear's mean, and of a cell's e: the fixed point's measure), each gear's
-    share of the thermal model's volume beyond its E(T)
-    table (its last value taken there), the cycle's key and the pass's wall time (s)."""
+    share of the thermal model's volume beyond its E(T) table (its last value taken there), the
+    cycle's key and the pass's wall time (s)."""
 
     relative_cycle: tuple[float, float]
     relative_state: tuple[float, float]
