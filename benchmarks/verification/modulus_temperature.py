@@ -44,7 +44,7 @@ from gearfem.config import Case, load_case
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
 from gearfem.core.material_library import library_material
-from gearfem.cycle.modulus_field import GearTemperature, ModulusField
+from gearfem.cycle.modulus_field import ModulusField
 from gearfem.geometry.involute import GearPair
 from gearfem.instruments.evaluate import evaluate
 from gearfem.instruments.snapshot import BodyField
@@ -98,22 +98,12 @@ def with_moduli(case: Case, moduli: dict[str, float]) -> Case:
 class Pass:
     """One pass: the quantities of its cycle and steady state, each gear's uniform tooth modulus
     at that state, the cell-wise field of that state, and the moduli its cycle ran with (GPa,
-    pinion / wheel: uniform, or the field's harmonic mean)."""
+    pinion / wheel: uniform, or the tooth's harmonic mean at the state its field came from)."""
 
     quantities: dict
     tooth: dict[str, ToothModulus]
     field: ModulusField
     used_GPa: tuple[float, float]
-
-
-def state_field(snap, label: str, table) -> ModulusField:
-    """The cell-wise modulus field of both gears at the snapshot's ``label``."""
-    i = snap.label_index(label)
-    states = {
-        b: GearTemperature(f.nodes_m, f.cells, f.temperature_K[i], f.center_m, f.tooth_angles_rad)
-        for b, f in snap.bodies.items()
-    }
-    return ModulusField.from_temperatures(states, dict.fromkeys(BODIES, table))
 
 
 def one_pass(
@@ -165,7 +155,8 @@ def one_pass(
             .camera[label]
             .max_C,
         }
-        return Pass(q, tooth, state_field(snap, label, table), used)
+        field = pipeline.state_modulus_field(snap, dict.fromkeys(BODIES, table))
+        return Pass(q, tooth, field, used)
 
     return pipeline.on_root(comm, read)
 
