@@ -340,7 +340,12 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
     if comm.rank == 0:
         print(text)
         if doc:
-            replace_block(ROOT / "docs" / "diagnosis.md", "bench_camera_diagnosis", text)
+            replace_block(
+                ROOT / "docs" / "diagnosis.md",
+                "bench_camera_diagnosis",
+                text,
+                _provenance(r.provenance),
+            )
 
 
 def _grid(case, points: str | None) -> Grid | None:
