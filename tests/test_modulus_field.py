@@ -232,16 +232,33 @@ def test_the_run_iterates_the_modulus_with_the_heat_to_a_fixed_point(tmp_path):
     assert te(cycles[0]) < te(cycles[-1]) < te(soft)
 
 
-def test_a_modulus_from_the_thermal_state_needs_a_table_and_a_run():
-    """A gear of a material without an E(T) table (POM) cannot take its modulus from the thermal
-    state, a steel gear keeps its own; the diagnosis, whose runs share one cycle per torque,
-    refuses the fixed point: each error names the key."""
+def test_a_modulus_from_the_thermal_state_needs_a_table_and_a_run(monkeypatch):
+    """Every library polymer has an E(T) table, each relative to its first temperature; a gear of
+    a material without one (POM with its table taken away here) cannot take its modulus from the
+    thermal state, a steel gear keeps its own; the diagnosis, whose runs share one cycle per
+    torque, refuses the fixed point: each error names the key."""
     from gearfem.diagnose.forward import FullModel
 
     follows = {"modulus": "thermal_state"}
     pom = {"name": "POM", "hysteresis": [[20.0, 100.0], [0.01, 0.02]]}
+    pom_pom = case_from_dict({"material": pom, "material_wheel": pom, "cycle": follows})
+    tables = pipeline.modulus_tables(pom_pom)
+    assert set(tables) == set(BODIES)
+    # the source's curve: 2.8 GPa at 23 C, 1.2 GPa at 100 C
+    assert tables["wheel"](373.15) / tables["wheel"](296.15) == pytest.approx(1.2 / 2.8)
+    lookup = pipeline.library_material
+
+    def without_e_of_t(name, *args):
+        lib = lookup(name, *args)
+        if lib.name != "POM":
+            return lib
+        rest = {k: v for k, v in lib.tables.items() if k != "youngs_modulus_Pa"}
+        return dataclasses.replace(lib, tables=rest)
+
+    monkeypatch.setattr(pipeline, "library_material", without_e_of_t)
     with pytest.raises(ParameterError, match=r"cycle\.modulus.*wheel's POM has none"):
         pipeline.modulus_tables(case_from_dict({"material_wheel": pom, "cycle": follows}))
+    monkeypatch.undo()
     steel_peek = case_from_dict({"material": {"name": "steel"}, "cycle": follows})
     steel_peek = dataclasses.replace(steel_peek, material_wheel=Case().material)
     assert set(pipeline.modulus_tables(steel_peek)) == {"wheel"}
