@@ -185,10 +185,16 @@ def library_block() -> str:
         for t in m.tables.values():
             tables.append(
                 f"- {m.name}, table `{t.name}` ({len(t.T_C)} points, {t.T_C[0]:g}–{t.T_C[-1]:g} "
-                f"°C, `{t.source_key}`): {t.quantity}."
+                f"°C, `{t.source_key}`{', **est.**' if t.estimate else ''}): {t.quantity}."
+                + (f" Estimate: {t.reason}." if t.estimate else "")
             )
-        if "hysteresis" not in m.tables and m.kind == "polymer":
-            tables.append(f"- {m.name}: no H(T) or E'(T) table (none found in a stored source).")
+        if m.kind == "polymer":
+            absent = [q for q in ("hysteresis", "youngs_modulus_Pa") if q not in m.tables]
+            if absent:
+                what = " or ".join(
+                    {"hysteresis": "H(T)", "youngs_modulus_Pa": "E(T)"}[q] for q in absent
+                )
+                tables.append(f"- {m.name}: no {what} table (none found in a stored source).")
     sources = []
     for m in mats:
         items = "; ".join(f"`{k}`: {c}" for k, c in m.sources.items())
