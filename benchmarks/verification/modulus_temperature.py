@@ -43,7 +43,6 @@ from gearfem import pipeline
 from gearfem.config import Case, load_case
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.log import setup_logging
-from gearfem.core.material_library import library_material
 from gearfem.cycle.modulus_field import ModulusField
 from gearfem.geometry.involute import GearPair
 from gearfem.instruments.evaluate import evaluate
@@ -109,13 +108,15 @@ class Pass:
 def one_pass(
     case: Case,
     comm,
-    table,
+    tables: dict,
     moduli: ModulusField | None = None,
     source: dict[str, ToothModulus] | None = None,
 ) -> Pass:
     """The cycle (with the modulus field ``moduli`` when given, of the state whose tooth moduli
     are ``source``) and the steady state of ``case``: its quantities, each gear's tooth modulus
-    and the modulus field at that state (collective)."""
+    and the modulus field at that state (collective). ``tables``: the E(T) of each gear whose
+    modulus follows temperature (:func:`gearfem.pipeline.modulus_tables`; a steel gear keeps its
+    constant modulus)."""
     cyc, _, _ = pipeline.cycle(case, comm, moduli=moduli)
     loads = CycleLoads.of(cyc, case.operating.speed_rpm)
     c = steady_case(case)
@@ -135,9 +136,11 @@ def one_pass(
                 snap.bodies[b],
                 i,
                 pair.profile(b).root_radius_m,
-                table,
+                tables[b],
                 case.materials[b].glass_transition_C,
             )
+            if b in tables
+            else ToothModulus(case.materials[b].youngs_modulus_Pa, 0.0, 0.0)
             for b in BODIES
         }
         q = {
@@ -155,26 +158,26 @@ def one_pass(
             .camera[label]
             .max_C,
         }
-        field = pipeline.state_modulus_field(snap, dict.fromkeys(BODIES, table))
+        field = pipeline.state_modulus_field(snap, tables)
         return Pass(q, tooth, field, used)
 
     return pipeline.on_root(comm, read)
 
 
-def uniform_fixed_point(base: Case, first: Pass, comm, table, tolerance: float, max_passes: int):
+def uniform_fixed_point(base: Case, first: Pass, comm, tables, tolerance: float, max_passes: int):
     """The passes with each gear's uniform E_eff of the previous pass, after the constant
     modulus's ``first``, until E_eff moves by less than ``tolerance`` (relative)."""
     passes = [first]
     while len(passes) < max_passes:
         new = {b: passes[-1].tooth[b].modulus_Pa for b in BODIES}
-        passes.append(one_pass(with_moduli(base, new), comm, table))
+        passes.append(one_pass(with_moduli(base, new), comm, tables))
         now = {b: passes[-1].tooth[b].modulus_Pa for b in BODIES}
         if all(abs(now[b] / new[b] - 1) < tolerance for b in BODIES):
             return passes, True
     return passes, False
 
 
-def cellwise_fixed_point(base: Case, first: Pass, comm, table, tolerance: float, max_passes: int):
+def cellwise_fixed_point(base: Case, first: Pass, comm, tables, tolerance: float, max_passes: int):
     """The passes with the cell-wise field of the previous pass's state, after the constant
     modulus's ``first``, until no cell's relative modulus moves by ``tolerance`` or more (the
     measure of ``[cycle] modulus = "thermal_state"``); the largest change of a cell's per pass."""
@@ -182,7 +185,7 @@ def cellwise_fixed_point(base: Case, first: Pass, comm, table, tolerance: float,
     changes = []
     while len(passes) < max_passes:
         field = passes[-1].field
-        passes.append(one_pass(base, comm, table, field, passes[-1].tooth))
+        passes.append(one_pass(base, comm, tables, field, passes[-1].tooth))
         changes.append(passes[-1].field.change_from(field)[1])
         if changes[-1] < tolerance:
             return passes, True, changes
@@ -201,21 +204,22 @@ def main() -> None:
     ap.add_argument("--tolerance", type=float, default=0.02)
     ap.add_argument("--cell-tolerance", type=float, default=0.05)
     ap.add_argument("--max-passes", type=int, default=5)
+    ap.add_argument("--case", default=None, help="case file (default: the built-in case)")
+    ap.add_argument("--block", default="modulus_temperature", help="block of --docs to write")
     ap.add_argument("--docs", default=None)
     a = ap.parse_args()
     setup_logging("WARNING")
     comm = MPI.COMM_WORLD
-    builtin = load_case(None)
-    lib = library_material(builtin.material.name or "PEEK 450G")
-    table = lib.tables["youngs_modulus_Pa"].table()
+    builtin = load_case(a.case)
+    tables = pipeline.modulus_tables(builtin)
     parts = []
     for point in a.points:
         speed, torque = (float(s) for s in point.split("/"))
         base = builtin.with_operating(speed_rpm=speed, torque_Nm=torque)
-        first = one_pass(base, comm, table)
-        uni, uni_settled = uniform_fixed_point(base, first, comm, table, a.tolerance, a.max_passes)
+        first = one_pass(base, comm, tables)
+        uni, uni_settled = uniform_fixed_point(base, first, comm, tables, a.tolerance, a.max_passes)
         cell, cell_settled, cell_changes = cellwise_fixed_point(
-            base, first, comm, table, a.cell_tolerance, a.max_passes
+            base, first, comm, tables, a.cell_tolerance, a.max_passes
         )
         q0, qu, qc = first.quantities, uni[-1].quantities, cell[-1].quantities
         u = {}
@@ -249,6 +253,8 @@ def main() -> None:
                 "tooth volume above T_g / beyond the E(T) table, constant-modulus state (%)",
                 " / ".join(
                     f"{100 * m0[b].above_glass_transition:.0f}, {100 * m0[b].beyond_table:.0f}"
+                    if b in tables
+                    else "–"
                     for b in BODIES
                 ),
                 "",
@@ -279,7 +285,31 @@ def main() -> None:
             rows,
         )  # fmt: skip
         parts.append(head + "\n\n" + table_md)
-    note = (
+    if a.case is not None:
+        mats = builtin.materials
+        last = {b: f"{t.T_K[-1] - 273.15:.0f} C" for b, t in tables.items()}
+        note = (
+            f"\n\nCase '{builtin.name}' ({a.case}; {mats['pinion'].name} pinion, "
+            f"{mats['wheel'].name} wheel), the steady state at each point; the columns as "
+            "above. The moduli from the library's E(T) of "
+            + ", ".join(
+                f"the {b}'s {mats[b].name} (its last value beyond {last[b]})" for b in tables
+            )
+            + "; a steel gear keeps its modulus. No refinement study of this resolution: no "
+            f"u_num. `mpirun -n {comm.size} python benchmarks/verification/modulus_temperature.py "
+            f"--case {a.case} --points {' '.join(a.points)} --block {a.block}`."
+        )
+    else:
+        note = _builtin_note(comm, a.points)
+    text = "\n\n".join(parts) + note
+    if comm.rank == 0:
+        print(text)
+        if a.docs:
+            replace_block(a.docs, a.block, text, provenance(builtin))
+
+
+def _builtin_note(comm, points) -> str:
+    return (
         "\n\nThe built-in case (PEEK 450G, constant mu 0.5), each bench point's steady state; "
         "the second and third columns the last pass of each fixed point, whose cycle ran with "
         "the modulus of the pass before: each gear's E_eff (the harmonic volume mean of the "
@@ -288,13 +318,8 @@ def main() -> None:
         "overestimates the modulus there. u_num "
         "from the refinement studies of the case's resolution (at 1000 rpm / 8 N m). `mpirun -n "
         f"{comm.size} python benchmarks/verification/modulus_temperature.py "
-        f"--points {' '.join(a.points)}`."
+        f"--points {' '.join(points)}`."
     )
-    text = "\n\n".join(parts) + note
-    if comm.rank == 0:
-        print(text)
-        if a.docs:
-            replace_block(a.docs, "modulus_temperature", text, provenance(builtin))
 
 
 if __name__ == "__main__":
