@@ -119,6 +119,12 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/materials.md", "modulus_temperature"),),
     ),
     Regeneration(
+        f"{_FRICTION}modulus_temperature.py --case demos/steel_pom.toml --points 2000/8 3000/10 "
+        "--block modulus_temperature_steel_pom --docs docs/materials.md",
+        (("docs/materials.md", "modulus_temperature_steel_pom"),),
+        case="demos/steel_pom.toml",
+    ),
+    Regeneration(
         "mpirun -n 2 python demos/steel_pom.py --docs docs/materials.md",
         (("docs/materials.md", "steel_pom_demo"),),
         case="demos/steel_pom.toml",

@@ -154,6 +154,12 @@ def one_pass(
             "hottest surface, steady (C)": max(
                 snap.bodies[b].temperatures_C[label]["max_surface"] for b in BODIES
             ),
+            "hottest surface, pinion / wheel, steady (C)": tuple(
+                snap.bodies[b].temperatures_C[label]["max_surface"] for b in BODIES
+            ),
+            "bulk mean, pinion / wheel, steady (C)": tuple(
+                snap.bodies[b].temperatures_C[label]["mean_bulk"] for b in BODIES
+            ),
             "camera_max, steady (C)": evaluate(c.instruments, snap, only=("camera",))
             .camera[label]
             .max_C,
