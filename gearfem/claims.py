@@ -73,6 +73,11 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         (("docs/diagnosis.md", "bench_verdict_balanced"),),
     ),
     Regeneration(
+        f"{_BENCH_POINTS} --diagnose tests/cases/coarse.toml --skip-runs",
+        (("docs/diagnosis.md", "bench_camera_diagnosis"),),
+        case="tests/cases/coarse.toml",
+    ),
+    Regeneration(
         "mpirun -n 2 python benchmarks/studies/vdi2736_gearfem.py --docs",
         (("docs/materials.md", "vdi2736_gearfem"),),
     ),
