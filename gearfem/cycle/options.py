@@ -84,8 +84,9 @@ class CycleOptions:
             first value (:mod:`gearfem.cycle.modulus_field`), iterated with the heat: the first
             cycle at the constant modulus, each next one with the field of the previous thermal
             state, until no cell's relative modulus moves by ``modulus_tolerance`` or more; both
-            gears' thermal models are run. Needs a material with an E(T) table (the library's
-            PEEK 450G); a steel gear keeps its modulus.
+            gears' thermal models are run. Needs a material with an E(T) table (every polymer of
+            the library: PEEK 450G's from a tension study, POM's and PA66's estimates); a steel
+            gear keeps its modulus.
         modulus_tolerance: The largest relative change of a cell's modulus between a cycle's
             field and that of its thermal state below which the fixed point has settled (0.05:
             about 3 K where PEEK 450G's modulus falls fastest, near 155 C).
