@@ -211,7 +211,12 @@ def main() -> None:
     ap.add_argument("--cell-tolerance", type=float, default=0.05)
     ap.add_argument("--max-passes", type=int, default=5)
     ap.add_argument("--case", default=None, help="case file (default: the built-in case)")
-    ap.add_argument("--block", default="modulus_temperature", help="block of --docs to write")
+    ap.add_argument(
+        "--block",
+        default="modulus_temperature",
+        choices=("modulus_temperature", "modulus_temperature_steel_pom"),
+        help="block of --docs to write (the built-in case's, the steel/POM demo case's)",
+    )
     ap.add_argument("--docs", default=None)
     a = ap.parse_args()
     setup_logging("WARNING")
