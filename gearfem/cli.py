@@ -225,13 +225,19 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
     summary = pipeline.run(case, args.out, MPI.COMM_WORLD, progress=not args.no_progress)
     h = summary.headline
-    nan = float("nan")
+    # a steady run's values are the steady state; a transient run names it beside when it has one
+    steady_run = case.thermal.mode == "steady"
+    when = "steady state" if steady_run else f"t = {h.time_s:g} s"
+
+    def beside(steady_C: float | None) -> str:
+        return "" if steady_run or steady_C is None else f"steady {steady_C:.1f} C"
+
     _say(
         f"{case.name}: {case.operating.speed_rpm:g} rpm, {case.operating.torque_Nm:g} N m, "
-        f"t = {h.time_s:g} s: max surface "
-        f"{with_u_num(h, 'max_surface_temperature_C', 'C')} "
-        f"(steady {h.steady_max_surface_temperature_C or nan:.1f} C), "
-        f"mean bulk {with_u_num(h, 'mean_bulk_temperature_C', 'C')}; "
+        f"{when}: max surface "
+        f"{with_u_num(h, 'max_surface_temperature_C', 'C')}"
+        + (f" ({s})" if (s := beside(h.steady_max_surface_temperature_C)) else "")
+        + f", mean bulk {with_u_num(h, 'mean_bulk_temperature_C', 'C')}; "
         + (
             f"VDI 2736 flank {h.vdi2736_flank_C:.1f} C, root {h.vdi2736_root_C:.1f} C"
             if h.vdi2736_flank_C is not None
@@ -297,10 +303,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
     if h.camera_max_C is not None and summary.instruments is not None:
         end = summary.instruments.camera["end"]
+        steady_camera = beside(h.camera_max_steady_C)
         _say(
             f"IR camera ({case.instruments.camera.view} view): camera_max "
             f"{with_u_num(h, 'camera_max_C', 'C')} "
-            f"at the end (steady {h.camera_max_steady_C or nan:.1f} C; the unknown sub-pixel aim "
+            f"at the end ({steady_camera + '; ' if steady_camera else ''}the unknown sub-pixel aim "
             f"{end.aim_std_C:.1f} K), at pixel {end.pixel} on {end.body} {end.surface} at the "
             f"nominal aim; the hottest model node of the pair is {end.hottest_node_C:.1f} C"
         )
