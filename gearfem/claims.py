@@ -130,6 +130,12 @@ REGENERATIONS: tuple[Regeneration, ...] = (
         case="demos/steel_pom.toml",
     ),
     Regeneration(
+        f"{_FRICTION}modulus_temperature.py --case benchmarks/studies/cases/steel_pa66.toml "
+        "--points 2000/8 3000/8 --block modulus_temperature_steel_pa66 --docs docs/materials.md",
+        (("docs/materials.md", "modulus_temperature_steel_pa66"),),
+        case="benchmarks/studies/cases/steel_pa66.toml",
+    ),
+    Regeneration(
         "mpirun -n 2 python demos/steel_pom.py --docs docs/materials.md",
         (("docs/materials.md", "steel_pom_demo"),),
         case="demos/steel_pom.toml",

@@ -214,8 +214,12 @@ def main() -> None:
     ap.add_argument(
         "--block",
         default="modulus_temperature",
-        choices=("modulus_temperature", "modulus_temperature_steel_pom"),
-        help="block of --docs to write (the built-in case's, the steel/POM demo case's)",
+        choices=(
+            "modulus_temperature",
+            "modulus_temperature_steel_pom",
+            "modulus_temperature_steel_pa66",
+        ),
+        help="block of --docs to write (the built-in case's, the steel/POM, steel/PA66 pairs')",
     )
     ap.add_argument("--docs", default=None)
     a = ap.parse_args()
