@@ -178,9 +178,37 @@ _TIER_LINES = {
 }
 
 
+_DURATION = re.compile(r"^([\d.]+)s (setup|call|teardown)\s+tests/([^:\s]+)::(\S+)", re.M)
+
+
+def module_times(stdout: str) -> list[tuple[str, str, str, str]]:
+    """Where the suite's time goes, from pytest's ``--durations=0`` report of each tier (the
+    1-rank tier's report first, the mpirun tier's second): per test module, its seconds in each
+    tier (the 1-rank tier's are worker seconds: its wall time is about half their sum on 2
+    workers) and its longest item, longest modules first."""
+    sections = re.split(r"slowest (?:\d+ )?durations", stdout)[1:]
+    per: dict[str, list[float]] = {}
+    longest: dict[str, tuple[float, str]] = {}
+    for tier, text in enumerate(sections[:2]):
+        for m in _DURATION.finditer(text):
+            t, phase, module, test = float(m.group(1)), m.group(2), m.group(3), m.group(4)
+            per.setdefault(module, [0.0, 0.0])[tier] += t
+            if t > longest.get(module, (0.0, ""))[0]:
+                longest[module] = (t, f"{test} ({phase}, {t:.0f} s)")
+    order = sorted(per, key=lambda k: -sum(per[k]))
+    total = [sum(v[i] for v in per.values()) for i in (0, 1)]
+    rows = [(f"`{k}`", f"{per[k][0]:.0f}", f"{per[k][1]:.0f}", longest[k][1]) for k in order[:15]]
+    rest = [sum(per[k][i] for k in order[15:]) for i in (0, 1)]
+    rows.append((f"{len(order) - 15} other modules", f"{rest[0]:.0f}", f"{rest[1]:.0f}", ""))
+    rows.append(("all", f"{total[0]:.0f}", f"{total[1]:.0f}", ""))
+    return rows
+
+
 def measure_tests() -> tuple[list[tuple[str, str, str]], dict]:
     """``./dev.sh test`` and ``./dev.sh test --quick``, each in a fresh clone of HEAD with an empty
-    FFCx cache, as on a CI machine: set-up (the venv) and the forms' compilation included."""
+    FFCx cache, as on a CI machine: set-up (the venv) and the forms' compilation included. The
+    full suite runs with pytest's ``--durations=0``: ``facts["modules"]`` holds
+    :func:`module_times`."""
     rows: list[tuple[str, str, str]] = []
     facts: dict = {}
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-tests-"))
@@ -193,7 +221,8 @@ def measure_tests() -> tuple[list[tuple[str, str, str]], dict]:
             clone = tmp / f"clone_{key}"
             subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
             senv["XDG_CACHE_HOME"] = str(tmp / f"xdg_{key}")
-            r = _run(["./dev.sh", "test", *args], senv, cwd=clone)
+            report = ["--durations=0"] if key == "suite" else []
+            r = _run(["./dev.sh", "test", *args, *report], senv, cwd=clone)
             tiers = {}
             for name, pattern in _TIER_LINES.items():
                 m = pattern.search(r["stderr"])
@@ -202,6 +231,8 @@ def measure_tests() -> tuple[list[tuple[str, str, str]], dict]:
                 tiers[name] = float(m.group(1))
             setup = r["wall_s"] - tiers["one_rank_s"] - tiers["mpi_s"]
             facts[f"{key}_s"] = r["wall_s"]
+            if key == "suite":
+                facts["modules"] = module_times(r["stdout"])
             rows.append(
                 (
                     f"{label}, fresh clone",
@@ -265,6 +296,17 @@ def main() -> None:
             f"{facts['quick_s'] / 60:.1f} min), set-up included.",
             "",
         )  # fmt: skip
+        text = (
+            markdown_table(
+                ("test module", "1-rank tier (worker s)", "mpirun -n 2 tier (s)", "longest item"),
+                facts["modules"],
+            )
+            + "\n\nThe full suite's run above, from pytest's `--durations=0`: setup, call and "
+            "teardown of every item, summed per module. " + measured(" --tests")
+        )
+        print(text)
+        if a.docs:
+            replace_block(ROOT / "docs" / "performance.md", "test_modules", text)
 
 
 if __name__ == "__main__":
