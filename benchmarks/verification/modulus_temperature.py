@@ -36,7 +36,7 @@ import dataclasses
 
 import numpy as np
 from mpi4py import MPI
-from one_case import CycleLoads, observed_fields, steady_case
+from one_case import CycleLoads, observed_fields, scratch_directory, steady_case
 
 import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 from gearfem import pipeline
@@ -113,14 +113,27 @@ def one_pass(
     source: dict[str, ToothModulus] | None = None,
 ) -> Pass:
     """The cycle (with the modulus field ``moduli`` when given, of the state whose tooth moduli
-    are ``source``) and the steady state of ``case``: its quantities, each gear's tooth modulus
-    and the modulus field at that state (collective). ``tables``: the E(T) of each gear whose
-    modulus follows temperature (:func:`gearfem.pipeline.modulus_tables`; a steel gear keeps its
-    constant modulus)."""
+    are ``source``) and the steady state of ``case``: :func:`read_pass` (collective)."""
     cyc, _, _ = pipeline.cycle(case, comm, moduli=moduli)
+    snap = observed_fields(steady_case(case), comm, cyc)
+    return read_pass(case, comm, tables, cyc, snap, source)
+
+
+def read_pass(
+    case: Case,
+    comm,
+    tables: dict,
+    cyc,
+    snap,
+    source: dict[str, ToothModulus] | None = None,
+) -> Pass:
+    """The quantities of the cycle ``cyc`` and the steady fields' snapshot ``snap`` (rank 0) of
+    ``case``, each gear's tooth modulus and the modulus field at that state (collective; the cycle
+    ran with the modulus of the state whose tooth moduli are ``source``, else the constant one).
+    ``tables``: the E(T) of each gear whose modulus follows temperature
+    (:func:`gearfem.pipeline.modulus_tables`; a steel gear keeps its constant modulus)."""
     loads = CycleLoads.of(cyc, case.operating.speed_rpm)
     c = steady_case(case)
-    snap = observed_fields(c, comm, cyc)
     # the modulus the cycle ran with: uniform, or the tooth's harmonic mean of the field's state
     used = tuple(
         (source[b].modulus_Pa if source is not None else case.materials[b].youngs_modulus_Pa) / GPA
@@ -183,19 +196,34 @@ def uniform_fixed_point(base: Case, first: Pass, comm, tables, tolerance: float,
     return passes, False
 
 
-def cellwise_fixed_point(base: Case, first: Pass, comm, tables, tolerance: float, max_passes: int):
-    """The passes with the cell-wise field of the previous pass's state, after the constant
-    modulus's ``first``, until no cell's relative modulus moves by ``tolerance`` or more (the
-    measure of ``[cycle] modulus = "thermal_state"``); the largest change of a cell's per pass."""
-    passes = [first]
-    changes = []
-    while len(passes) < max_passes:
-        field = passes[-1].field
-        passes.append(one_pass(base, comm, tables, field, passes[-1].tooth))
-        changes.append(passes[-1].field.change_from(field)[1])
-        if changes[-1] < tolerance:
-            return passes, True, changes
-    return passes, False, changes
+def cellwise_fixed_point(base: Case, comm, tolerance: float, max_passes: int):
+    """``[cycle] modulus = "thermal_state"`` on ``base`` at its steady state: the fixed point of
+    :func:`gearfem.pipeline.thermal_stages` (the constant modulus's pass first, then the cell-wise
+    field of the previous pass's state, until no cell's relative modulus moves by ``tolerance`` or
+    more; ConvergenceError after ``max_passes``), each pass read by :func:`read_pass`; the largest
+    change of a cell's modulus per pass after the first (collective)."""
+    case = steady_case(base)
+    case = dataclasses.replace(
+        case,
+        cycle=dataclasses.replace(
+            case.cycle,
+            modulus="thermal_state",
+            modulus_tolerance=tolerance,
+            modulus_max_passes=max_passes,
+        ),
+    )
+    tables = pipeline.modulus_tables(case)
+    passes: list[Pass] = []
+
+    def read(k, case_k, stages, _):
+        source = passes[-1].tooth if passes else None
+        passes.append(read_pass(case_k, comm, tables, stages.cycle, stages.snapshot, source))
+
+    with scratch_directory(comm) as out:
+        stages = pipeline.thermal_stages(
+            case, out, comm, progress=False, write_fields=False, write_plot=False, on_pass=read
+        )
+    return passes, [p.change_max for p in stages.modulus.passes[1:]]
 
 
 def _cell(v) -> str:
@@ -233,9 +261,7 @@ def main() -> None:
         base = builtin.with_operating(speed_rpm=speed, torque_Nm=torque)
         first = one_pass(base, comm, tables)
         uni, uni_settled = uniform_fixed_point(base, first, comm, tables, a.tolerance, a.max_passes)
-        cell, cell_settled, cell_changes = cellwise_fixed_point(
-            base, first, comm, tables, a.cell_tolerance, a.max_passes
-        )
+        cell, cell_changes = cellwise_fixed_point(base, comm, a.cell_tolerance, a.max_passes)
         q0, qu, qc = first.quantities, uni[-1].quantities, cell[-1].quantities
         u = {}
         keys = {
@@ -285,7 +311,7 @@ def main() -> None:
         head = (
             f"**{speed:g} rpm / {torque:g} N m**: uniform E_eff {len(uni)} passes, "
             f"{'settled' if uni_settled else 'not settled'}; cell by cell {len(cell)} passes, "
-            f"{'settled' if cell_settled else 'not settled'}, the largest change of a cell's "
+            "settled, the largest change of a cell's "
             "modulus between a pass's field and its state's "
             + " -> ".join(f"{100 * x:.1f} %" for x in cell_changes)
             + f". Pinion, wheel in GPa, each pass's cycle: uniform {steps(uni)}; cell by cell, "
