@@ -24,6 +24,7 @@ from gearfem.core.doctables import replace_block
 from gearfem.core.errors import GearfemError, ParameterError
 from gearfem.core.io import write_json
 from gearfem.core.log import ProgressBar, setup_logging
+from gearfem.core.material_library import library_material
 from gearfem.core.provenance import format_versions, versions
 from gearfem.cycle.report import cycle_summary_dict, write_cycle_outputs
 from gearfem.diagnose.data import read_csv
@@ -170,6 +171,32 @@ def cycle_mu_note(case, torque, loop) -> str | None:
     )
 
 
+def material_limit_notes(
+    case, max_surface_C: float | None, vdi2736_flank_C: float | None = None
+) -> list[str]:
+    """What a run's temperatures of ``[thermal] body`` say against its polymer's limits in the
+    materials library: the hottest surface above the maximum service temperature, VDI 2736's flank
+    temperature above the melting temperature (where its rating is outside the material's range).
+    Empty for a steel gear or temperatures within the limits."""
+    body = case.thermal.body
+    lib = library_material(case.materials[body].name)
+    if lib.kind != "polymer":
+        return []
+    notes = []
+    service, melting = lib.value("max_service_temperature_C"), lib.value("melting_C")
+    if max_surface_C is not None and max_surface_C > service:
+        notes.append(
+            f"the {body}'s hottest surface, {max_surface_C:.1f} C, lies above {lib.name}'s maximum "
+            f"service temperature, {service:.0f} C (materials library)"
+        )
+    if vdi2736_flank_C is not None and vdi2736_flank_C > melting:
+        notes.append(
+            f"VDI 2736's flank temperature, {vdi2736_flank_C:.1f} C, lies above {lib.name}'s "
+            f"melting temperature, {melting:.0f} C: the rating is outside the material's range"
+        )
+    return notes
+
+
 def with_u_num(headline: pipeline.Headline, field: str, unit: str, digits: int = 1) -> str:
     """The headline's ``field`` with its u_num where a study gives one: "284.9 ± 16.3 C"."""
     value = getattr(headline, field)
@@ -244,6 +271,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             else f"VDI 2736 does not rate the {case.thermal.body} (a metal gear)"
         )
     )
+    for note in material_limit_notes(case, h.max_surface_temperature_C, h.vdi2736_flank_C):
+        _say(f"note: {note}")
     if h.max_surface_field_C is not None:
         _say(
             "the field's surface maximum (between the nodes) "

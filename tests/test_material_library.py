@@ -5,6 +5,7 @@ effusivity partition against a hand calculation, the input-uncertainty intervals
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from importlib import resources
 
@@ -314,3 +315,26 @@ def test_a_listed_source_that_no_value_cites_is_refused():
     unused = text.replace("[sources]\n", '[sources]\nb = "a source nothing cites"\n')
     with pytest.raises(ParameterError, match=r"test\.toml: sources = \['b'\]"):
         parse_material(unused, "test.toml")
+
+
+def test_a_run_hotter_than_its_polymer_is_said_so():
+    """``gearfem run`` notes the thermal body's hottest surface above its polymer's maximum service
+    temperature and VDI 2736's flank temperature above its melting temperature, from the library
+    (POM: 90 C and 166 C); nothing within them, nothing for a steel gear."""
+    from gearfem.cli import material_limit_notes
+
+    pom = case_from_dict(
+        {
+            "material": {"name": "steel"},
+            "material_wheel": {"name": "POM", "hysteresis": [[20.0, 150.0], [0.02, 0.06]]},
+            "thermal": {"body": "wheel"},
+        }
+    )
+    assert material_limit_notes(pom, 89.0, 165.0) == []
+    assert material_limit_notes(pom, None, None) == []
+    hot = material_limit_notes(pom, 122.7, 206.1)
+    assert len(hot) == 2
+    assert "122.7 C" in hot[0] and "POM's maximum service temperature, 90 C" in hot[0]
+    assert "206.1 C" in hot[1] and "melting temperature, 166 C" in hot[1]
+    steel = dataclasses.replace(pom, thermal=dataclasses.replace(pom.thermal, body="pinion"))
+    assert material_limit_notes(steel, 500.0, None) == []
