@@ -196,12 +196,13 @@ def uniform_fixed_point(base: Case, first: Pass, comm, tables, tolerance: float,
     return passes, False
 
 
-def cellwise_fixed_point(base: Case, comm, tolerance: float, max_passes: int):
+def cellwise_fixed_point(base: Case, comm, tables: dict, tolerance: float, max_passes: int):
     """``[cycle] modulus = "thermal_state"`` on ``base`` at its steady state: the fixed point of
     :func:`gearfem.pipeline.thermal_stages` (the constant modulus's pass first, then the cell-wise
     field of the previous pass's state, until no cell's relative modulus moves by ``tolerance`` or
-    more; ConvergenceError after ``max_passes``), each pass read by :func:`read_pass`; the largest
-    change of a cell's modulus per pass after the first (collective)."""
+    more; ConvergenceError after ``max_passes``), each pass read by :func:`read_pass` with the
+    gears' E(T) ``tables``; the largest change of a cell's modulus per pass after the first
+    (collective)."""
     case = steady_case(base)
     case = dataclasses.replace(
         case,
@@ -212,7 +213,6 @@ def cellwise_fixed_point(base: Case, comm, tolerance: float, max_passes: int):
             modulus_max_passes=max_passes,
         ),
     )
-    tables = pipeline.modulus_tables(case)
     passes: list[Pass] = []
 
     def read(k, case_k, stages, _):
@@ -259,9 +259,11 @@ def main() -> None:
     for point in a.points:
         speed, torque = (float(s) for s in point.split("/"))
         base = builtin.with_operating(speed_rpm=speed, torque_Nm=torque)
-        first = one_pass(base, comm, tables)
+        cell, cell_changes = cellwise_fixed_point(
+            base, comm, tables, a.cell_tolerance, a.max_passes
+        )
+        first = cell[0]  # the constant modulus's pass, which both fixed points start from
         uni, uni_settled = uniform_fixed_point(base, first, comm, tables, a.tolerance, a.max_passes)
-        cell, cell_changes = cellwise_fixed_point(base, comm, a.cell_tolerance, a.max_passes)
         q0, qu, qc = first.quantities, uni[-1].quantities, cell[-1].quantities
         u = {}
         keys = {
