@@ -196,12 +196,8 @@ def test_candidate_priors_and_nodes():
 
 
 def forward_models(library, points):
-    """The full forward model of the coarse case (tests/cases/coarse.toml, time error 0.25 K) with
-    the built-in case's kind of thermal model, one tooth with periodic cut faces on the coarse
-    sizes (a third of the time of the 6-tooth thermal sector per evaluation; what these tests
-    assert, that a hidden effect in data from the full model is found, does not depend on the
-    resolution), for ``library`` and its surrogate at the (speed, torque) ``points``, cached under
-    cache_root()."""
+    """The full forward model of :func:`coarse_forward_case` for ``library`` and its surrogate at
+    the (speed, torque) ``points``, cached under cache_root()."""
     from gearfem.cycle.cache import cache_root
     from gearfem.diagnose.forward import FullModel, Surrogate
 
@@ -210,7 +206,13 @@ def forward_models(library, points):
 
 
 def coarse_forward_case():
-    """The case of :func:`forward_models`."""
+    """The case of :func:`forward_models`: the coarse case (tests/cases/coarse.toml) with a time
+    error of 0.25 K and the built-in case's kind of thermal model, one tooth with periodic cut
+    faces, on the coarse sizes (a third of the time of the 6-tooth thermal sector per
+    evaluation). A coarser model does not do (measured at ac8d1be): at 4 positions per pitch (the
+    U_max field of fewer positions) the hidden hysteresis_scale of test_hidden_effect_found is no
+    longer told from convection_scale; with thermal elements twice the size as well, neither are
+    the pair of test_pair_found_and_confirmed_on_full_model nor a hidden friction_pressure."""
     from gearfem.config import load_case
 
     case = load_case(ROOT / "tests" / "cases" / "coarse.toml")

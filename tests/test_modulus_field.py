@@ -120,7 +120,7 @@ def _case(modulus_Pa: float | None = None) -> Case:
     c = Case(
         mesh=TINY,
         contact=ContactOptions(friction_coefficient=0.0),
-        cycle=CycleOptions(positions_per_pitch=3, check_periodicity=False),
+        cycle=CycleOptions(positions_per_pitch=2, check_periodicity=False),
     ).with_operating(torque_Nm=4.0)
     if modulus_Pa is not None:
         c = dataclasses.replace(
@@ -194,7 +194,7 @@ def test_the_run_iterates_the_modulus_with_the_heat_to_a_fixed_point(tmp_path):
     case = dataclasses.replace(
         case,
         mesh=TINY,
-        cycle=CycleOptions(positions_per_pitch=4, check_periodicity=False, modulus="thermal_state"),
+        cycle=CycleOptions(positions_per_pitch=2, check_periodicity=False, modulus="thermal_state"),
         thermal=ThermalOptions(mode="steady", degree=1, output_times_s=()),
         instruments=dataclasses.replace(
             case.instruments, camera=dataclasses.replace(case.instruments.camera, enabled=False)
