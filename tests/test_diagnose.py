@@ -125,6 +125,28 @@ def test_vv20_arithmetic():
     assert np.allclose(u, [5.0, 10.0]) and set(parts) == {"k", "cp"}
 
 
+def test_the_comparison_prints_each_reading_in_its_unit():
+    """gearfem diagnose's V&V 20 lines: a torque meter's loss of 0.044 N m in N m to four digits
+    (to 0.1 C it printed 0.0 C), a temperature in C and K to 0.1, an efficiency without a unit."""
+    from gearfem.cli import vv20_line
+
+    c = vv20.Comparison(
+        S=np.array([27.31, 0.04362, 0.9712]),
+        D=np.array([26.57, 0.04521, 0.9650]),
+        u_num=np.zeros(3),
+        u_input=np.array([2.8, 0.0012, 0.001]),
+        u_D=np.array([2.0, 0.01, 0.005]),
+    )
+    rows = c.rows(["a, camera_max @ 300 s", "b, torque_loss_Nm @ end", "c, efficiency @ end"])
+    got = [vv20_line(r, u) for r, u in zip(rows, ("C", "N m", "1"))]
+    assert got[0] == "a, camera_max @ 300 s: S = 27.3 C, D = 26.6 C, E = +0.7 K, u_val = 3.4 K"
+    assert got[1] == (
+        "b, torque_loss_Nm @ end: S = 0.04362 N m, D = 0.04521 N m, E = -0.00159 N m, "
+        "u_val = 0.0101 N m"
+    )
+    assert got[2] == "c, efficiency @ end: S = 0.9712, D = 0.965, E = +0.0062, u_val = 0.0051"
+
+
 def test_material_input_uncertainty_comes_from_the_library():
     """The V&V 20 material inputs are uniform over the library's intervals: a one-sided step of
     u_x / delta = 1/sqrt(12) across a range ending at the value, 1/sqrt(3) across value -+ d; the
