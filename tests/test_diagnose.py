@@ -217,13 +217,14 @@ def test_candidate_priors_and_nodes():
 # surrogate)
 
 
-def forward_models(library, points):
-    """The full forward model of :func:`coarse_forward_case` for ``library`` and its surrogate at
-    the (speed, torque) ``points``, cached under cache_root()."""
+def forward_models(library, points, times_s=G.TIMES_S):
+    """The full forward model of :func:`coarse_forward_case` for ``library``, sampled at
+    ``times_s`` and at the end (none: end values only, steady runs), and its surrogate at the
+    (speed, torque) ``points``, cached under cache_root()."""
     from gearfem.cycle.cache import cache_root
     from gearfem.diagnose.forward import FullModel, Surrogate
 
-    full = FullModel(coarse_forward_case(), MPI.COMM_SELF, times_s=G.TIMES_S, library=library)
+    full = FullModel(coarse_forward_case(), MPI.COMM_SELF, times_s=times_s, library=library)
     return full, Surrogate(full, points, candidates=library, cache_dir=cache_root())
 
 
