@@ -547,9 +547,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         suggest_next=args.suggest,
         grid=_design_grid(args, case),
     )
-    units = {m.label(): m.unit for m in data.measurements}
-    for row in r.vv20["rows"]:
-        _say("  " + vv20_line(row, units.get(row["measurement"], "C")))
+    for m, row in zip(data.measurements, r.vv20["rows"], strict=True):  # rows in the data's order
+        _say("  " + vv20_line(row, m.unit))
     g = r.diagnosis.gain
     _say(f"verdict: {r.diagnosis.verdict.text}")
     if g.loo_rmse_before_K is not None and g.loo_rmse_after_K is not None:

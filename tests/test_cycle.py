@@ -65,12 +65,15 @@ def _case(
     mesh: MeshOptions = TINY,
     positions: int = POSITIONS,
     contact: dict | None = None,
+    check_periodicity: bool = True,
     **cycle,
 ) -> Case:
     c = Case(
         mesh=mesh,
         contact=ContactOptions(friction_coefficient=mu, **(contact or {})),
-        cycle=CycleOptions(positions_per_pitch=positions, check_periodicity=True, **cycle),
+        cycle=CycleOptions(
+            positions_per_pitch=positions, check_periodicity=check_periodicity, **cycle
+        ),
     )
     return c.with_operating(torque_Nm=torque)
 
@@ -101,9 +104,7 @@ def loaded():
 def frictionless():
     """The loaded cycle's torque without friction (8 N m, μ = 0), at 4 positions: without friction
     the torques balance position by position, so fewer positions do not loosen the check."""
-    case = _case(8.0, 0.0, positions=4)
-    cyc = dataclasses.replace(case.cycle, check_periodicity=False)
-    return solve_cycle(_model(dataclasses.replace(case, cycle=cyc)))
+    return solve_cycle(_model(_case(8.0, 0.0, positions=4, check_periodicity=False)))
 
 
 #: Positions per pitch of the condensed-vs-full comparison: the start, in single contact (373 N on
@@ -144,10 +145,8 @@ def solver_pair():
             0.5,
             positions=COMPARED_POSITIONS,
             contact={"uzawa_newton_rtol": COMPARED_UZAWA_NEWTON_RTOL},
+            check_periodicity=False,
             **cycle,
-        )
-        case = dataclasses.replace(
-            case, cycle=dataclasses.replace(case.cycle, check_periodicity=False)
         )
         model = _model(case)
         out[name] = solve_cycle(model)
@@ -670,8 +669,7 @@ def test_positions_spread_over_ranks_give_the_one_rank_cycle():
     transmission error of 80 µm), not at the same iterate. The positions solved before the first
     block boundary are the one-rank cycle's to round-off."""
     world = MPI.COMM_WORLD
-    case = _case(8.0, 0.5, positions=3)
-    case = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, check_periodicity=False))
+    case = _case(8.0, 0.5, positions=3, check_periodicity=False)
     serial = solve_cycle(_model(case, MPI.COMM_SELF))
     spread = solve_cycle(_model(case, MPI.COMM_SELF), world=world)
     blocks = position_blocks(3, world.size)
@@ -688,8 +686,7 @@ def test_a_reference_tooth_missing_the_heated_images_is_refused():
     """The revolution average collects the heat of every image on the reference tooth; collected
     on a part of it (here its tip only) the flank heat falls far below the friction power of the
     mesh, and the cycle stops with an error instead of normalising the loss away."""
-    case = _case(8.0, 0.5, positions=POSITIONS, pitches=2.0 / POSITIONS)
-    case = dataclasses.replace(case, cycle=dataclasses.replace(case.cycle, check_periodicity=False))
+    case = _case(8.0, 0.5, pitches=2.0 / POSITIONS, check_periodicity=False)
     model = _model(case)
     b = "pinion"
     tip = [

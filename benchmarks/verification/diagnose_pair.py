@@ -30,6 +30,7 @@ Writes: no documentation block (prints; the report in ``OUT/diagnosis/report.md`
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import subprocess
@@ -44,7 +45,7 @@ import gearfem  # noqa: F401  (must precede dolfinx/petsc4py)
 
 # isort: split
 
-from gearfem.config import load_case
+from gearfem.config import load_case, write_case
 from gearfem.diagnose.data import Dataset, Measurement, write_csv
 from gearfem.diagnose.forward import FullModel
 from gearfem.diagnose.report import DiagnosisReport
@@ -59,13 +60,9 @@ U_TORQUE_NM = 0.01
 
 def case_file(out: Path, partition: str) -> Path:
     """The demo's case with the friction heat split by ``partition``, as a case file."""
-    text = (ROOT / "demos" / "steel_pom.toml").read_text()
-    line = 'heat_partition = "contact_temperature"'
-    if line not in text:
-        raise SystemExit(f"demos/steel_pom.toml has no line {line!r} to change")
-    path = out / "case.toml"
-    path.write_text(text.replace(line, f'heat_partition = "{partition}"'))
-    return path
+    case = load_case(ROOT / "demos" / "steel_pom.toml")
+    sources = dataclasses.replace(case.sources, heat_partition=partition)
+    return write_case(dataclasses.replace(case, sources=sources), out / "case.toml")
 
 
 def synthetic(case_path: Path, hidden: str, value: float, seed: int) -> Dataset:
