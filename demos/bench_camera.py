@@ -60,6 +60,7 @@ from gearfem.diagnose.report import (
     suggestion_markdown,
     winner_params,
 )
+from gearfem.diagnose.vv20 import TABLE_HEAD
 from gearfem.pipeline import RunSummary
 from gearfem.study import parse_points
 from gearfem.uncertainty import DIAGNOSIS_CODE, provenance
@@ -290,37 +291,9 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
     case = load_case(case_path)
     data = read_csv(BENCH)
     r = run_diagnosis(data, case, out, comm, max_size=1)
-    rows = [
-        (
-            row["measurement"],
-            f"{row['S_C']:.1f}",
-            f"{row['D_C']:.1f}",
-            f"{row['E_K']:+.1f}",
-            f"{row['u_num_K']:.2f}",
-            f"{row['u_input_K']:.2f}",
-            f"{row['u_D_K']:.2f}",
-            f"{row['u_val_K']:.2f}",
-            "yes" if row["resolved"] else "no",
-        )
-        for row in r.vv20["rows"]
-    ]
-    table = markdown_table(
-        (
-            "measurement",
-            "S (C)",
-            "D (C)",
-            "E (K)",
-            "u_num",
-            "u_input",
-            "u_D",
-            "u_val",
-            "|E| > 2 u_val",
-        ),
-        rows,
-    )
+    table = markdown_table(TABLE_HEAD, [row.cells() for row in r.vv20.rows])
     parts = "; ".join(
-        f"{k}: {', '.join(f'{v:.2f}' for v in vals)} K"
-        for k, vals in r.vv20["u_input_parts_K"].items()
+        f"{k}: {', '.join(f'{v:.2f}' for v in vals)} K" for k, vals in r.vv20.u_input_parts.items()
     )
     g = r.diagnosis.gain
     fit = r.diagnosis.chosen_fit
@@ -330,7 +303,7 @@ def diagnosis(case_path: str, out: Path, comm, doc: bool) -> None:
     fmt = lambda x: "n/a" if x is None else f"{x:.1f} K"
     text = (
         f"{table}\n\nCase {case.name!r} ({case_path}), thermal degree {case.thermal.degree}; "
-        f"u_num: {r.vv20['u_num_method']}; u_input parts: {parts}.\n\n"
+        f"u_num: {r.vv20.u_num_method}; u_input parts: {parts}.\n\n"
         f"**Verdict: {r.diagnosis.verdict.text}** Chosen: {fit.label} ({ps}); held-out RMS "
         f"error {fmt(g.loo_rmse_before_K)} before, {fmt(g.loo_rmse_after_K)} after"
         f"{g.other_units_text()}. Measured by "
@@ -385,7 +358,7 @@ def verdict(
     # the baseline's hottest node (pinion): what gearfem compared before the instrument models
     rows = tuple(dataclasses.replace(m, quantity="max_surface") for m in data.measurements)
     hot = FullModel(case, comm).predict(Dataset(rows, "hottest node"), {})
-    vv = r.vv20["rows"]
+    vv = r.vv20.rows
     fit = d.chosen_fit
     ref = d.refined
     after = ref.full_C if ref is not None and ref.full_C is not None else fit.predictions_C
@@ -403,14 +376,14 @@ def verdict(
             f"{m.speed_rpm:g} rpm, {m.torque_Nm:g} N m",
             f"{m.value:.0f} ± {m.uncertainty:.1f}",
             f"{hot[i]:.1f}",
-            f"{vv[i]['S_C']:.1f}",
-            f"{vv[i]['u_val_K']:.1f}",
+            f"{vv[i].S:.1f}",
+            f"{vv[i].u_val:.1f}",
             f"{after[i]:.1f}",
         ]
         rows.append(tuple(row))
     table = markdown_table(head, rows)
     gap_hot = [float(hot[i] - m.value) for i, m in enumerate(data.measurements)]
-    gap_cam = [vv[i]["E_K"] for i in range(len(vv))]
+    gap_cam = [row.E for row in vv]
     ranking = markdown_table(
         ("model", "parameter (95 % profile interval, surrogate)", "chi2", f"Δ{d.criterion}"),
         [
@@ -450,7 +423,7 @@ def verdict(
             table,
             "",
             f"Case {case.name!r} ({case_path or 'built-in'}{model.describe}), thermal degree "
-            f"{case.thermal.degree}; u_num: {r.vv20['u_num_method']}. Model minus bench, "
+            f"{case.thermal.degree}; u_num: {r.vv20.u_num_method}. Model minus bench, "
             f"{closes}.",
             "",
             f"**Verdict: {d.verdict.text}** Held-out RMS error {fmt(g.loo_rmse_before_K)} "
@@ -547,7 +520,7 @@ def reproduce(out: Path, comm, doc: bool) -> None:
             cam = s.instruments.camera
             steady = cam.get("steady")
             reading = steady.max_C if steady is not None else float("nan")
-            vv = rep.vv20["rows"][i]
+            vv = rep.vv20.rows[i]
             rows.append(
                 (
                     f"{m.speed_rpm:g} rpm, {m.torque_Nm:g} N m",
@@ -555,7 +528,7 @@ def reproduce(out: Path, comm, doc: bool) -> None:
                     f"{after[i]:.1f}",
                     f"`gearfem run {_relative(out)}/{name}`",
                     f"{reading:.1f}",
-                    f"{vv['u_val_K']:.1f}",
+                    f"{vv.u_val:.1f}",
                 )
             )
         table = markdown_table(

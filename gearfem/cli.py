@@ -514,24 +514,6 @@ def _design_grid(args: argparse.Namespace, case):
     )
 
 
-def vv20_line(row: dict, unit: str) -> str:
-    """One measurement's V&V 20 comparison as ``gearfem diagnose`` prints it, in the reading's
-    ``unit``: a temperature in C with its differences in K to 0.1, a torque loss or an efficiency
-    in its own unit to four significant digits (0.1 of a N m would print a loss of 0.05 N m as
-    0.0)."""
-    resolved = " (resolved)" if row["resolved"] else ""
-    if unit == "C":
-        return (
-            f"{row['measurement']}: S = {row['S_C']:.1f} C, D = {row['D_C']:.1f} C, E = "
-            f"{row['E_K']:+.1f} K, u_val = {row['u_val_K']:.1f} K{resolved}"
-        )
-    u = "" if unit == "1" else f" {unit}"
-    return (
-        f"{row['measurement']}: S = {row['S_C']:.4g}{u}, D = {row['D_C']:.4g}{u}, E = "
-        f"{row['E_K']:+.3g}{u}, u_val = {row['u_val_K']:.3g}{u}{resolved}"
-    )
-
-
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     """Confront a case with measured data: V&V 20, candidate extensions ranked, verdict, gain."""
 
@@ -547,8 +529,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         suggest_next=args.suggest,
         grid=_design_grid(args, case),
     )
-    for m, row in zip(data.measurements, r.vv20["rows"], strict=True):  # rows in the data's order
-        _say("  " + vv20_line(row, m.unit))
+    for row in r.vv20.rows:  # in the data's order, each in its reading's unit
+        _say("  " + row.line())
     g = r.diagnosis.gain
     _say(f"verdict: {r.diagnosis.verdict.text}")
     if g.loo_rmse_before_K is not None and g.loo_rmse_after_K is not None:

@@ -10,6 +10,7 @@ truth; only the assertions read it.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import sys
 from importlib import resources
@@ -126,10 +127,9 @@ def test_vv20_arithmetic():
 
 
 def test_the_comparison_prints_each_reading_in_its_unit():
-    """gearfem diagnose's V&V 20 lines: a torque meter's loss of 0.044 N m in N m to four digits
-    (to 0.1 C it printed 0.0 C), a temperature in C and K to 0.1, an efficiency without a unit."""
-    from gearfem.cli import vv20_line
-
+    """The V&V 20 rows of gearfem diagnose and of report.md: a torque meter's loss of 0.044 N m in
+    N m to four digits (to 0.1 C it printed 0.0 C), a temperature in C and K to 0.1, an efficiency
+    without a unit; the rows survive diagnosis.json."""
     c = vv20.Comparison(
         S=np.array([27.31, 0.04362, 0.9712]),
         D=np.array([26.57, 0.04521, 0.9650]),
@@ -137,14 +137,35 @@ def test_the_comparison_prints_each_reading_in_its_unit():
         u_input=np.array([2.8, 0.0012, 0.001]),
         u_D=np.array([2.0, 0.01, 0.005]),
     )
-    rows = c.rows(["a, camera_max @ 300 s", "b, torque_loss_Nm @ end", "c, efficiency @ end"])
-    got = [vv20_line(r, u) for r, u in zip(rows, ("C", "N m", "1"))]
+    rows = c.rows(
+        ["a, camera_max @ 300 s", "b, torque_loss_Nm @ end", "c, efficiency @ end"],
+        ["C", "N m", "1"],
+    )
+    got = [r.line() for r in rows]
     assert got[0] == "a, camera_max @ 300 s: S = 27.3 C, D = 26.6 C, E = +0.7 K, u_val = 3.4 K"
     assert got[1] == (
         "b, torque_loss_Nm @ end: S = 0.04362 N m, D = 0.04521 N m, E = -0.00159 N m, "
         "u_val = 0.0101 N m"
     )
     assert got[2] == "c, efficiency @ end: S = 0.9712, D = 0.965, E = +0.0062, u_val = 0.0051"
+    assert rows[1].cells() == (
+        "b, torque_loss_Nm @ end",
+        "N m",
+        "0.04362",
+        "0.04521",
+        "-0.00159",
+        "0",
+        "0.0012",
+        "0.01",
+        "0.0101",
+        "no",
+    )
+    assert rows[0].cells()[2:6] == ("27.3", "26.6", "+0.7", "0.00")
+    assert len(rows[0].cells()) == len(vv20.TABLE_HEAD)
+    table = vv20.ComparisonTable(rows, c.k, "studies", {"k": (0.1, 0.0, 0.0)})
+    assert vv20.ComparisonTable.from_json(json.loads(json.dumps(table.to_json()))) == table
+    with pytest.raises(ValueError):  # a unit per label
+        c.rows(["a", "b", "c"], ["C", "N m"])
 
 
 def test_material_input_uncertainty_comes_from_the_library():

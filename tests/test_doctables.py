@@ -90,3 +90,29 @@ def test_every_documentation_block_has_a_script_that_writes_it():
         for name in marker.findall(page.read_text())
     }
     assert pending <= found, f"listed but not marked in their page: {sorted(pending - found)}"
+
+
+def _cells(line: str) -> int:
+    """Cells of a Markdown table line: pipes inside code spans and escaped pipes do not count."""
+    line = re.sub(r"`[^`]*`", "", line).replace("\\|", "")
+    return line.strip().strip("|").count("|") + 1
+
+
+def test_every_table_in_the_docs_has_a_cell_per_column():
+    """A table row with more or fewer cells than its header (a '|' in a cell, say '|E|') is not
+    rendered as a table, or loses the cells beyond the header: every table of README.md and docs/
+    keeps its header's count on the delimiter row and on each row."""
+    root = Path(__file__).resolve().parent.parent
+    bad = []
+    for page in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        lines = page.read_text().splitlines()
+        for i in range(1, len(lines)):
+            if not re.fullmatch(r"\|(\s*:?-+:?\s*\|)+", lines[i].strip()):
+                continue
+            n = _cells(lines[i - 1])
+            j = i
+            while j < len(lines) and lines[j].lstrip().startswith("|"):
+                if _cells(lines[j]) != n:
+                    bad.append(f"{page.name}:{j + 1}: {_cells(lines[j])} cells, header {n}")
+                j += 1
+    assert not bad, "\n".join(bad)

@@ -15,6 +15,7 @@ from gearfem.diagnose.candidates import LIBRARY
 from gearfem.diagnose.data import Dataset, Measurement
 from gearfem.diagnose.report import DiagnosisReport
 from gearfem.diagnose.select import Diagnosis, Verdict, diagnose
+from gearfem.diagnose.vv20 import Comparison, ComparisonTable
 from gearfem.pipeline import CycleAtSpeed, CycleCache, Headline, RunSummary
 from gearfem.study import StudyResult, StudyRow
 
@@ -134,8 +135,22 @@ def test_diagnosis_round_trip_and_attributes():
     for a, b in zip(back.models, d.models):
         assert a.candidates == b.candidates and a.params == b.params
         assert a.chi2 == b.chi2 or (math.isnan(a.chi2) and math.isnan(b.chi2))
-    report = DiagnosisReport(d, {"source": "synthetic"}, "coarse", {"rows": []}, {}, {})
+    comparison = Comparison(
+        S=np.array([112.0, 0.05]),
+        D=np.array([110.0, 0.04]),
+        u_num=np.array([0.5, 0.0]),
+        u_input=np.array([2.0, 0.001]),
+        u_D=np.array([3.0, 0.01]),
+    )
+    table = ComparisonTable(
+        comparison.rows(["camera", "torque loss"], ["C", "N m"]),
+        comparison.k,
+        "studies",
+        {"k": (0.5, 0.0)},
+    )
+    report = DiagnosisReport(d, {"source": "synthetic"}, "coarse", table, {}, {})
     flat = json.loads(json.dumps(report.to_json()))
     assert flat["verdict"]["kind"] == d.verdict.kind and flat["case"] == "coarse"
     again = DiagnosisReport.from_json(flat)
     assert again.case == "coarse" and again.diagnosis.verdict == d.verdict
+    assert again.vv20 == table and again.vv20.rows[1].unit == "N m"

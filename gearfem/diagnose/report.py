@@ -31,7 +31,7 @@ from gearfem.diagnose.forward import BRANCH_TRANSIENT_S, FullModel, Surrogate
 from gearfem.diagnose.margins import FoldMargin, fold_margins
 from gearfem.diagnose.margins import markdown as margins_markdown
 from gearfem.diagnose.select import Diagnosis, diagnose, refine
-from gearfem.diagnose.vv20 import Comparison, input_uncertainty
+from gearfem.diagnose.vv20 import TABLE_HEAD, Comparison, ComparisonTable, input_uncertainty
 from gearfem.geometry.involute import GearPair
 from gearfem.instruments.options import ProbeOptions
 from gearfem.uncertainty import DIAGNOSIS_CODE, provenance, run_uncertainty
@@ -274,12 +274,14 @@ def run_diagnosis(
             "measurements": [dataclasses.asdict(m) for m in data.measurements],
         },
         case=case.name,
-        vv20={
-            "rows": comp.rows([m.label() for m in data.measurements]),
-            "k": comp.k,
-            "u_num_method": num_note,
-            "u_input_parts_K": {k: v.tolist() for k, v in parts.items()},
-        },
+        vv20=ComparisonTable(
+            rows=comp.rows(
+                [m.label() for m in data.measurements], [m.unit for m in data.measurements]
+            ),
+            k=comp.k,
+            u_num_method=num_note,
+            u_input_parts={k: tuple(float(x) for x in v) for k, v in parts.items()},
+        ),
         surrogate={
             "full_model_solves": full.solves,
             "baseline_max_abs_difference_K": float(np.max(np.abs(base_sur - S))),
@@ -668,19 +670,14 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "",
         "## V&V 20 comparison of the baseline (full model)",
         "",
-        "| measurement | S (C) | D (C) | E (K) | u_num | u_input | u_D | u_val | |E| > 2 u_val |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| " + " | ".join(TABLE_HEAD) + " |",
+        "|" + "---|" * len(TABLE_HEAD),
     ]
-    for r in report.vv20["rows"]:
-        lines.append(
-            f"| {r['measurement']} | {r['S_C']:.1f} | {r['D_C']:.1f} | {r['E_K']:+.1f} | "
-            f"{r['u_num_K']:.2f} "
-            f"| {r['u_input_K']:.2f} | {r['u_D_K']:.2f} | {r['u_val_K']:.2f} | "
-            f"{'yes' if r['resolved'] else 'no'} |"
-        )
+    for r in report.vv20.rows:
+        lines.append("| " + " | ".join(r.cells()) + " |")
     lines += [
         "",
-        f"u_num: {report.vv20['u_num_method']}.",
+        f"u_num: {report.vv20.u_num_method}.",
         "",
         "## Ranking (surrogate)",
         "",
@@ -829,7 +826,7 @@ class DiagnosisReport(JsonRecord):
     diagnosis: Diagnosis
     data: dict[str, Any]
     case: str
-    vv20: dict[str, Any]
+    vv20: ComparisonTable
     surrogate: dict[str, Any]
     candidates: dict[str, Any]
     suggestion: Suggestion | None = None
@@ -857,7 +854,11 @@ class DiagnosisReport(JsonRecord):
         sug = data.get("suggestion")
         return cls(
             Diagnosis.from_json(rest),
-            *(data[k] for k in own),
+            data["data"],
+            data["case"],
+            ComparisonTable.from_json(data["vv20"]),
+            data["surrogate"],
+            data["candidates"],
             suggestion=None if sug is None else Suggestion.from_json(sug),
             fold_margins=tuple(FoldMargin.from_json(m) for m in data.get("fold_margins", ())),
             provenance=data.get("provenance"),
