@@ -27,7 +27,7 @@ from gearfem.config import Case, load_case, write_case
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.io import prepare_output, read_json, write_json
 from gearfem.core.log import ProgressBar
-from gearfem.core.material_library import library_material
+from gearfem.core.material_library import library_material, library_names
 from gearfem.core.materials import ZERO_CELSIUS_K, TemperatureTable
 from gearfem.core.provenance import versions
 from gearfem.core.results import JsonRecord
@@ -1260,10 +1260,18 @@ def modulus_tables(case: Case) -> dict[str, TemperatureTable]:
             continue
         table = lib.tables.get("youngs_modulus_Pa")
         if table is None:
+            with_table = [
+                n
+                for n in library_names()
+                if library_material(n).kind != "steel"
+                and "youngs_modulus_Pa" in library_material(n).tables
+            ]
             raise ParameterError(
                 "cycle.modulus",
                 "thermal_state",
-                "a polymer with an E(T) table in the materials library (PEEK 450G)",
+                "a polymer with an E(T) table in the materials library ("
+                + ", ".join(with_table)
+                + ")",
                 f'the {b}\'s {lib.name} has none: set modulus = "constant" and its '
                 "youngs_modulus_Pa at the running temperature",
             )

@@ -256,8 +256,10 @@ def test_a_modulus_from_the_thermal_state_needs_a_table_and_a_run(monkeypatch):
         return dataclasses.replace(lib, tables=rest)
 
     monkeypatch.setattr(pipeline, "library_material", without_e_of_t)
-    with pytest.raises(ParameterError, match=r"cycle\.modulus.*wheel's POM has none"):
+    with pytest.raises(ParameterError, match=r"cycle\.modulus.*wheel's POM has none") as err:
         pipeline.modulus_tables(case_from_dict({"material_wheel": pom, "cycle": follows}))
+    # the allowed values are the library's polymers that have a table
+    assert err.value.allowed.endswith("(PA66, PEEK 450G)")
     monkeypatch.undo()
     steel_peek = case_from_dict({"material": {"name": "steel"}, "cycle": follows})
     steel_peek = dataclasses.replace(steel_peek, material_wheel=Case().material)
