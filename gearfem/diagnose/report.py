@@ -12,6 +12,7 @@ import numpy as np
 from mpi4py import MPI
 
 from gearfem.config import Case, write_case
+from gearfem.core.doctables import markdown_table
 from gearfem.core.io import prepare_output, write_json
 from gearfem.core.material_library import library_material
 from gearfem.core.results import JsonRecord
@@ -670,11 +671,8 @@ def markdown(report: DiagnosisReport, data: Dataset) -> str:
         "",
         "## V&V 20 comparison of the baseline (full model)",
         "",
-        "| " + " | ".join(TABLE_HEAD) + " |",
-        "|" + "---|" * len(TABLE_HEAD),
+        markdown_table(TABLE_HEAD, [r.cells() for r in report.vv20.rows]),
     ]
-    for r in report.vv20.rows:
-        lines.append("| " + " | ".join(r.cells()) + " |")
     lines += [
         "",
         f"u_num: {report.vv20.u_num_method}.",
