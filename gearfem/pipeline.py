@@ -26,6 +26,7 @@ from gearfem.baselines import baseline_summary, max_rack_fillet_coef
 from gearfem.config import Case, load_case, write_case
 from gearfem.core.errors import ConvergenceError, ParameterError
 from gearfem.core.io import prepare_output, read_json, write_json
+from gearfem.core.kept import Kept, members
 from gearfem.core.log import ProgressBar
 from gearfem.core.material_library import library_material, library_names
 from gearfem.core.materials import ZERO_CELSIUS_K, TemperatureTable
@@ -843,6 +844,34 @@ class ThermalSetup:
     title: str
 
 
+#: The thermal meshes and domains of the last runs (a diagnosis's runs of one case share them).
+KEPT_DOMAINS: Kept[tuple[Any, ThermalDomain]] = Kept(4)
+
+
+def thermal_domain(
+    case: Case, body: str, comm: MPI.Comm, mesh_cache: Path | None, flux_flanks: str
+) -> tuple[Any, ThermalDomain]:
+    """The thermal mesh of ``body`` (that body only: balanced over the ranks) and its
+    :class:`ThermalDomain`, built or kept from an earlier run on the same ranks with the same
+    geometry, thermal mesh options, mesh cache and flux flanks (collective)."""
+    key = (
+        case.geometry,
+        case.thermal_mesh_options,
+        body,
+        flux_flanks,
+        None if mesh_cache is None else str(mesh_cache),
+        members(comm),
+    )
+
+    def build() -> tuple[Any, ThermalDomain]:
+        gm = build_gear_mesh(
+            case.geometry, case.thermal_mesh_options, comm, cache_dir=mesh_cache, bodies=(body,)
+        )
+        return gm, ThermalDomain.from_gear_mesh(gm, body, flux_flanks=flux_flanks)
+
+    return KEPT_DOMAINS.get(key, (), build)
+
+
 def thermal_problem(
     case: Case, comm: MPI.Comm, cycle_result=None, mesh_cache: Path | None = None
 ) -> ThermalSetup:
@@ -862,12 +891,8 @@ def thermal_problem(
             "'fixed' or 'blok' in a thermal problem of one gear (gearfem thermal)",
             "the split by contact temperature solves both gears' runs together: gearfem run",
         )
-    # the thermal model meshes only its body: balanced over the ranks
-    gm = build_gear_mesh(
-        case.geometry, case.thermal_mesh_options, comm, cache_dir=mesh_cache, bodies=(body,)
-    )
-    domain = ThermalDomain.from_gear_mesh(
-        gm, body, flux_flanks=src.flanks if src.mode == "prescribed" else "drive"
+    gm, domain = thermal_domain(
+        case, body, comm, mesh_cache, src.flanks if src.mode == "prescribed" else "drive"
     )
     material = case.materials[body]
     profile = gm.pair.profile(body)

@@ -65,3 +65,39 @@ def test_forward_state_returns_friction_heat_and_branch(friction_models):
     assert again.keys() == st.temperatures_C.keys()
     for k, v in again.items():
         assert v == pytest.approx(st.temperatures_C[k], abs=1e-9), k
+
+
+@pytest.mark.slow
+def test_kept_thermal_parts_give_the_runs_built_anew(friction_models):
+    """A diagnosis's runs keep the thermal mesh and domain, the U_max field, the flank transfer
+    and the friction law's contact instances (gearfem.core.kept): each run on kept parts gives
+    what the same run built anew gives, for the cycle's constant mu, a law recomputed once from
+    the contact history and a law whose heat may rise with temperature (its instances kept under
+    another law's flux)."""
+    from gearfem import pipeline
+    from gearfem.core.kept import forget_all
+    from gearfem.coupling import friction_heat, heat_sources
+
+    full, _ = friction_models
+    models = (
+        {},
+        {"friction_pressure": -0.2},
+        {"friction_glass_transition": 0.2},
+        {"friction_glass_transition": 0.3},
+    )
+    stores = (
+        pipeline.KEPT_DOMAINS,
+        heat_sources.KEPT_U_MAX,
+        heat_sources.KEPT_TRANSFERS,
+        friction_heat.KEPT_INSTANCES,
+    )
+    forget_all()
+    hits = [s.hits for s in stores]
+    kept = [full.evaluate(1000.0, 8.0, 23.0, m) for m in models]
+    assert all(s.hits > h for s, h in zip(stores, hits)), [s.hits for s in stores]
+    for m, got in zip(models, kept):
+        forget_all()
+        anew = full.evaluate(1000.0, 8.0, 23.0, m)
+        assert got.keys() == anew.keys()
+        for k, v in anew.items():
+            assert got[k] == pytest.approx(v, rel=1e-12, abs=1e-12), (m, k)

@@ -67,6 +67,7 @@ from mpi4py import MPI
 from gearfem.baselines import band_source_rise, peclet_regime
 from gearfem.contact.friction import DEFAULT_BAND_MODEL, BandModel, FrictionLaw
 from gearfem.core.errors import ParameterError
+from gearfem.core.kept import Kept
 from gearfem.core.materials import Material
 from gearfem.geometry.options import BODIES
 
@@ -712,6 +713,11 @@ def reference_flux(
     return state.flux_W_m2, state, bands
 
 
+#: The contact bands and instances of the last thermal friction models (as a flux of the first
+#: law built on them), kept by :meth:`ThermalFrictionFlux._build`.
+KEPT_INSTANCES: Kept[FrictionFlux] = Kept(2)
+
+
 class ThermalFrictionFlux:
     """The friction heat of a temperature-dependent friction law as a
     :class:`gearfem.thermal.source_terms.SurfaceFluxModel` on the thermal mesh of one gear.
@@ -755,7 +761,25 @@ class ThermalFrictionFlux:
 
     def _build(self, band_model: BandModel) -> None:
         """The contact bands read by ``band_model``, the instances on the thermal cells and the
-        flux of the law on them (collective)."""
+        flux of the law on them (collective). The bands and instances do not depend on the law:
+        they are kept (:data:`KEPT_INSTANCES`) for the next model on the same transfer and cycle
+        with the same materials, speed, partition, band model and contact temperature."""
+        cycle, materials, speed_rpm, partition, fixed_fraction = self._contact
+        key = (
+            self.body,
+            tuple(sorted(materials.items())),
+            float(speed_rpm),
+            partition,
+            float(fixed_fraction),
+            band_model,
+            self._contact_temperature,
+        )
+        flux = KEPT_INSTANCES.get(key, (self.transfer, cycle), lambda: self._flux_of(band_model))
+        self.bands, self.band_model = flux.bands, band_model
+        self.flux = flux if flux.law is self.law else flux.with_law(self.law)
+
+    def _flux_of(self, band_model: BandModel) -> FrictionFlux:
+        """:meth:`_build` without the kept instances: the flux of the law (collective)."""
         transfer = self.transfer
         cycle, materials, speed_rpm, partition, fixed_fraction = self._contact
         bands = contact_bands(
@@ -768,7 +792,6 @@ class ThermalFrictionFlux:
             NEGLIGIBLE_HEAT,
             band_model,
         )
-        self.bands, self.band_model = bands, band_model
         ref = reference_instances(cycle, bands)
         q_ref0 = np.bincount(
             ref.target, weights=bands.heat[ref.point] * ref.weight, minlength=ref.num_targets
@@ -793,7 +816,7 @@ class ThermalFrictionFlux:
             group_band=np.repeat(np.arange(bands.num_bands), nt),
             num_targets=transfer.num_cells,
         )
-        self.flux = FrictionFlux(
+        return FrictionFlux(
             self.law,
             bands,
             inst,

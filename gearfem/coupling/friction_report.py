@@ -29,6 +29,7 @@ from gearfem.contact.friction import DEFAULT_BAND_MODEL, BandModel, FrictionLaw
 from gearfem.core.forms import kept_form
 from gearfem.core.materials import ZERO_CELSIUS_K
 from gearfem.coupling.friction_heat import FluxState, ThermalFrictionFlux
+from gearfem.coupling.heat_sources import flank_transfer
 from gearfem.coupling.options import FluxReconstruction
 from gearfem.coupling.transfer import FlankTransfer
 
@@ -43,7 +44,7 @@ def friction_model(
     model = problem.sources.flank_flux_model
     if isinstance(model, ThermalFrictionFlux):
         return model
-    tr = FlankTransfer(
+    tr = flank_transfer(
         problem.domain, gear_mesh, body, cycle.fields[body], reconstruction=reconstruction
     )
     return ThermalFrictionFlux(

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from gearfem.contact.friction import FrictionOptions
+from gearfem.core.kept import Kept
 from gearfem.core.materials import ZERO_CELSIUS_K, Material
 from gearfem.coupling.friction_heat import ThermalFrictionFlux, reference_flux
 from gearfem.coupling.options import FluxReconstruction, SourceOptions
@@ -46,8 +47,34 @@ def _cell_centroids(mesh, n: int) -> np.ndarray:
     return mesh.geometry.x[mesh.geometry.dofmaps[0][:n]].mean(axis=1)
 
 
+#: U_max functions and flank transfers of the last runs, kept by their thermal domain, gear mesh
+#: and cycle fields (the same objects; a diagnosis's runs at one torque share them).
+KEPT_U_MAX: Kept = Kept(4)
+KEPT_TRANSFERS: Kept[FlankTransfer] = Kept(4)
+
+
 def u_max_function(domain, gear_mesh, body: str, fields):
-    """DG0 U_max (J/m³) on the thermal mesh from the cycle's reference sector (collective-free)."""
+    """DG0 U_max (J/m³) on the thermal mesh from the cycle's reference sector (collective-free;
+    kept for the same domain, gear mesh and fields: read, never written, by the sources)."""
+    return KEPT_U_MAX.get(
+        body, (domain, gear_mesh, fields), lambda: _u_max_function(domain, gear_mesh, body, fields)
+    )
+
+
+def flank_transfer(
+    domain, gear_mesh, body: str, fields, kinds=FLANK_KINDS, reconstruction=None
+) -> FlankTransfer:
+    """:class:`FlankTransfer` of the cycle's ``fields`` onto ``domain``, kept for the same domain,
+    gear mesh and fields (the same objects) and the same kinds and reconstruction
+    (collective-free)."""
+    return KEPT_TRANSFERS.get(
+        (body, tuple(kinds), reconstruction),
+        (domain, gear_mesh, fields),
+        lambda: FlankTransfer(domain, gear_mesh, body, fields, kinds, reconstruction),
+    )
+
+
+def _u_max_function(domain, gear_mesh, body: str, fields):
     from dolfinx import fem
 
     mesh = domain.mesh
@@ -85,7 +112,7 @@ def friction_flux_function(
     tooth's total is then scaled to the reference tooth's heat
     (:mod:`gearfem.coupling.transfer`). Collective (totals are reduced).
     """
-    tr = FlankTransfer(domain, gear_mesh, body, fields, kinds, reconstruction)
+    tr = flank_transfer(domain, gear_mesh, body, fields, kinds, reconstruction)
     if reference_flux_W_m2 is None:
         q_ref = heat_fraction * fields.generated_flux_W_m2_per_rad_s * omega1_rad_s
     else:
@@ -174,7 +201,7 @@ def cycle_heat_sources(
             kw.update(flank_flux_W_m2=flux, flux_surfaces=names)
         else:
             kw["flank_flux_model"] = ThermalFrictionFlux(
-                FlankTransfer(domain, gear_mesh, body, fields, reconstruction=reconstruction),
+                flank_transfer(domain, gear_mesh, body, fields, reconstruction=reconstruction),
                 cycle,
                 body,
                 law,
@@ -191,6 +218,7 @@ def cycle_heat_sources(
 __all__ = [
     "AREA_QUADRATURE_DEGREE",
     "cycle_heat_sources",
+    "flank_transfer",
     "friction_flux_function",
     "u_max_function",
 ]
