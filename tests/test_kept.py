@@ -39,6 +39,13 @@ def test_the_least_recently_used_entry_is_forgotten_first():
     assert kept.get(1, (), lambda: "after forget_all") == "after forget_all"
 
 
+def test_an_unhashable_key_is_built_every_time():
+    kept = Kept(2)
+    assert kept.get(([1.0],), (), lambda: "built") == "built"
+    assert kept.get(([1.0],), (), lambda: "built again") == "built again"
+    assert (kept.hits, kept.builds) == (0, 2)
+
+
 def test_a_size_below_one_is_refused():
     with pytest.raises(ParameterError, match="Kept.size"):
         Kept(0)

@@ -38,7 +38,11 @@ class Kept[T]:
         """The object built from ``key`` (values) and ``objects`` (by identity), built by
         ``build()`` when not held. A collective ``build`` stays collective: the entries depend
         only on the inputs, which every rank of a run passes alike."""
-        entry = self._entries.get(key)
+        try:
+            entry = self._entries.get(key)
+        except TypeError:  # a key that cannot be hashed is never kept
+            self.builds += 1
+            return build()
         if entry is not None and _same(entry[0], objects):
             self._entries.move_to_end(key)
             self.hits += 1

@@ -767,7 +767,7 @@ class ThermalFrictionFlux:
         cycle, materials, speed_rpm, partition, fixed_fraction = self._contact
         key = (
             self.body,
-            tuple(sorted(materials.items())),
+            repr(sorted(materials.items())),  # a material's tables may be lists
             float(speed_rpm),
             partition,
             float(fixed_fraction),
