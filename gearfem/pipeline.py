@@ -941,9 +941,11 @@ def thermal_field(
     the instruments (a :class:`~gearfem.instruments.snapshot.BodyField` on rank 0, None on the
     other ranks and without ``record``). ``branch_search=False`` skips the search for other steady
     states of a friction law whose heat may rise with temperature (:func:`friction_branches`;
-    the temperatures, taken before it, are the same): a caller that needs only the branch the
-    transient reached, such as the diagnosis surrogate, saves its three extra steady solves.
-    ``friction_report``: the friction report (contact temperatures) even without plots."""
+    the temperatures, taken before it, are the same) and, without ``write_plot`` and
+    ``friction_report``, the friction report: a caller that needs only the temperatures of the
+    branch the transient reached, such as the diagnosis surrogate, saves three extra steady
+    solves and the report. ``friction_report``: the friction report (contact temperatures) even
+    without plots."""
 
     setup = thermal_problem(case, comm, cycle_result, mesh_cache)
     problem, gm, domain, boundary = setup.problem, setup.gear_mesh, setup.domain, setup.boundary
@@ -984,11 +986,13 @@ def thermal_field(
         reached = case.thermal.mode == "transient" or problem.sources.flank_flux_may_rise
         end = problem.T.x.array.copy() if reached else None
         friction = None
-        # the friction report (maps, contact temperatures) of gearfem run, or of any other law
+        # the friction report (maps, contact temperatures) of gearfem run, or of any other law;
+        # not for a caller that skips the branch search and wants neither plots nor the report
+        # (the diagnosis surrogate's runs: about 0.8 s a gear on the built-in case)
         if (
             cycle_result is not None
             and src.friction
-            and (write_plot or friction_report or not case.friction.is_default)
+            and (write_plot or friction_report or (branch_search and not case.friction.is_default))
         ):
             friction = friction_outputs(problem, gm, case, cycle_result, out_dir, write_plot)
         if case.thermal.mode == "transient" and steady:
