@@ -107,3 +107,38 @@ def test_steady_mode_writes_one_row(tmp_path):
     assert len(records) == 1 and records[0].balance.stored_W == 0.0
     assert records[0].balance.relative_imbalance < 1e-9
     assert (tmp_path / "steady" / "thermal_summary.json").exists()
+
+
+def test_a_sector_of_other_teeth_compiles_no_new_forms():
+    """The thermal forms integrate over subdomain ids of their own (the roles, the flux, the
+    monitors), not the mesh's facet tags: the same problem on a sector of three teeth, whose
+    groups are more and numbered otherwise, compiles nothing the two-tooth sector's did not; and
+    its role areas are those of the facet tags' measure."""
+    import ufl
+    from dolfinx import fem
+
+    from gearfem.core.forms import num_kept
+    from gearfem.thermal.domain import ROLES
+
+    def build(teeth: int) -> ThermalProblem:
+        dom = sector_domain(MPI.COMM_SELF, teeth=teeth)
+        mat = Material()
+        opts = ThermalOptions(duration_s=60.0, dt_initial_s=0.5)
+        src = prescribed_heat_sources(
+            PrescribedSources(flank_heat_per_gear_W=40.0, u_max_J_m3=1e5), dom, mat, 1000.0, 30
+        )
+        bnd = ThermalBoundary.from_options(opts, mat, 1000.0, GearRadii.thesis_gear())
+        return ThermalProblem(dom, mat, src, bnd, opts, petsc_options_prefix=f"tags{teeth}_")
+
+    with build(2) as two:
+        two.solve_steady()
+        kept = num_kept()
+    with build(3) as three:
+        three.solve_steady()
+        assert num_kept() == kept
+        dom = three.domain
+        ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.facet_tags)
+        for role, area in three.role_areas_m2().items():
+            expected = fem.assemble_scalar(fem.form(1.0 * ds(dom.role_tags(role))))
+            assert area == pytest.approx(expected, rel=1e-12), role
+        assert set(three.role_areas_m2()) == {r for r in ROLES if getattr(dom, r)}

@@ -128,6 +128,32 @@ class ThermalDomain:
     def comm(self):
         return self.mesh.comm
 
+    def integration_entities(self, names: tuple[str, ...] | list[str]) -> np.ndarray:
+        """The exterior facets of the named groups as integration entities (cell, local facet),
+        as :func:`dolfinx.fem.get_integration_domains` gives them for their tags."""
+        import dolfinx
+
+        topology = self.mesh.topology
+        tdim = topology.dim
+        topology.create_connectivity(tdim - 1, tdim)
+        topology.create_connectivity(tdim, tdim - 1)
+        facets = np.intersect1d(self.facets(names), dolfinx.mesh.exterior_facet_indices(topology))
+        return np.asarray(
+            dolfinx.fem.compute_integration_domains(
+                dolfinx.fem.IntegralType.exterior_facet, topology, facets.astype(np.int32)
+            )
+        )
+
+    def surface_measure(self, surfaces: Mapping[int, tuple[str, ...]], metadata: dict):
+        """The exterior facet measure whose subdomain ``i`` is the facets of the groups
+        ``surfaces[i]``: forms over it carry the ids chosen by their caller, not the mesh's tag
+        numbers, so the same form on another mesh (more teeth, other groups' tags) is the same
+        compiled code (FFCx keys its cache by the form's subdomain ids)."""
+        import ufl
+
+        data = [(int(i), self.integration_entities(names)) for i, names in sorted(surfaces.items())]
+        return ufl.Measure("ds", domain=self.mesh, subdomain_data=data, metadata=metadata)
+
     def _check_roles_cover_boundary(self) -> None:
         """Every exterior facet in exactly one role; no role overlaps (collective)."""
         import dolfinx

@@ -35,7 +35,7 @@ from gearfem.core.forms import kept_derivative_form, kept_form
 from gearfem.core.materials import ZERO_CELSIUS_K, Material, STEFAN_BOLTZMANN_W_m2K4
 from gearfem.thermal.balance import HeatBalance
 from gearfem.thermal.boundary import ThermalBoundary
-from gearfem.thermal.domain import ThermalDomain
+from gearfem.thermal.domain import ROLES, ThermalDomain
 from gearfem.thermal.newton import Effort, NewtonSolver, SolverStatistics
 from gearfem.thermal.options import ThermalOptions
 from gearfem.thermal.periodic import PeriodicTie
@@ -89,6 +89,15 @@ class _Observer:
     """Interface of what ``run`` reports to (see :class:`gearfem.thermal.outputs.ThermalWriter`)."""
 
     def on_step(self, problem: ThermalProblem, record: StepRecord, write_field: bool) -> None: ...
+
+
+#: Subdomain ids of the surfaces the thermal forms integrate over (:meth:`ThermalDomain.
+#: surface_measure`): the roles, the prescribed (or constant-mu) flank flux and a friction law's
+#: flux model. The compiled forms then do not depend on how a mesh numbers its facet groups: the
+#: same form on a sector of 1 or 8 teeth is compiled once.
+SURFACE_IDS = {"teeth": 1, "sides": 2, "bore": 3, "cuts": 4, "flux": 5, "flux_model": 6}
+#: Subdomain ids of the gear's monitored surfaces (other monitors: from 21, in name order).
+MONITOR_IDS = {"flank": 11, "coast_flank": 12, "tip": 13, "root": 14}
 
 
 class ThermalProblem:
@@ -150,8 +159,10 @@ class ThermalProblem:
 
         qv, qs = 2 * p + 1, 2 * p + 3
         dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": qv})
-        ds = ufl.Measure(
-            "ds", domain=mesh, subdomain_data=domain.facet_tags, metadata={"quadrature_degree": qs}
+        surfaces = self._surfaces(domain, sources)
+        self._surface_ids = {key: i for i, (key, _) in surfaces.items()}
+        ds = domain.surface_measure(
+            {i: names for i, (_, names) in surfaces.items()}, {"quadrature_degree": qs}
         )
         self._dx, self._ds = dx, ds
         x = ufl.SpatialCoordinate(mesh)
@@ -168,7 +179,7 @@ class ThermalProblem:
         ) / self._dt
 
         vol = self._volume_sources(T, x)
-        surf = self._surface_terms(T, x, ds)
+        surf = self._surface_terms(T, x)
         self._cp_const, self._k_const = cp.is_constant, kT.is_constant
         self._split = self._residual_split(T, v, vol, surf, stored)
 
@@ -199,6 +210,33 @@ class ThermalProblem:
         )
 
     # --- the forms, one builder per part ----------------------------------------------------------
+    @staticmethod
+    def _surfaces(domain: ThermalDomain, sources: HeatSources) -> dict[int, tuple[Any, tuple]]:
+        """The surfaces the forms integrate over, by subdomain id (:data:`SURFACE_IDS`,
+        :data:`MONITOR_IDS`; other monitors from 21 in the order of their names): id -> (key,
+        group names), the key what :meth:`_on` takes."""
+        out: dict[int, tuple[Any, tuple]] = {}
+        for role in ROLES:
+            if getattr(domain, role):
+                out[SURFACE_IDS[role]] = (role, tuple(getattr(domain, role)))
+        if sources.flank_flux_W_m2 is not None:
+            out[SURFACE_IDS["flux"]] = ("flux", tuple(sources.flux_surfaces))
+        if sources.flank_flux_model is not None:
+            out[SURFACE_IDS["flux_model"]] = (
+                "flux_model",
+                tuple(sources.flank_flux_model.surfaces),
+            )
+        others = iter(range(21, 21 + len(domain.monitors)))
+        for mon in sorted(domain.monitors):
+            i = MONITOR_IDS[mon] if mon in MONITOR_IDS else next(others)
+            out[i] = (("monitor", mon), tuple(domain.monitors[mon]))
+        return out
+
+    def _on(self, key):
+        """The surface measure of a surface of :meth:`_surfaces` (a role, ``"flux"``,
+        ``"flux_model"`` or ``("monitor", name)``)."""
+        return self._ds(self._surface_ids[key])
+
     def _const(self, value: float) -> fem.Constant:
         """A number of the forms as a constant of the mesh, not a literal: the compiled forms then
         do not depend on it, and a run with another convection coefficient, ambient, emissivity,
@@ -217,10 +255,13 @@ class ThermalProblem:
                 * src.u_max
             )
         if src.volumetric_W_m3 is not None:
-            vol["volumetric"] = field_ufl(src.volumetric_W_m3, x, self._t)
+            q = src.volumetric_W_m3
+            vol["volumetric"] = (
+                self._const(q) if isinstance(q, (int, float)) else field_ufl(q, x, self._t)
+            )
         return vol
 
-    def _surface_terms(self, T, x, ds) -> dict[str, list[tuple[Any, Any]]]:
+    def _surface_terms(self, T, x) -> dict[str, list[tuple[Any, Any]]]:
         """Surface heat flows (W/m², outward positive except the friction input) with their
         measures: friction q_f (times μ(T)/μ_ref if given), convection h(T)(T − T_f), radiation
         ε σ (T⁴ − T_r⁴), and the bore's heat path."""
@@ -236,18 +277,20 @@ class ThermalProblem:
         self._fscale = fem.Constant(domain.mesh, 1.0)
         self._friction_unscaled: list[tuple[Any, Any]] = []
         if src.flank_flux_W_m2 is not None:
-            qf = self._const(src.flux_scale) * field_ufl(src.flank_flux_W_m2, x, self._t)
+            q = src.flank_flux_W_m2  # a number as a constant: a form of any flux value
+            q = self._const(q) if isinstance(q, (int, float)) else field_ufl(q, x, self._t)
+            qf = self._const(src.flux_scale) * q
             if src.flux_temperature_factor is not None:
                 qf = qf * src.flux_temperature_factor(T)
-            self._friction_unscaled.append((qf, ds(domain.tags(src.flux_surfaces))))
-            surf["friction"].append((self._fscale * qf, ds(domain.tags(src.flux_surfaces))))
+            self._friction_unscaled.append((qf, self._on("flux")))
+            surf["friction"].append((self._fscale * qf, self._on("flux")))
         self._flux_model = src.flank_flux_model
         if self._flux_model is not None:
             # q = q(T̄) per cell, T̄ the cell's mean temperature over its facets on the model's
             # surfaces: T̄ = (B T)_c / A_c with B_cj = ∫ φ_j ds over those facets; the Jacobian
             # term -s Bᵀ diag(q'(T̄)/A) B is added as a matrix (_flux_jacobian), exactly
             m = self._flux_model
-            dsm = ds(domain.tags(m.surfaces))
+            dsm = self._on("flux_model")
             Q0 = m.value.function_space
             self._flux_Tbar = fem.Function(Q0, name="surface_mean_temperature_K")
             w0 = ufl.TestFunction(Q0)
@@ -267,7 +310,7 @@ class ThermalProblem:
             names = getattr(domain, role)
             if not names:
                 continue
-            dsr = ds(domain.tags(names))
+            dsr = self._on(role)
             h = ex.h(T)
             conv_term = (self._const(h) if isinstance(h, float) else h) * (
                 T - self._const(ex.fluid_K)
@@ -319,7 +362,7 @@ class ThermalProblem:
         constant coefficients (storage with constant c_p, convection with constant h) are
         evaluated as dot products with the weight vectors ∫φ_i (exactly the same sums); the rest
         as forms. Returns (forms by balance name, fast convection terms)."""
-        dx, ds, domain = self._dx, self._ds, self.domain
+        dx, domain = self._dx, self.domain
         forms: dict[str, Any] = {} if self._fast_stored else {"stored_W": kept_form(stored * dx)}
         names = {"hysteresis": "hysteresis_W", "volumetric": "volumetric_W"}
         for name, q in vol.items():
@@ -330,13 +373,13 @@ class ThermalProblem:
             for role in ("teeth", "sides"):
                 if getattr(domain, role):
                     ex = exchanges[role]
-                    tags = domain.role_tags(role)
+                    on = self._on(role)
                     fast_conv.append(
                         (
                             float(ex.h_W_m2K),
                             ex.fluid_K,
-                            self._weights(v * ds(tags)),
-                            self._integrate(1.0 * ds(tags)),
+                            self._weights(v * on),
+                            self._integrate(1.0 * on),
                         )
                     )
         for name, terms in surf.items():
@@ -346,21 +389,21 @@ class ThermalProblem:
 
     def _probes(self, v) -> None:
         """Volume, role areas, surface dofs and the monitors (weights ∫_S φ_i, area, dofs on S)."""
-        domain, ds = self.domain, self._ds
+        domain = self.domain
         fdim = domain.mesh.topology.dim - 1
         self._volume = self._integrate(1.0 * self._dx)
         self.volume_m3 = self._volume
         self._role_areas = {
-            role: self._integrate(1.0 * ds(domain.role_tags(role)))
+            role: self._integrate(1.0 * self._on(role))
             for role in ("teeth", "sides", "bore", "cuts")
             if getattr(domain, role)
         }
         self._surface_dofs = self._dofs(fdim, domain.teeth + domain.sides + domain.bore)
         self._monitors = {}
         for mon, groups in domain.monitors.items():
-            area = self._integrate(1.0 * ds(domain.tags(groups)))
+            area = self._integrate(1.0 * self._on(("monitor", mon)))
             self._monitors[mon] = (
-                self._weights(v * ds(domain.tags(groups))),
+                self._weights(v * self._on(("monitor", mon))),
                 area,
                 self._dofs(fdim, groups),
             )

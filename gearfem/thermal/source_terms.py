@@ -143,8 +143,6 @@ class HeatSources:
 
 def field_ufl(field: SourceField, x: Any, t: Any) -> Any:
     """UFL expression of a source field (float, Function or callable (x, t))."""
-    import ufl
-
     if callable(field) and not hasattr(field, "function_space"):
         return field(x, t)
     if isinstance(field, (int, float)):
@@ -175,10 +173,8 @@ def prescribed_heat_sources(
     surfaces = _flank_groups(domain, prescribed.flanks)
     flux = None
     if prescribed.flank_heat_per_gear_W > 0.0:
-        ds = ufl.Measure("ds", domain=domain.mesh, subdomain_data=domain.facet_tags)
-        area = domain.comm.allreduce(
-            fem.assemble_scalar(kept_form(1.0 * ds(domain.tags(surfaces)))), op=MPI.SUM
-        )
+        ds = domain.surface_measure({1: surfaces}, {})  # the same form on every mesh
+        area = domain.comm.allreduce(fem.assemble_scalar(kept_form(1.0 * ds(1))), op=MPI.SUM)
         if area <= 0.0:
             raise ParameterError(
                 "sources.flanks", prescribed.flanks, "flanks with positive area in the mesh"
