@@ -16,6 +16,12 @@ stale instead of standing beside a model that no longer gives it:
   :data:`QUOTED_BLOCKS` that carries no provenance at all;
 * the test suite runs it (``tests/test_claims.py``), so a change of the model cannot leave the
   headline behind; ``gearfem claims`` prints the list with the command that regenerates each;
+* a block that has not been written again yet says so where it stands: :func:`mark_stale`
+  (``gearfem claims --mark``) puts a visible note under its provenance line, naming the commit and
+  date it was computed at, the code that changed since and the command that writes it again. The
+  test suite accepts a stale block only with that note (and a note only on a stale block), so a
+  change of the model either regenerates a quoted figure or tells its reader it is outdated, never
+  leaves it standing; regenerating the block removes the note;
 * :data:`REGENERATIONS` holds those commands in the order to run them, each once for all the blocks
   it writes (:func:`regenerations` picks the ones a list of stale blocks needs);
   ``benchmarks/regenerate.py`` runs them and times each.
@@ -30,7 +36,7 @@ import dataclasses
 from pathlib import Path
 
 from gearfem.config import Case, load_case
-from gearfem.core.doctables import Provenance, blocks
+from gearfem.core.doctables import Provenance, blocks, read_block, replace_block
 from gearfem.core.provenance import code_hash
 from gearfem.uncertainty import resolution_key
 
@@ -174,20 +180,40 @@ def _by_page(steps: tuple[Regeneration, ...]) -> dict[str, dict[str, str]]:
 QUOTED_BLOCKS: dict[str, dict[str, str]] = _by_page(REGENERATIONS)
 
 
+#: The line :func:`mark_stale` puts under a stale block's provenance line, above its visible note.
+STALE_MARK = "<!-- gearfem:stale -->"
+
+
 @dataclasses.dataclass(frozen=True)
 class StaleClaim:
-    """A quoted block that no longer belongs to the shipped model, and why."""
+    """A quoted block that no longer belongs to the shipped model, and why. ``marked``: the block
+    says so to its reader (:func:`mark_stale`)."""
 
     page: str
     block: str
     reason: str
+    marked: bool = False
 
     def __str__(self) -> str:
-        return f"{self.page}: block {self.block!r}: {self.reason}"
+        return f"{self.page}: block {self.block!r}: {self.reason}" + " (marked)" * self.marked
 
 
 def check_block(page: str, name: str, text: str, case_key: str, required: bool) -> list[StaleClaim]:
-    """The reasons why block ``name`` of ``page`` is stale (empty: it is current)."""
+    """The reasons why block ``name`` of ``page`` is stale (empty: it is current), each marked
+    when the block carries the stale note; a note on a current block is a reason of its own."""
+    out = _stale_reasons(page, name, text, case_key, required)
+    if STALE_MARK not in text:
+        return out
+    if not out:
+        return [
+            StaleClaim(page, name, "marked stale, but current: `gearfem claims --mark` clears it")
+        ]
+    return [dataclasses.replace(c, marked=True) for c in out]
+
+
+def _stale_reasons(
+    page: str, name: str, text: str, case_key: str, required: bool
+) -> list[StaleClaim]:
     prov = Provenance.parse(text)
     if prov is None:
         return [StaleClaim(page, name, "no provenance line")] if required else []
@@ -244,6 +270,65 @@ def stale_claims(root: str | Path, builtin: Case | None = None) -> list[StaleCla
     return out
 
 
+def unmarked(found: list[StaleClaim]) -> list[StaleClaim]:
+    """The claims of ``found`` whose block does not tell its reader (what the test suite fails
+    on)."""
+    return [c for c in found if not c.marked]
+
+
+def mark_stale(root: str | Path, builtin: Case | None = None) -> list[StaleClaim]:
+    """Put the stale note into every stale, unmarked block under ``root`` that has a provenance
+    line, and take it out of every marked block that is current again; the claims still unmarked
+    afterwards (blocks without a provenance line or missing from their page, which only their
+    command can write)."""
+    root = Path(root)
+    found = stale_claims(root, builtin)
+    by_block: dict[tuple[str, str], list[StaleClaim]] = {}
+    for c in found:
+        by_block.setdefault((c.page, c.block), []).append(c)
+    for (page, name), items in by_block.items():
+        path = root / page
+        if not path.is_file() or name not in blocks(path):
+            continue
+        text = read_block(path, name)
+        prov = Provenance.parse(text)
+        if prov is None:
+            continue
+        if STALE_MARK in text:
+            if any(c.marked for c in items):
+                continue  # marked and stale: as it should be
+            replace_block(path, name, _without_note(text))  # marked and current
+        else:
+            replace_block(path, name, _with_note(text, prov, items))
+    return unmarked(stale_claims(root, builtin))
+
+
+def _with_note(text: str, prov: Provenance, items: list[StaleClaim]) -> str:
+    line, _, body = text.partition("\n")
+    changed = []
+    if any(c.reason.startswith("computed at resolution") for c in items):
+        changed.append("the case's resolution")
+    modules = [m for m in sorted(prov.code) if any(f" {m}@" in c.reason for c in items)]
+    if modules:
+        changed.append(
+            "the code of " + ", ".join(f"`{m}`" for m in modules) + " and what it imports"
+        )
+    at = (" at " + prov.commit if prov.commit else "") + (" on " + prov.date if prov.date else "")
+    command = regenerate_command(items[0])
+    note = (
+        f"> **Not re-run on the current model.** Computed{at}; since then "
+        f"{' and '.join(changed) or 'the model'} changed."
+        + (f" `{command}` writes it again." if command else "")
+    )
+    return f"{line}\n{STALE_MARK}\n{note}\n\n{body.strip()}"
+
+
+def _without_note(text: str) -> str:
+    line, _, rest = text.partition("\n")
+    body = rest.split(STALE_MARK, 1)[1].lstrip("\n").partition("\n\n")[2]
+    return f"{line}\n{body.strip()}"
+
+
 def regenerate_command(claim: StaleClaim) -> str | None:
     """The command that writes the block of ``claim`` (None: not one of :data:`QUOTED_BLOCKS`)."""
     return QUOTED_BLOCKS.get(claim.page, {}).get(claim.block)
@@ -259,10 +344,13 @@ def regenerations(found: list[StaleClaim]) -> list[Regeneration]:
 __all__ = [
     "QUOTED_BLOCKS",
     "REGENERATIONS",
+    "STALE_MARK",
     "Regeneration",
     "StaleClaim",
     "check_block",
+    "mark_stale",
     "regenerate_command",
     "regenerations",
     "stale_claims",
+    "unmarked",
 ]

@@ -52,8 +52,11 @@ def _cmd_info(args: argparse.Namespace) -> int:
 
 def _cmd_claims(args: argparse.Namespace) -> int:
     """List the quoted results of the README and docs that no longer belong to the shipped model
-    (gearfem.claims); exit 1 when there are any."""
-
+    (gearfem.claims); with ``--mark`` put the stale note into each of those blocks first (and
+    take it out of blocks that are current again). Exit 1 when a stale block does not say so."""
+    if args.mark and MPI.COMM_WORLD.rank == 0:
+        claims.mark_stale(Path(args.root))
+    MPI.COMM_WORLD.barrier()
     found = claims.stale_claims(Path(args.root))
     if MPI.COMM_WORLD.rank == 0:
         for c in found:
@@ -68,7 +71,13 @@ def _cmd_claims(args: argparse.Namespace) -> int:
             )
             for step in steps:
                 print(f"    {step.command}")
-    return 1 if found else 0
+        left = claims.unmarked(found)
+        if left:
+            print(
+                f"{len(left)} of them carry no stale note: regenerate them, or mark them with "
+                "`gearfem claims --mark`"
+            )
+    return 1 if claims.unmarked(found) else 0
 
 
 def _cmd_keys(args: argparse.Namespace) -> int:
@@ -572,6 +581,12 @@ def build_parser() -> argparse.ArgumentParser:
         "than the shipped model's (stale claims), with the command that regenerates each",
     )
     s.add_argument("root", nargs="?", default=".", help="repository root (default: .)")
+    s.add_argument(
+        "--mark",
+        action="store_true",
+        help="write a visible 'not re-run on the current model' note into each stale block (and "
+        "remove it from blocks that are current again); regenerating a block removes its note",
+    )
     s.set_defaults(func=_cmd_claims)
 
     s = sub.add_parser(

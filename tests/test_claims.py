@@ -22,8 +22,8 @@ def test_quoted_results_belong_to_the_shipped_model():
     """Every block of the README and docs that quotes a result of the built-in case was computed
     at the built-in case's resolution with today's code (``gearfem claims`` lists the others and
     the command that regenerates each)."""
-    stale = claims.stale_claims(ROOT)
-    assert not stale, "stale quoted results:\n" + "\n".join(
+    stale = claims.unmarked(claims.stale_claims(ROOT))
+    assert not stale, "stale quoted results without a stale note:\n" + "\n".join(
         f"{c}  [{claims.regenerate_command(c)}]" for c in stale
     )
 
@@ -68,6 +68,40 @@ def test_a_changed_resolution_or_code_makes_a_quoted_block_stale(tmp_path):
     _page(tmp_path, None)
     assert {c.reason for c in claims.stale_claims(tmp_path)} == {"no provenance line"}
     assert claims.regenerate_command(claims.stale_claims(tmp_path)[0])
+
+
+def test_a_stale_block_says_so_until_it_is_written_again(tmp_path):
+    """``gearfem claims --mark`` (:func:`claims.mark_stale`) puts a visible note into a stale
+    block, which the check then accepts; regenerating the block removes the note; a note on a
+    current block is itself reported."""
+    now = provenance(load_case(None))
+    module = next(iter(now.code))
+    old = dataclasses.replace(
+        now, code={module: "000000000000"}, commit="abc1234", date="2026-01-02"
+    )
+    readme = _page(tmp_path, old)
+    assert len(claims.unmarked(claims.stale_claims(tmp_path))) == 2
+    assert claims.mark_stale(tmp_path) == []
+    stale = claims.stale_claims(tmp_path)
+    assert len(stale) == 2 and all(c.marked for c in stale) and not claims.unmarked(stale)
+    text = blocks(readme)["readme_headline"]
+    assert Provenance.parse(text) == old  # the provenance line stays first
+    assert claims.STALE_MARK in text and "Computed at abc1234 on 2026-01-02" in text
+    assert f"`{module}`" in text and "| a |" in text
+    assert claims.mark_stale(tmp_path) == [] and blocks(readme)["readme_headline"] == text  # once
+    # the block written again: the note is gone, the block current
+    replace_block(readme, "readme_headline", "| a |\n|---|\n| 2 |", provenance=now)
+    assert claims.STALE_MARK not in blocks(readme)["readme_headline"]
+    assert [c.block for c in claims.stale_claims(tmp_path)] == ["readme_verdict"]
+    # a note left on a current block (code put back as it was) is reported, and --mark clears it
+    _page(tmp_path, old)
+    claims.mark_stale(tmp_path)
+    src = readme.read_text()
+    readme.write_text(src.replace(f"{module}@000000000000", f"{module}@{now.code[module]}"))
+    left = claims.unmarked(claims.stale_claims(tmp_path))
+    assert len(left) == 2 and all("marked stale, but current" in c.reason for c in left)
+    assert claims.mark_stale(tmp_path) == [] and claims.stale_claims(tmp_path) == []
+    assert blocks(readme)["readme_headline"].endswith("| 1 |")
 
 
 def test_the_list_of_quoted_blocks_is_not_code_they_quote():
