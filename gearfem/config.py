@@ -9,8 +9,8 @@ A case file has one table per stage, each a frozen dataclass of the module that 
     [material]       # gearfem.core.materials.Material (both gears; [material_wheel] overrides
                      # the wheel). name = "POM" selects the library's constants
                      # (gearfem/data/materials, docs/materials.md), the table's other keys
-                     # override them; a name not in the library is an error (free text goes in
-                     # the case's top-level name)
+                     # override them (modulus_table the library's E(T)); a name not in the
+                     # library is an error (free text goes in the case's top-level name)
     [contact]        # gearfem.contact.options.ContactOptions (friction_coefficient = 0.5)
     [friction]       # gearfem.contact.friction.FrictionOptions: the friction law of the heat
                      # sources (default: the contact's constant mu)
@@ -177,7 +177,8 @@ def _library_materials(data: dict[str, Any]) -> dict[str, Any]:
     constants (canonical name; the table's own keys override them). An unknown name raises
     ParameterError naming the table's ``name``, the value and the library's names; a polymer
     without an H(T) table when the table gives none, or a steel given one, raises on the table's
-    ``hysteresis``."""
+    ``hysteresis``; a steel given an E(T) raises on its ``modulus_table`` (a steel gear keeps its
+    constant modulus)."""
     out = dict(data)
     for key in MATERIAL_TABLES:
         table = data.get(key)
@@ -192,6 +193,13 @@ def _library_materials(data: dict[str, Any]) -> dict[str, Any]:
                 err.allowed,
                 f"{err.reason}; free text describing the case goes in its top-level name",
             ) from err
+        if lib.kind == "steel" and table.get("modulus_table") is not None:
+            raise ParameterError(
+                f"{key}.modulus_table",
+                table["modulus_table"],
+                "none",
+                f"{lib.name} keeps its constant youngs_modulus_Pa",
+            )
         hysteresis = table.get("hysteresis")
         if isinstance(hysteresis, list):
             hysteresis = tuple(tuple(row) for row in hysteresis)

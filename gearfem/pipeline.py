@@ -1280,12 +1280,27 @@ def modulus_follows_temperature(case: Case) -> bool:
 
 
 def modulus_tables(case: Case) -> dict[str, TemperatureTable]:
-    """Each polymer gear's E(T) table of the materials library (a steel gear keeps its constant
-    modulus); a ParameterError when ``[cycle] modulus = "thermal_state"`` finds none."""
+    """Each polymer gear's E(T): its material's own ``modulus_table``, else the materials library's
+    table of its ``name`` (a steel gear keeps its constant modulus). A ParameterError when a
+    polymer gear has neither (``[cycle] modulus = "thermal_state"`` needs one) and when a steel
+    gear is given a ``modulus_table``; each names the case table to set."""
     tables = {}
     for b in BODIES:
-        lib = library_material(case.materials[b].name)
+        mat = case.materials[b]
+        key = "material_wheel" if b == "wheel" and case.material_wheel is not None else "material"
+        lib = library_material(mat.name, f"{key}.name")
         if lib.kind == "steel":
+            if mat.modulus_table is not None:
+                raise ParameterError(
+                    f"{key}.modulus_table",
+                    mat.modulus_table,
+                    "none",
+                    f"the {b}'s {lib.name} keeps its constant youngs_modulus_Pa",
+                )
+            continue
+        own = mat.modulus_of_temperature()
+        if own is not None:
+            tables[b] = own
             continue
         table = lib.tables.get("youngs_modulus_Pa")
         if table is None:
@@ -1298,11 +1313,13 @@ def modulus_tables(case: Case) -> dict[str, TemperatureTable]:
             raise ParameterError(
                 "cycle.modulus",
                 "thermal_state",
-                "a polymer with an E(T) table in the materials library ("
+                f"an E(T) of the {b}: [{key}] modulus_table = [[T_C...], [E_Pa...]], or a "
+                "polymer with an E(T) table in the materials library ("
                 + ", ".join(with_table)
                 + ")",
-                f'the {b}\'s {lib.name} has none: set modulus = "constant" and its '
-                "youngs_modulus_Pa at the running temperature",
+                f"the {b}'s {lib.name} has none in the library and [{key}] gives no "
+                'modulus_table; or set modulus = "constant" and its youngs_modulus_Pa at the '
+                "running temperature",
             )
         tables[b] = table.table()
     return tables

@@ -9,6 +9,8 @@
 * The chain: the field of a steady state of the small PEEK pair (its frames meet the structural
   mesh's) softens the hot teeth, and the transmission error of its cycle lies between those of
   the constant modulus and of the gear uniformly at its softest cell's modulus.
+* The tables: a gear's own ``modulus_table`` comes before the library's E(T); a bad table, a
+  steel given one and a polymer with neither are errors naming the key.
 """
 
 from __future__ import annotations
@@ -22,11 +24,11 @@ from mpi4py import MPI
 from scipy.spatial import Delaunay
 
 from gearfem import pipeline
-from gearfem.config import Case, case_from_dict
+from gearfem.config import Case, case_from_dict, case_to_dict
 from gearfem.contact import ContactOptions
 from gearfem.core.errors import ParameterError
 from gearfem.core.material_library import library_material
-from gearfem.core.materials import TemperatureTable
+from gearfem.core.materials import Material, TemperatureTable
 from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
 from gearfem.cycle.modulus_field import GearTemperature, ModulusField
 from gearfem.geometry.options import BODIES, MeshOptions
@@ -258,8 +260,14 @@ def test_a_modulus_from_the_thermal_state_needs_a_table_and_a_run(monkeypatch):
     monkeypatch.setattr(pipeline, "library_material", without_e_of_t)
     with pytest.raises(ParameterError, match=r"cycle\.modulus.*wheel's POM has none") as err:
         pipeline.modulus_tables(case_from_dict({"material_wheel": pom, "cycle": follows}))
-    # the allowed values are the library's polymers that have a table
+    # the allowed values: the gear's own table, or the library's polymers that have one
+    assert "[material_wheel] modulus_table = [[T_C...], [E_Pa...]]" in err.value.allowed
     assert err.value.allowed.endswith("(PA66, PEEK 450G)")
+    with pytest.raises(ParameterError, match=r"cycle\.modulus.*\[material\] modulus_table"):
+        pipeline.modulus_tables(case_from_dict({"material": pom, "cycle": follows}))
+    # the gear's own table is the way out
+    own = pom | {"modulus_table": [[23.0, 100.0], [2.8e9, 1.2e9]]}
+    assert set(pipeline.modulus_tables(case_from_dict({"material_wheel": own, "cycle": follows})))
     monkeypatch.undo()
     steel_peek = case_from_dict({"material": {"name": "steel"}, "cycle": follows})
     steel_peek = dataclasses.replace(steel_peek, material_wheel=Case().material)
@@ -268,3 +276,69 @@ def test_a_modulus_from_the_thermal_state_needs_a_table_and_a_run(monkeypatch):
         FullModel(case_from_dict({"cycle": follows}), MPI.COMM_SELF)
     with pytest.raises(ParameterError, match=r"cycle\.modulus_tolerance"):
         CycleOptions(modulus_tolerance=0.0)
+
+
+# ---------------------------------------------------------------------------- the case's own E(T)
+
+OWN = [[20.0, 90.0, 140.0], [3.0e9, 2.0e9, 0.5e9]]
+
+
+def test_a_gears_own_modulus_table_comes_before_the_librarys():
+    """``[material] modulus_table`` (and ``[material_wheel]``) replaces the library's E(T) of the
+    gear's material; a gear without one keeps the library's; the table reads back from a written
+    case and enters the cycle's cache key."""
+    follows = {"modulus": "thermal_state"}
+    library = library_material("PEEK 450G").tables["youngs_modulus_Pa"].table()
+    case = case_from_dict(
+        {"material_wheel": {"name": "PEEK 450G", "modulus_table": OWN}, "cycle": follows}
+    )
+    assert case.material_wheel.modulus_table == tuple(tuple(row) for row in OWN)
+    tables = pipeline.modulus_tables(case)
+    assert tables["pinion"] == library
+    wheel = tables["wheel"]
+    assert np.allclose(wheel.T_K, (293.15, 363.15, 413.15)) and wheel.values == tuple(OWN[1])
+    assert wheel(363.15) / wheel(293.15) == pytest.approx(2.0 / 3.0)
+    # [material] gives both gears the table
+    both = pipeline.modulus_tables(case_from_dict({"material": {"modulus_table": OWN}}))
+    assert both["pinion"] == both["wheel"] == wheel
+    assert case_from_dict(case_to_dict(case)) == case
+    wheel_plain = dataclasses.replace(case.material_wheel, modulus_table=None)
+    plain = dataclasses.replace(case, material_wheel=wheel_plain)
+    assert pipeline.case_cycle_key(plain) != pipeline.case_cycle_key(case)
+    assert pipeline.modulus_tables(plain)["wheel"] == library
+
+
+@pytest.mark.parametrize(
+    ("table", "fault"),
+    [
+        ([[20.0, 100.0], [3.0e9, 5.0e12]], "E = 5e+12 Pa at 100 C"),
+        ([[100.0, 20.0], [3.0e9, 2.0e9]], "20 C after 100 C"),
+        ([[20.0], [3.0e9]], "one point"),
+        ([[20.0, 100.0], [3.0e9]], "unequal length"),
+        ([[20.0, math.inf], [3.0e9, 2.0e9]], "temperature inf C"),
+    ],
+)
+def test_a_bad_modulus_table_is_an_error_naming_the_key_and_value(table, fault):
+    as_tuple = tuple(tuple(row) for row in table)
+    with pytest.raises(ParameterError) as err:
+        Material(modulus_table=as_tuple)
+    assert err.value.name == "material.modulus_table" and err.value.value == as_tuple
+    assert fault in str(err.value) and "[1e+06, 1e+12] Pa" in err.value.allowed
+    for key in ("material", "material_wheel"):
+        with pytest.raises(ParameterError) as err:
+            case_from_dict({key: {"name": "PEEK 450G", "modulus_table": table}})
+        msg = str(err.value)
+        assert msg.startswith(f"{key}.modulus_table = {as_tuple!r} is not allowed"), msg
+        assert fault in msg
+
+
+def test_a_steel_gear_given_a_modulus_table_is_refused():
+    """A steel gear keeps its constant modulus: a table given to it is an error (in the case file
+    and in a case built in Python), not ignored."""
+    with pytest.raises(ParameterError, match=r"^material_wheel\.modulus_table = .*steel keeps"):
+        case_from_dict({"material_wheel": {"name": "steel", "modulus_table": OWN}})
+    steel = library_material("steel").to_material()
+    own = dataclasses.replace(steel, modulus_table=((20.0, 100.0), (2e11, 2e11)))
+    case = dataclasses.replace(Case(), material_wheel=own)
+    with pytest.raises(ParameterError, match=r"^material_wheel\.modulus_table = .*steel keeps"):
+        pipeline.modulus_tables(case)

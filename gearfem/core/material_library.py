@@ -28,7 +28,8 @@ the Blok heat partition by thermal effusivity, :func:`effusivity_partition` and 
 In a case file, ``[material] name`` selects a material of this library (gearfem.config: the
 table's other keys override its values; an unknown name is the error above); a steel is an
 elastic body without hysteresis. A polymer's ``youngs_modulus_Pa`` table is the E(T) that
-``[cycle] modulus = "thermal_state"`` gives the cycle (gearfem.pipeline.modulus_tables).
+``[cycle] modulus = "thermal_state"`` gives the cycle unless the case's ``[material]`` /
+``[material_wheel]`` ``modulus_table`` gives its own (gearfem.pipeline.modulus_tables).
 Pure Python and numpy (tomllib); no DOLFINx.
 """
 

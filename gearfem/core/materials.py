@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import itertools
 import math
 import tomllib
 from functools import cache
@@ -21,13 +22,15 @@ from typing import Any
 import numpy as np
 
 from gearfem.core.errors import ParameterError
-from gearfem.core.params import require_positive, require_range
+from gearfem.core.params import interval, require_positive, require_range
 
 ZERO_CELSIUS_K = 273.15
 #: ``Material.hysteresis`` of a body without hysteresis (a steel gear): H(T) = 0.
 NO_HYSTERESIS = "none"
 GAS_CONSTANT_J_molK = 8.314462618
 STEFAN_BOLTZMANN_W_m2K4 = 5.670374419e-8
+#: The Young's moduli a material accepts (Pa): ``youngs_modulus_Pa``, each of ``modulus_table``.
+MODULUS_RANGE_PA = (1e6, 1e12)
 
 
 def celsius_to_kelvin(t_C: float | np.ndarray) -> float | np.ndarray:
@@ -200,6 +203,7 @@ class Material:
     ``hysteresis`` names the H(T) table (``"peek450g"``; ``"none"``, :data:`NO_HYSTERESIS`, for a
     body without hysteresis such as a steel gear: H = 0 at every temperature) or gives one as
     ``[[T_C...], [H...]]``. ``glass_transition_C`` is None for a material without one (steel).
+    ``modulus_table`` gives E(T) for ``[cycle] modulus = "thermal_state"`` (else the library's).
 
     Args:
         name: The material's name. One of the library's (``"PEEK 450G"``, ``"POM"``, ``"PA66"``,
@@ -222,6 +226,11 @@ class Material:
             table), ``"none"`` (no hysteresis: a steel gear) or a table ``[[T_C...], [H...]]``.
         conductivity_table, specific_heat_table: k(T) and c_p(T) as ``[[T_C...], [value...]]``,
             linear between the points (None: the constants).
+        modulus_table: E(T) as ``[[T_C...], [E_Pa...]]`` (at least 2 points, temperatures
+            strictly increasing, moduli in [1e6, 1e12] Pa), linear between the points, for
+            ``[cycle] modulus = "thermal_state"``: the cycle scales ``youngs_modulus_Pa`` by
+            E(T)/E(T_0), T_0 the table's first temperature. None: the materials library's E(T) of
+            the material's ``name``. Not for a steel, which keeps its constant modulus.
     """
 
     name: str = "PEEK 450G"
@@ -235,10 +244,17 @@ class Material:
     hysteresis: str | tuple[tuple[float, ...], tuple[float, ...]] = "peek450g"
     conductivity_table: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     specific_heat_table: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    modulus_table: tuple[tuple[float, ...], tuple[float, ...]] | None = None
 
     def __post_init__(self) -> None:
         require_positive("material.density_kg_m3", self.density_kg_m3)
-        require_range("material.youngs_modulus_Pa", self.youngs_modulus_Pa, 1e6, 1e12, unit="Pa")
+        require_range(
+            "material.youngs_modulus_Pa",
+            self.youngs_modulus_Pa,
+            MODULUS_RANGE_PA[0],
+            MODULUS_RANGE_PA[1],
+            unit="Pa",
+        )
         require_range("material.poissons_ratio", self.poissons_ratio, 0.0, 0.5, hi_open=True)
         require_positive("material.thermal_conductivity_W_mK", self.thermal_conductivity_W_mK)
         require_positive("material.specific_heat_J_kgK", self.specific_heat_J_kgK)
@@ -256,6 +272,7 @@ class Material:
         self.hysteresis_table()  # validates a user table
         self.conductivity()
         self.specific_heat()
+        self.modulus_of_temperature()
 
     @classmethod
     def peek450g(cls) -> Material:
@@ -324,6 +341,43 @@ class Material:
                 "material.specific_heat_table", self.specific_heat_table, "positive heat capacities"
             )
         return tab
+
+    # elastic, E(T) ------------------------------------------------------------------------
+    def modulus_of_temperature(self) -> TemperatureTable | None:
+        """E(T) of ``modulus_table`` (Pa), None without one. A table that is not a pair of lists
+        of equal length with at least 2 points, finite temperatures strictly increasing and every
+        modulus in :data:`MODULUS_RANGE_PA` raises ParameterError naming
+        ``material.modulus_table``, the table and the point at fault."""
+        if self.modulus_table is None:
+            return None
+        name, table = "material.modulus_table", self.modulus_table
+        lo, hi = MODULUS_RANGE_PA
+        allowed = (
+            "[[T_C...], [E_Pa...]] of at least 2 points, finite temperatures strictly increasing, "
+            "moduli in " + interval(lo, hi, unit="Pa")
+        )
+        try:
+            T_C, E = (tuple(float(v) for v in row) for row in table)
+        except (TypeError, ValueError) as err:
+            raise ParameterError(name, table, allowed, "not a pair of lists of numbers") from err
+        if len(T_C) != len(E):
+            raise ParameterError(
+                name, table, allowed, f"lists of unequal length, {len(T_C)} and {len(E)}"
+            )
+        if len(T_C) < 2:
+            raise ParameterError(
+                name, table, allowed, "one point: a constant modulus is youngs_modulus_Pa"
+            )
+        for t in T_C:
+            if not math.isfinite(t):
+                raise ParameterError(name, table, allowed, f"temperature {t} C")
+        for a, b in itertools.pairwise(T_C):
+            if b <= a:
+                raise ParameterError(name, table, allowed, f"{b:g} C after {a:g} C")
+        for t, e in zip(T_C, E):
+            if not (math.isfinite(e) and lo <= e <= hi):
+                raise ParameterError(name, table, allowed, f"E = {e:g} Pa at {t:g} C")
+        return TemperatureTable.from_celsius(T_C, E, name)
 
     @property
     def thermal_effusivity(self) -> float:

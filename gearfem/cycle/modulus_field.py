@@ -6,14 +6,14 @@ The cycle's modulus is each gear's constant ``youngs_modulus_Pa`` unless it is g
 
     E_c = E * e(T_c),        e(T) = E_table(T) / E_table(T_0),
 
-E the material's ``youngs_modulus_Pa``, E_table the material's modulus table (the library's
-E(T), ``gearfem/data/materials``), T_0 the table's first temperature and T_c the gear's
-temperature at the cell in a thermal state of its own thermal model. A case that sets its own
-modulus keeps it at T_0 and softens with temperature as the table does. Poisson's ratio stays
-the material's. Beyond the table's last temperature e keeps its last value
-(:class:`~gearfem.core.materials.TemperatureTable` is constant outside its range), which
-overestimates the modulus where a polymer runs past the table; :attr:`BodyModulus.beyond_table`
-is the share of the thermal model's volume that does.
+E the material's ``youngs_modulus_Pa``, E_table the material's modulus table (its
+``modulus_table``, else the library's E(T), ``gearfem/data/materials``), T_0 the table's first
+temperature and T_c the gear's temperature at the cell in a thermal state of its own thermal
+model. A case that sets its own modulus keeps it at T_0 and softens with temperature as the
+table does. Poisson's ratio stays the material's. Beyond the table's last temperature e keeps
+its last value (:class:`~gearfem.core.materials.TemperatureTable` is constant outside its range),
+which overestimates the modulus where a polymer runs past the table;
+:attr:`BodyModulus.beyond_table` is the share of the thermal model's volume that does.
 
 The thermal state of a rotating gear is rotation-averaged, the same on every tooth: a structural
 cell's centroid is turned by whole pitches onto the thermal model's reference tooth (the modelled
