@@ -117,6 +117,20 @@ class Case:
                     "'constant' unless [instruments.torque] is enabled",
                     "the law's effective mu is what the torque meters read of both gears' heat",
                 )
+        # a gear's own E(T) is read by the cycle with modulus = "thermal_state" only
+        for key, mat in (("material", self.material), ("material_wheel", self.material_wheel)):
+            if (
+                mat is not None
+                and mat.modulus_table is not None
+                and self.cycle.modulus != ("thermal_state")
+            ):
+                raise ParameterError(
+                    f"{key}.modulus_table",
+                    mat.modulus_table,
+                    "none unless [cycle] modulus = 'thermal_state'",
+                    f"with modulus = {self.cycle.modulus!r} the cycle runs at the constant "
+                    "youngs_modulus_Pa and would leave the table unread",
+                )
         # the friction law resolved against the cycle's mu (mu within [0, 2] everywhere)
         self.friction_law()
 

@@ -299,7 +299,9 @@ def test_a_gears_own_modulus_table_comes_before_the_librarys():
     assert np.allclose(wheel.T_K, (293.15, 363.15, 413.15)) and wheel.values == tuple(OWN[1])
     assert wheel(363.15) / wheel(293.15) == pytest.approx(2.0 / 3.0)
     # [material] gives both gears the table
-    both = pipeline.modulus_tables(case_from_dict({"material": {"modulus_table": OWN}}))
+    both = pipeline.modulus_tables(
+        case_from_dict({"material": {"modulus_table": OWN}, "cycle": follows})
+    )
     assert both["pinion"] == both["wheel"] == wheel
     assert case_from_dict(case_to_dict(case)) == case
     wheel_plain = dataclasses.replace(case.material_wheel, modulus_table=None)
@@ -339,6 +341,18 @@ def test_a_steel_gear_given_a_modulus_table_is_refused():
         case_from_dict({"material_wheel": {"name": "steel", "modulus_table": OWN}})
     steel = library_material("steel").to_material()
     own = dataclasses.replace(steel, modulus_table=((20.0, 100.0), (2e11, 2e11)))
-    case = dataclasses.replace(Case(), material_wheel=own)
+    follows = dataclasses.replace(Case().cycle, modulus="thermal_state")
+    case = dataclasses.replace(Case(), material_wheel=own, cycle=follows)
     with pytest.raises(ParameterError, match=r"^material_wheel\.modulus_table = .*steel keeps"):
         pipeline.modulus_tables(case)
+
+
+def test_a_modulus_table_the_cycle_would_not_read_is_refused():
+    """With ``[cycle] modulus = "constant"`` (the default) the cycle runs at the constant
+    ``youngs_modulus_Pa``: a gear's own ``modulus_table`` would be left unread, so it is an error
+    naming the key, not ignored."""
+    for key in ("material", "material_wheel"):
+        with pytest.raises(ParameterError) as err:
+            case_from_dict({key: {"name": "PEEK 450G", "modulus_table": OWN}})
+        assert err.value.name == f"{key}.modulus_table"
+        assert "modulus = 'thermal_state'" in err.value.allowed
