@@ -11,6 +11,7 @@ conservation of the flank heat handed to the thermal model, 1 vs 2 ranks.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 
@@ -35,6 +36,8 @@ from gearfem.cycle import CycleOptions, GearContactModel, solve_cycle
 from gearfem.cycle.cache import load, save
 from gearfem.cycle.history import Z_BINS, ContactHistory
 from gearfem.cycle.measures import pitch_point_band_pressure_Pa, pitch_point_bands
+from gearfem.cycle.report import write_cycle_outputs
+from gearfem.cycle.result import PeriodicityCheck
 from gearfem.cycle.solve import position_blocks
 from gearfem.geometry.mesh import build_gear_mesh, parse_group_name
 from gearfem.geometry.options import BODIES, MeshOptions
@@ -162,15 +165,12 @@ def _check_periodic(r):
     # TE 0.29 % (0.2 N m), tooth loads 1.4 % of the total load (8 N m, μ = 0.5); on the 6-tooth
     # coarse mesh TE 0.06 %, loads 0.2 %. Asserted: TE to 1 %, loads to 2.5 % of the total, and
     # the load sits on the shifted tooth (the mapping), not on its neighbours.
-    assert per["te_shifted_m"] == pytest.approx(per["te_first_m"], rel=1e-2)
-    # a cycle read from the cache has the tooth numbers as JSON's string keys
-    loads_first = {int(k): v for k, v in per["tooth_load_first_N"].items()}
-    loads_shifted = {int(k): v for k, v in per["tooth_load_shifted_N"].items()}
-    total = sum(loads_first.values())
-    first = {k: v for k, v in loads_first.items() if v > 0}
+    assert per.te_shifted_m == pytest.approx(per.te_first_m, rel=1e-2)
+    total = sum(per.tooth_load_first_N.values())
+    first = {k: v for k, v in per.tooth_load_first_N.items() if v > 0}
     assert first
     for k, v in first.items():
-        assert loads_shifted[k - 1] == pytest.approx(v, abs=2.5e-2 * total)
+        assert per.tooth_load_shifted_N[k - 1] == pytest.approx(v, abs=2.5e-2 * total)
 
 
 @pytest.mark.slow
@@ -282,6 +282,14 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
         np.testing.assert_array_equal(getattr(back.history, k), v)
     assert back.history.z_bin_m == loaded.history.z_bin_m
     assert back.tooth_load_N.keys() == loaded.tooth_load_N.keys()
+    # the periodicity check comes back as stored: tooth numbers as ints, not JSON's strings
+    assert back.periodicity is not None
+    assert back.periodicity == loaded.periodicity
+    assert all(type(k) is int for k in back.periodicity.tooth_load_shifted_N)
+    if comm.rank == 0:  # and cycle_summary.json holds the record's fields
+        write_cycle_outputs(back, tmp_out / "report", plots=False)
+        summary = json.loads((tmp_out / "report" / "cycle_summary.json").read_text())
+        assert PeriodicityCheck.from_json(summary["periodicity"]) == loaded.periodicity
     assert back.effective_contact_ratio() == loaded.effective_contact_ratio()
     # a second writer of a complete entry (another test worker, a concurrent study) keeps the
     # first one in place unless asked to replace it; no temporary directory is left behind

@@ -1,6 +1,7 @@
 """Results are typed, frozen dataclasses with an exact JSON round trip (gearfem.core.results):
 RunSummary (summary.json), StudyRow/StudyResult (study.json), Diagnosis and DiagnosisReport
-(diagnosis.json). Callers read attributes; the files keep the field names as keys."""
+(diagnosis.json), a cycle's PeriodicityCheck (cycle.json, cycle_summary.json). Callers read
+attributes; the files keep the field names as keys."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import math
 import numpy as np
 
 from gearfem.cli import with_u_num
+from gearfem.cycle.cache import _periodicity
+from gearfem.cycle.result import PeriodicityCheck, SectorEnergy
 from gearfem.diagnose.candidates import LIBRARY
 from gearfem.diagnose.data import Dataset, Measurement
 from gearfem.diagnose.report import DiagnosisReport
@@ -154,3 +157,41 @@ def test_diagnosis_round_trip_and_attributes():
     again = DiagnosisReport.from_json(flat)
     assert again.case == "coarse" and again.diagnosis.verdict == d.verdict
     assert again.vv20 == table and again.vv20.rows[1].unit == "N m"
+
+
+def _periodicity_check() -> PeriodicityCheck:
+    return PeriodicityCheck(
+        te_first_m=-1.25e-5,
+        te_shifted_m=-1.2501e-5,
+        p_max_first_Pa=3.1e7,
+        p_max_shifted_Pa=3.09e7,
+        tooth_load_first_N={1: 0.0, 2: 373.25, 3: 0.0},
+        tooth_load_shifted_N={1: 372.5, 2: 0.0, 3: 0.0},
+        sector_energy_J={
+            "pinion": (SectorEnergy(1, 0.0125, 0.0124), SectorEnergy(2, 1e-6, 2e-6)),
+            "wheel": (SectorEnergy(2, 0.011, 0.0112),),
+        },
+    )
+
+
+def test_periodicity_check_round_trip_keeps_the_tooth_numbers():
+    """The tooth numbers come back as ints (JSON holds them as strings) and the sector energies as
+    records: a cycle read from the cache equals the one computed."""
+    check = _periodicity_check()
+    flat = json.loads(json.dumps(check.to_json()))
+    assert flat["tooth_load_first_N"] == {"1": 0.0, "2": 373.25, "3": 0.0}
+    assert flat["sector_energy_J"]["wheel"] == [
+        {"sector": 2, "shifted_J": 0.011, "mapped_J": 0.0112}
+    ]
+    back = PeriodicityCheck.from_json(flat)
+    assert back == check
+    assert list(back.tooth_load_shifted_N) == [1, 2, 3]
+    assert back.sector_energy_J["pinion"][1].mapped_J == 2e-6
+    # a cycle stored before the record: its sector energies under "<body>_sector_energy_J"
+    old = {k: v for k, v in flat.items() if k != "sector_energy_J"}
+    for body, sectors in check.sector_energy_J.items():
+        old[f"{body}_sector_energy_J"] = [
+            {"sector": e.sector, "shifted": e.shifted_J, "mapped": e.mapped_J} for e in sectors
+        ]
+    assert _periodicity(old) == check
+    assert _periodicity(None) is None

@@ -2,9 +2,10 @@
 
 A result class derives from :class:`JsonRecord`; ``to_json()`` gives plain JSON data (nested
 records as objects, tuples and numpy arrays as lists, numpy scalars as numbers, dict keys as
-strings) and ``from_json()`` rebuilds the record from it, so ``R.from_json(r.to_json()) == r`` for
-records of plain values. Callers read attributes (``summary.headline.max_surface_temperature_C``),
-never string keys by convention; the JSON files keep the field names as keys.
+strings) and ``from_json()`` rebuilds the record from it (the keys of a ``dict[int, ...]`` as
+ints again), so ``R.from_json(r.to_json()) == r`` for records of plain values. Callers read
+attributes (``summary.headline.max_surface_temperature_C``), never string keys by convention; the
+JSON files keep the field names as keys.
 """
 
 from __future__ import annotations
@@ -36,8 +37,9 @@ def _build(hint: Any, value: Any) -> Any:
         return [_build(inner, v) for v in value]
     if origin is dict:
         args = typing.get_args(hint)
-        inner = args[1] if len(args) == 2 else Any
-        return {k: _build(inner, v) for k, v in value.items()}
+        key, inner = args if len(args) == 2 else (Any, Any)
+        # JSON keys are strings: integer keys (tooth numbers) back to ints
+        return {(int(k) if key is int else k): _build(inner, v) for k, v in value.items()}
     return value
 
 

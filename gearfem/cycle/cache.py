@@ -32,9 +32,10 @@ from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import ContactHistory
 from gearfem.cycle.modulus_field import ModulusField
 from gearfem.cycle.options import MODULUS_LOOP_KEYS
-from gearfem.cycle.result import BodyFields, CycleResult
+from gearfem.cycle.result import BodyFields, CycleResult, PeriodicityCheck
 from gearfem.cycle.solve import solve_cycle
 from gearfem.geometry.mesh import cache_key as mesh_cache_key
+from gearfem.geometry.options import BODIES
 
 log = logging.getLogger(__name__)
 
@@ -183,7 +184,7 @@ def save(result: CycleResult, directory: str | Path, replace: bool = True) -> Pa
     meta.update(
         reference_tooth=result.reference_tooth,
         info=result.info,
-        periodicity=jsonable(result.periodicity),
+        periodicity=None if result.periodicity is None else result.periodicity.to_json(),
         history_z_bin_m=None if result.history is None else result.history.z_bin_m,
         friction_field=None if field is None else {"z_bin_m": field.z_bin_m, "step": field.step},
         fields={
@@ -239,13 +240,30 @@ def load(directory: str | Path) -> CycleResult:
         tooth_S_m={k: arr[f"tooth_S_m__{k}"] for k in teeth},
         fields=fields,
         reference_tooth=meta["reference_tooth"],
-        periodicity=meta.get("periodicity"),
+        periodicity=_periodicity(meta.get("periodicity")),
         info=meta.get("info", {}),
         history=ContactHistory.from_arrays(hist, meta["history_z_bin_m"]) if hist else None,
         friction_field=(
             FrictionField.from_arrays(ff, ff_meta["z_bin_m"], ff_meta["step"]) if ff_meta else None
         ),
     )
+
+
+def _periodicity(data: dict | None) -> PeriodicityCheck | None:
+    """The stored periodicity check; one stored before it was a record (its sector energies under
+    ``"<body>_sector_energy_J"`` as ``{"sector", "shifted", "mapped"}``) read as the record."""
+    if data is None:
+        return None
+    if "sector_energy_J" not in data:
+        data = dict(data)
+        data["sector_energy_J"] = {
+            b: [
+                {"sector": e["sector"], "shifted_J": e["shifted"], "mapped_J": e["mapped"]}
+                for e in data.pop(f"{b}_sector_energy_J", [])
+            ]
+            for b in BODIES
+        }
+    return PeriodicityCheck.from_json(data)
 
 
 def cached_cycle(

@@ -56,7 +56,7 @@ def cycle_summary_dict(r: CycleResult) -> dict:
         "newton_iterations": int(np.sum(r.newton_iterations)),
         "wall_time_s": float(np.sum(r.wall_time_s)),
         "info": r.info,
-        "periodicity": r.periodicity,
+        "periodicity": None if r.periodicity is None else r.periodicity.to_json(),
     }
     return out
 

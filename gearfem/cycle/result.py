@@ -1,5 +1,6 @@
 """What one meshing-cycle solve produces: per-position histories and per-entity fields of each
-gear's reference tooth sector (:class:`CycleResult`, :class:`BodyFields`)."""
+gear's reference tooth sector (:class:`CycleResult`, :class:`BodyFields`), and the check of its
+periodicity one pitch on (:class:`PeriodicityCheck`)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import dataclasses
 import numpy as np
 
 from gearfem.core.errors import GearfemError
+from gearfem.core.results import JsonRecord
 from gearfem.cycle.friction_field import FrictionField
 from gearfem.cycle.history import ContactHistory
 
@@ -44,6 +46,37 @@ class BodyFields:
     facet_image_area_m2: np.ndarray
 
 
+@dataclasses.dataclass(frozen=True)
+class SectorEnergy(JsonRecord):
+    """Strain energy (J) of one interior tooth sector ``sector`` of a gear at start + pitch
+    (``shifted_J``) and of the sector that periodicity maps onto it at the start (``mapped_J``:
+    the pinion's sector + 1, the wheel's sector − 1)."""
+
+    sector: int
+    shifted_J: float
+    mapped_J: float
+
+
+@dataclasses.dataclass(frozen=True)
+class PeriodicityCheck(JsonRecord):
+    """The cycle's first position against the position one pitch after the start.
+
+    One pitch on the state repeats with the tooth numbers shifted by one: the pinion's tooth k
+    then carries what tooth k + 1 carried at the start. Transmission errors (m), largest contact
+    pressures (Pa), normal load on each pinion tooth by tooth number (N) at both positions, and
+    the strain energies of each gear's interior tooth sectors (J) by gear (``"pinion"``,
+    ``"wheel"``). ``to_json``/``from_json`` round trip exactly (the tooth numbers back to ints).
+    """
+
+    te_first_m: float
+    te_shifted_m: float
+    p_max_first_Pa: float
+    p_max_shifted_Pa: float
+    tooth_load_first_N: dict[int, float]
+    tooth_load_shifted_N: dict[int, float]
+    sector_energy_J: dict[str, tuple[SectorEnergy, ...]]
+
+
 @dataclasses.dataclass
 class CycleResult:
     """Everything the thermal stage and the reports need from one structural cycle solve."""
@@ -70,7 +103,7 @@ class CycleResult:
     reference_tooth: dict[str, int]
     theoretical_contact_ratio: float
     base_pitch_m: float
-    periodicity: dict | None = None
+    periodicity: PeriodicityCheck | None = None
     info: dict = dataclasses.field(default_factory=dict)
     history: ContactHistory | None = None  # the contact points of every position
     # the mu the cycle was solved with at each contact (None: friction_coefficient everywhere)

@@ -40,7 +40,7 @@ from gearfem.cycle.periodic import (
     periodic_max,
     periodic_sum,
 )
-from gearfem.cycle.result import BodyFields, CycleResult
+from gearfem.cycle.result import BodyFields, CycleResult, PeriodicityCheck, SectorEnergy
 from gearfem.geometry.options import BODIES
 
 log = logging.getLogger(__name__)
@@ -382,18 +382,6 @@ def solve_cycle(
         records = [rec for part in parts for rec in part]
         if check:
             shifted = world.bcast(shifted, root=world.size - 1)
-    if check:
-        first = records[0]
-        periodicity = {
-            "te_first_m": first.te_m,
-            "te_shifted_m": shifted.te_m,
-            "p_max_first_Pa": first.p_max_Pa,
-            "p_max_shifted_Pa": shifted.p_max_Pa,
-            # the pinion's tooth k at start+pitch carries what tooth k+1 carried at start
-            "tooth_load_first_N": dict(first.tooth_load_N),
-            "tooth_load_shifted_N": dict(shifted.tooth_load_N),
-        }
-    shifted_cells = shifted.cell_strain_energy_J_m3 if shifted is not None else None
 
     w_cells = np.array([r.cell_strain_energy_J_m3 for r in records])
     facet_heat = {b: [r.facet_heat_W_per_rad_s[b] for r in records] for b in BODIES}
@@ -426,8 +414,20 @@ def solve_cycle(
                 f"{RAW_FLANK_HEAT_RANGE} (the two passes' pressures differ by a few per cent): "
                 "images of the heated facets are missing from the reference tooth"
             )
-    if periodicity is not None:
-        periodicity.update(_periodicity_of_cells(model, se, w_cells[0], shifted_cells, pitch))
+    if check:
+        first = records[0]
+        periodicity = PeriodicityCheck(
+            te_first_m=float(first.te_m),
+            te_shifted_m=float(shifted.te_m),
+            p_max_first_Pa=float(first.p_max_Pa),
+            p_max_shifted_Pa=float(shifted.p_max_Pa),
+            # the pinion's tooth k at start+pitch carries what tooth k+1 carried at start
+            tooth_load_first_N={int(k): float(v) for k, v in first.tooth_load_N.items()},
+            tooth_load_shifted_N={int(k): float(v) for k, v in shifted.tooth_load_N.items()},
+            sector_energy_J=_sector_energies(
+                model, se, w_cells[0], shifted.cell_strain_energy_J_m3, pitch
+            ),
+        )
     history = recorder.finish(world if spread else None)
 
     return CycleResult(
@@ -609,9 +609,9 @@ def _facet_kinds(model: GearContactModel, body: str, surf) -> np.ndarray:
     return np.concatenate(model.comm.allgather(local))
 
 
-def _periodicity_of_cells(
+def _sector_energies(
     model, se, w_first: np.ndarray, w_shifted: np.ndarray, pitch: float
-) -> dict:
+) -> dict[str, tuple[SectorEnergy, ...]]:
     """Strain energy per tooth sector at start + pitch against the start, one tooth over.
 
     By periodicity the pinion's sector k at start + pitch holds what sector k + 1 held at the start
@@ -626,15 +626,19 @@ def _periodicity_of_cells(
         cells, xc, vol = _cell_data(model, se, b)
         W0, W1 = _gather(w_first[cells], comm), _gather(w_shifted[cells], comm)
         step = 1 if b == "pinion" else -1
-        pairs = []
+        sectors = []
         for k in range(1, len(angles) - 1):
             j = k + step
             if not 1 <= j <= len(angles) - 2:
                 continue
             sk = in_sector(xc, center, angles[k], pitch_b)
             sj = in_sector(xc, center, angles[j], pitch_b)
-            pairs.append((k, float(np.sum(W1[sk] * vol[sk])), float(np.sum(W0[sj] * vol[sj]))))
-        out[f"{b}_sector_energy_J"] = [
-            {"sector": k, "shifted": e1, "mapped": e0} for k, e1, e0 in pairs
-        ]
+            sectors.append(
+                SectorEnergy(
+                    sector=k,
+                    shifted_J=float(np.sum(W1[sk] * vol[sk])),
+                    mapped_J=float(np.sum(W0[sj] * vol[sj])),
+                )
+            )
+        out[b] = tuple(sectors)
     return out
