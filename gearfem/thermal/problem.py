@@ -244,6 +244,13 @@ class ThermalProblem:
         instead of compiling anew (FFCx keys its cache by the form's code)."""
         return fem.Constant(self.domain.mesh, PETSc.ScalarType(value))
 
+    def _field(self, value, x):
+        """A prescribed source (a number: a constant of :meth:`_const`; else a field of space and
+        time, :func:`gearfem.thermal.source_terms.field_ufl`) as a UFL expression."""
+        return (
+            self._const(value) if isinstance(value, (int, float)) else field_ufl(value, x, self._t)
+        )
+
     def _volume_sources(self, T, x) -> dict[str, Any]:
         """Volumetric sources (W/m³): hysteresis s_h f H(T) U_max and a prescribed q_v."""
         src = self.sources
@@ -255,10 +262,7 @@ class ThermalProblem:
                 * src.u_max
             )
         if src.volumetric_W_m3 is not None:
-            q = src.volumetric_W_m3
-            vol["volumetric"] = (
-                self._const(q) if isinstance(q, (int, float)) else field_ufl(q, x, self._t)
-            )
+            vol["volumetric"] = self._field(src.volumetric_W_m3, x)
         return vol
 
     def _surface_terms(self, T, x) -> dict[str, list[tuple[Any, Any]]]:
@@ -277,9 +281,8 @@ class ThermalProblem:
         self._fscale = fem.Constant(domain.mesh, 1.0)
         self._friction_unscaled: list[tuple[Any, Any]] = []
         if src.flank_flux_W_m2 is not None:
-            q = src.flank_flux_W_m2  # a number as a constant: a form of any flux value
-            q = self._const(q) if isinstance(q, (int, float)) else field_ufl(q, x, self._t)
-            qf = self._const(src.flux_scale) * q
+            # a number as a constant: a form of any flux value
+            qf = self._const(src.flux_scale) * self._field(src.flank_flux_W_m2, x)
             if src.flux_temperature_factor is not None:
                 qf = qf * src.flux_temperature_factor(T)
             self._friction_unscaled.append((qf, self._on("flux")))
