@@ -598,53 +598,56 @@ class ContactInterface:
                 continue
             sdata, mdata = ps.slave.local, ps.master.gathered()
             Rs, Rm = motions[ps.slave.body].R, motions[ps.master.body].R
-            dirn = pts.direction
+            # only the points that carry pressure (the residual) or are active (the tangent:
+            # the pressure's slope, and with it every entry, vanishes elsewhere)
+            pos = pts.pressure > 0.0
+            keep = np.flatnonzero(pos | pts.active if matrix else pos)
+            if len(keep) == 0:
+                continue
+            dirn = pts.direction[keep]
             rho_s, rho_m = dirn @ Rs, -(dirn @ Rm)  # R^T v for row vectors
-            gam_s, gam_m = pts.normal @ Rs, -(pts.normal @ Rm)
-            nn = pts.Ns.shape[1]
-            dofs_s = 3 * sdata.blocks[pts.facet][:, :, None] + np.arange(3)  # (n, nn, 3)
-            dofs_m = 3 * mdata.blocks[pts.mfacet][:, :, None] + np.arange(3)
-            free_s = ~sdata.fixed[pts.facet]
-            free_m = ~mdata.fixed[pts.mfacet]
+            Ns, Nm = pts.Ns[keep], pts.Nm[keep]
+            facet, mfacet = pts.facet[keep], pts.mfacet[keep]
+            dofs_s = 3 * sdata.blocks[facet][:, :, None] + np.arange(3)  # (n, nn, 3)
+            dofs_m = 3 * mdata.blocks[mfacet][:, :, None] + np.arange(3)
+            free = np.stack([~sdata.fixed[facet], ~mdata.fixed[mfacet]], axis=1)
             # rho vectors per point: (n, 2, nn, 3)
             rho = np.stack(
-                [pts.Ns[:, :, None] * rho_s[:, None, :], pts.Nm[:, :, None] * rho_m[:, None, :]],
-                axis=1,
+                [Ns[:, :, None] * rho_s[:, None, :], Nm[:, :, None] * rho_m[:, None, :]], axis=1
             )
-            free = np.stack([free_s, free_m], axis=1)
-            dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(len(pts.dA), -1)
-            rho = np.where(free, rho, 0.0).reshape(len(pts.dA), -1)
-            r = -(pts.dA * pts.pressure)[:, None] * rho
-            sel = pts.pressure > 0.0
+            dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(len(keep), -1)
+            rho = np.where(free, rho, 0.0).reshape(len(keep), -1)
+            sel = pos[keep]
+            r = -(pts.dA[keep][sel] * pts.pressure[keep][sel])[:, None] * rho[sel]
             rdofs.append(dofs[sel].ravel())
-            rvals.append(r[sel].ravel())
+            rvals.append(r.ravel())
             if matrix:
-                act = np.nonzero(pts.active)[0]
+                act = np.nonzero(pts.active[keep])[0]
                 if len(act) == 0:
                     continue
+                g_n = pts.normal[keep[act]]
                 gam = np.stack(
-                    [
-                        pts.Ns[:, :, None] * gam_s[:, None, :],
-                        pts.Nm[:, :, None] * gam_m[:, None, :],
-                    ],
+                    [Ns[act][:, :, None] * (g_n @ Rs)[:, None, :],
+                     -Nm[act][:, :, None] * (g_n @ Rm)[:, None, :]],
                     axis=1,
-                )
-                gam = np.where(free, gam, 0.0).reshape(len(pts.dA), -1)
+                )  # fmt: skip
+                gam = np.where(free[act], gam, 0.0).reshape(len(act), -1)
                 k = len(act)
                 m = dofs.shape[1]
                 local_ids, inv = np.unique(dofs[act].ravel(), return_inverse=True)
                 inv = inv.reshape(k, m)
                 ptr = np.repeat(np.arange(k), m)
                 B = sp.csr_matrix((rho[act].ravel(), (ptr, inv.ravel())), shape=(k, len(local_ids)))
+                ia = keep[act]
                 C = sp.csr_matrix(
                     (
-                        (gam[act] * (pts.dA[act] * pts.eps[act] * pts.slope[act])[:, None]).ravel(),
+                        (gam * (pts.dA[ia] * pts.eps[ia] * pts.slope[ia])[:, None]).ravel(),
                         (ptr, inv.ravel()),
                     ),
                     shape=(k, len(local_ids)),
                 )
                 if self.options.geometric_tangent:
-                    U, V = self._geometric_factors(ps, pts, act, dirn, Rs, Rm, free)
+                    U, V = self._geometric_factors(ps, pts, ia, dirn[act], Rs, Rm, free[act])
                     r4 = np.repeat(np.arange(4 * k).reshape(k, 4), m, axis=0).reshape(k, m, 4)
                     shape = (4 * k, len(local_ids))
                     cols4 = np.broadcast_to(inv[:, :, None], (k, m, 4))
@@ -657,7 +660,6 @@ class ContactInterface:
                 rows.append(local_ids[K.row[nz]])
                 cols.append(local_ids[K.col[nz]])
                 vals.append(K.data[nz])
-                del nn
         cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)
         res = (cat(rdofs, np.int64), cat(rvals, np.float64))
         if not matrix:
@@ -666,6 +668,7 @@ class ContactInterface:
 
     def _geometric_factors(self, ps, pts, act, dirn, Rs, Rm, free):
         """The geometric tangent's factors (U, V), each (k, m, 4), of the active points ``act``
+        (``dirn`` their directions d, ``free`` their dofs' mask)
         (:func:`gearfem.contact.tangent.geometric_tangent`) in the bodies' frames over the points'
         dofs (slave nodes, then master nodes, 3 each), masked where the dofs are fixed: the
         variation of the closest point, the normal and the frozen slip direction that the
@@ -673,11 +676,11 @@ class ContactInterface:
         :meth:`rotation_terms`."""
         geo, frozen = _point_geometry(pts, act, ps.master.ref)
         U, V, e = geometric_factors(
-            geo, pts.dA[act] * pts.pressure[act], dirn[act], pts.mu[act], frozen,
+            geo, pts.dA[act] * pts.pressure[act], dirn, pts.mu[act], frozen,
         )  # fmt: skip
         pts.geometric = (act, geo, frozen, (U, V, e))
         k, nn = len(act), pts.Ns.shape[1]
-        mask = free[act][..., None]  # (k, 2, nn, 3, 1): per dof
+        mask = free[..., None]  # (k, 2, nn, 3, 1): per dof
         return tuple(
             np.where(mask, _to_body_frames(F.reshape(k, 2, nn, 3, 4), Rs, Rm), 0.0).reshape(
                 k, -1, 4
@@ -712,36 +715,35 @@ class ContactInterface:
             dirn = pts.direction
             mcoef = sign * np.einsum("d,pd->p", axis, np.cross(lever, dirn))
             M += float(np.sum(pts.dA * pts.pressure * mcoef))
-            act = pts.active
             w = pts.dA * pts.eps * pts.slope
             kpp += float(np.sum(w * mcoef * beta))
+            # the border's entries, over the active points only (w vanishes elsewhere)
+            a_idx = np.flatnonzero(pts.active)
+            if len(a_idx) == 0:
+                continue
             sdata, mdata = ps.slave.local, ps.master.gathered()
             Rs, Rm = motions[ps.slave.body].R, motions[ps.master.body].R
-            dofs_s = 3 * sdata.blocks[pts.facet][:, :, None] + np.arange(3)
-            dofs_m = 3 * mdata.blocks[pts.mfacet][:, :, None] + np.arange(3)
-            free = np.stack([~sdata.fixed[pts.facet], ~mdata.fixed[pts.mfacet]], axis=1)
-            dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(len(pts.dA), -1)
+            facet, mfacet = pts.facet[a_idx], pts.mfacet[a_idx]
+            Ns, Nm = pts.Ns[a_idx], pts.Nm[a_idx]
+            dofs_s = 3 * sdata.blocks[facet][:, :, None] + np.arange(3)
+            dofs_m = 3 * mdata.blocks[mfacet][:, :, None] + np.arange(3)
+            free = np.stack([~sdata.fixed[facet], ~mdata.fixed[mfacet]], axis=1)
+            k = len(a_idx)
+            dofs = np.stack([dofs_s, dofs_m], axis=1).reshape(k, -1)
+            d, nrm = dirn[a_idx], pts.normal[a_idx]
             rho = np.stack(
-                [
-                    pts.Ns[:, :, None] * (dirn @ Rs)[:, None, :],
-                    -pts.Nm[:, :, None] * (dirn @ Rm)[:, None, :],
-                ],
+                [Ns[:, :, None] * (d @ Rs)[:, None, :], -Nm[:, :, None] * (d @ Rm)[:, None, :]],
                 axis=1,
             )
             gam = np.stack(
-                [
-                    pts.Ns[:, :, None] * (pts.normal @ Rs)[:, None, :],
-                    -pts.Nm[:, :, None] * (pts.normal @ Rm)[:, None, :],
-                ],
+                [Ns[:, :, None] * (nrm @ Rs)[:, None, :], -Nm[:, :, None] * (nrm @ Rm)[:, None, :]],
                 axis=1,
             )
-            rho = np.where(free, rho, 0.0).reshape(len(pts.dA), -1)
-            gam = np.where(free, gam, 0.0).reshape(len(pts.dA), -1)
-            sel = act
-            v_up_pts = (w * beta)[:, None] * rho
-            v_pu_pts = (w * mcoef)[:, None] * gam
-            if self.options.geometric_tangent and np.any(act):
-                a_idx = np.flatnonzero(act)
+            rho = np.where(free, rho, 0.0).reshape(k, -1)
+            gam = np.where(free, gam, 0.0).reshape(k, -1)
+            v_up_pts = (w * beta)[a_idx][:, None] * rho
+            v_pu_pts = (w * mcoef)[a_idx][:, None] * gam
+            if self.options.geometric_tangent:
                 kept = pts.geometric
                 if kept is not None and np.array_equal(kept[0], a_idx):
                     _, geo, frozen, factors = kept
@@ -749,27 +751,23 @@ class ContactInterface:
                     geo, frozen = _point_geometry(pts, a_idx, ps.master.ref)
                     factors = None
                 wp = pts.dA[a_idx] * pts.pressure[a_idx]
-                d = dirn[a_idx]
                 nn = pts.Ns.shape[1]
                 r_glob = -wp[:, None, None] * np.concatenate(
-                    [pts.Ns[a_idx][:, :, None] * d[:, None, :],
-                     -pts.Nm[a_idx][:, :, None] * d[:, None, :]], axis=1,
-                )  # fmt: skip
+                    [Ns[:, :, None] * d[:, None, :], -Nm[:, :, None] * d[:, None, :]], axis=1
+                )
                 g_up, g_pu, g_pp = torque_border(
-                    geo, wp, d, pts.mu[a_idx], frozen, r_glob.reshape(len(a_idx), -1),
+                    geo, wp, d, pts.mu[a_idx], frozen, r_glob.reshape(k, -1),
                     pts.nodes[a_idx], pts.x[a_idx], axis, c, "slave" if sign > 0 else "master",
                     factors,
                 )  # fmt: skip
-                k = len(a_idx)
-                mask = free[a_idx]  # (k, 2, nn, 3)
                 for v_pts, g in ((v_up_pts, g_up), (v_pu_pts, g_pu)):
                     g = _to_body_frames(g.reshape(k, 2, nn, 3), Rs, Rm)
-                    v_pts[a_idx] += np.where(mask, g, 0.0).reshape(k, -1)
+                    v_pts += np.where(free, g, 0.0).reshape(k, -1)
                 kpp += float(np.sum(g_pp))
-            d_up.append(dofs[sel].ravel())
-            v_up.append(v_up_pts[sel].ravel())
-            d_pu.append(dofs[sel].ravel())
-            v_pu.append(v_pu_pts[sel].ravel())
+            d_up.append(dofs.ravel())
+            v_up.append(v_up_pts.ravel())
+            d_pu.append(dofs.ravel())
+            v_pu.append(v_pu_pts.ravel())
         cat = lambda a, dt: np.concatenate(a).astype(dt) if a else np.zeros(0, dt)
         return (
             M,
