@@ -187,12 +187,16 @@ STALE_MARK = "<!-- gearfem:stale -->"
 @dataclasses.dataclass(frozen=True)
 class StaleClaim:
     """A quoted block that no longer belongs to the shipped model, and why. ``marked``: the block
-    says so to its reader (:func:`mark_stale`)."""
+    says so to its reader (:func:`mark_stale`). What changed, where it is one of the two things a
+    block hashes: ``resolution`` (the block's case has another resolution) or ``module`` (the code
+    of that module, with what it imports); ``reason`` says it in words."""
 
     page: str
     block: str
     reason: str
     marked: bool = False
+    resolution: bool = False
+    module: str | None = None
 
     def __str__(self) -> str:
         return f"{self.page}: block {self.block!r}: {self.reason}" + " (marked)" * self.marked
@@ -224,6 +228,7 @@ def _stale_reasons(
                 page,
                 name,
                 f"computed at resolution {prov.resolution}, its case's is {case_key}",
+                resolution=True,
             )
         )
     for module, digest in prov.code.items():
@@ -237,6 +242,7 @@ def _stale_reasons(
                     page,
                     name,
                     f"computed with code {module}@{digest}, the current code is {module}@{now}",
+                    module=module,
                 )
             )
     return out
@@ -306,9 +312,9 @@ def mark_stale(root: str | Path, builtin: Case | None = None) -> list[StaleClaim
 def _with_note(text: str, prov: Provenance, items: list[StaleClaim]) -> str:
     line, _, body = text.partition("\n")
     changed = []
-    if any(c.reason.startswith("computed at resolution") for c in items):
+    if any(c.resolution for c in items):
         changed.append("the case's resolution")
-    modules = [m for m in sorted(prov.code) if any(f" {m}@" in c.reason for c in items)]
+    modules = sorted({c.module for c in items if c.module is not None})
     if modules:
         changed.append(
             "the code of " + ", ".join(f"`{m}`" for m in modules) + " and what it imports"

@@ -53,6 +53,7 @@ def test_a_changed_resolution_or_code_makes_a_quoted_block_stale(tmp_path):
     stale = claims.stale_claims(tmp_path)
     assert {c.block for c in stale} == {"readme_headline", "readme_verdict"}
     assert all("resolution 0123456789abcdef" in c.reason for c in stale)
+    assert all(c.resolution and c.module is None for c in stale)
     # the built-in case's resolution changed under the quoted block
     _page(tmp_path, now)
     finer = dataclasses.replace(
@@ -64,6 +65,7 @@ def test_a_changed_resolution_or_code_makes_a_quoted_block_stale(tmp_path):
     _page(tmp_path, dataclasses.replace(now, code={module: "000000000000"}))
     stale = claims.stale_claims(tmp_path)
     assert len(stale) == 2 and all(f"{module}@000000000000" in c.reason for c in stale)
+    assert all(c.module == module and not c.resolution for c in stale)
     # no provenance at all on a block that quotes the built-in case
     _page(tmp_path, None)
     assert {c.reason for c in claims.stale_claims(tmp_path)} == {"no provenance line"}
