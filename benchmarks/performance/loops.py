@@ -30,7 +30,10 @@ docs/performance.md and their one-line summary into block ``readme_timings`` of 
 tests' into blocks ``test_tiers`` and ``readme_test_timings``: each block says the commit it was
 measured at, so the tests can be measured again (20 min) without the jobs (an hour).
 
-    python benchmarks/performance/loops.py [--suite | --tests] [--docs]
+With ``--log-dir DIR`` each command's output is kept in ``DIR/NAME.log``, the jobs' logs at INFO
+level with a time on every line: where each job's time goes.
+
+    python benchmarks/performance/loops.py [--suite | --tests] [--docs] [--log-dir DIR]
 """
 
 from __future__ import annotations
@@ -53,13 +56,23 @@ ROOT = Path(__file__).resolve().parents[2]
 VENV = Path(sys.executable).parent
 
 
-def _run(cmd: list[str], env: dict, cwd: Path = ROOT) -> dict:
-    """Run ``cmd``; its wall, user and system time (children) and whether it succeeded."""
+#: Where each command's output goes (``--log-dir``; None: kept only in memory).
+LOG_DIR: Path | None = None
+
+
+def _run(cmd: list[str], env: dict, cwd: Path = ROOT, name: str | None = None) -> dict:
+    """Run ``cmd``; its wall, user and system time (children) and whether it succeeded. With
+    ``name`` and a :data:`LOG_DIR`, its output goes to ``LOG_DIR/name.log`` as well."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True, check=False)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if LOG_DIR is not None and name is not None:
+        LOG_DIR.mkdir(parents=True, exist_ok=True)
+        (LOG_DIR / f"{name}.log").write_text(
+            f"$ {' '.join(cmd)}\n{proc.stdout}\n{proc.stderr}wall {wall:.1f} s\n"
+        )
     if proc.returncode != 0:
         sys.stderr.write(proc.stdout[-3000:] + proc.stderr[-3000:])
         raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}")
@@ -95,10 +108,11 @@ def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
     env = dict(os.environ, PYVISTA_OFF_SCREEN="true", MPLBACKEND="Agg")
     env["GEARFEM_CACHE"] = str(tmp / "cache")
     env["GEARFEM_MESH_CACHE"] = str(tmp / "meshes")
-    env["GEARFEM_LOG_LEVEL"] = "WARNING"
+    # with --log-dir the logs at INFO, a time on every line: where each job's time goes
+    env["GEARFEM_LOG_LEVEL"] = "INFO" if LOG_DIR is not None else "WARNING"
     try:
         # the main job, empty caches
-        r = _run(_gearfem(2, "run", "--out", str(tmp / "main")), env)
+        r = _run(_gearfem(2, "run", "--out", str(tmp / "main")), env, name="main")
         s = json.loads((tmp / "main" / "summary.json").read_text())
         w, c = s["wall_time_s"], s["cycle"]
         its = c["newton_iterations"] / c["positions"]
@@ -120,21 +134,21 @@ def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
             ),
         ]
         t4 = _case(tmp, "torque4", torque_Nm=4.0)
-        r = _run(_gearfem(2, "run", str(t4), "--out", str(tmp / "t4")), env)
+        r = _run(_gearfem(2, "run", str(t4), "--out", str(tmp / "t4")), env, name="torque4")
         rows.append(("a further torque (4 N m)", f"{r['wall_s']:.0f} s", "compliances stored"))
         s2 = _case(tmp, "speed2000", speed_rpm=2000.0)
-        r = _run(_gearfem(2, "run", str(s2), "--out", str(tmp / "s2")), env)
+        r = _run(_gearfem(2, "run", str(s2), "--out", str(tmp / "s2")), env, name="speed2000")
         rows.append(("a further speed (2000 rpm)", f"{r['wall_s']:.0f} s", "cycle stored"))
         # 1 against 2 ranks: the 4 N m cycle (compliances stored), the thermal stage
         times = {}
         for n in (1, 2):
             shutil.rmtree(tmp / "cache" / "cycles", ignore_errors=True)
             times[("cycle", n)] = _run(
-                _gearfem(n, "cycle", str(t4), "--out", str(tmp / f"c{n}")), env
+                _gearfem(n, "cycle", str(t4), "--out", str(tmp / f"c{n}")), env, name=f"cycle{n}"
             )["wall_s"]
         for n in (1, 2):
             times[("thermal", n)] = _run(
-                _gearfem(n, "run", str(t4), "--out", str(tmp / f"th{n}")), env
+                _gearfem(n, "run", str(t4), "--out", str(tmp / f"th{n}")), env, name=f"thermal{n}"
             )["wall_s"]
         for what in ("cycle", "thermal"):
             a, b = times[(what, 1)], times[(what, 2)]
@@ -156,6 +170,7 @@ def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
                 "--out", str(tmp / "verdict"),
             ],
             env,
+            name="diagnosis",
         )  # fmt: skip
         facts["diagnosis_s"] = r["wall_s"]
         rows.append(
@@ -222,7 +237,7 @@ def measure_tests() -> tuple[list[tuple[str, str, str]], dict]:
             subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
             senv["XDG_CACHE_HOME"] = str(tmp / f"xdg_{key}")
             report = ["--durations=0"] if key == "suite" else []
-            r = _run(["./dev.sh", "test", *args, *report], senv, cwd=clone)
+            r = _run(["./dev.sh", "test", *args, *report], senv, cwd=clone, name=f"tests_{key}")
             tiers = {}
             for name, pattern in _TIER_LINES.items():
                 m = pattern.search(r["stderr"])
@@ -252,7 +267,10 @@ def main() -> None:
     what.add_argument("--suite", action="store_true", help="the jobs, then the tests")
     what.add_argument("--tests", action="store_true", help="only the tests (fresh clones)")
     ap.add_argument("--docs", action="store_true", help="write docs/performance.md and README.md")
+    ap.add_argument("--log-dir", default=None, help="keep each command's output in DIR/NAME.log")
     a = ap.parse_args()
+    global LOG_DIR
+    LOG_DIR = Path(a.log_dir) if a.log_dir else None
     sys.path.insert(0, str(ROOT))
     from gearfem.core.doctables import markdown_table, replace_block
 
