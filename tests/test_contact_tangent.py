@@ -222,20 +222,32 @@ def _assembled(itf, u, motions, matrix):
     return r, sp.csr_matrix((vals, (rows, cols)), shape=(len(u), len(u)))
 
 
-@pytest.mark.parametrize("mu", [0.0, 0.3])
-def test_the_assembled_tangent_is_the_derivative_of_the_assembled_residual(mu):
-    """On the Hertz pair of curved P2 cylinders after a solve (active contact, multipliers from
-    the augmented Lagrangian), the interface's tangent with the geometric part is the central
-    finite difference of its residual in the contact dofs (the bodies' frames, the dofs the
-    boundary conditions fix left out); without it, it is off by the normal's and the foot's
-    variation (with friction, a sliding upper cylinder freezes its slip directions)."""
+#: The upper Hertz cylinder's motion: turning about its own axis (as the gear cycle holds the
+#: wheel); at the contact it slides along +x, so with friction it freezes slip directions.
+TURN = RigidMotion(center=(0.0, 1.0, 0.0), axis=(0.0, 0.0, 1.0), angular_velocity_rad_s=1.0)
+
+
+@pytest.fixture(scope="module", params=[0.0, 0.3], ids=["mu0", "mu0.3"])
+def solved_hertz(request):
+    """The Hertz pair of curved P2 cylinders after a solve with the upper one turning (active
+    contact, multipliers from the augmented Lagrangian), for each friction coefficient: one solve
+    shared by the tangent's and the torque border's checks, which only evaluate the interface at
+    (perturbations of) its displacement. Returns (mu, case, displacement)."""
+    mu = request.param
     opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu, geometric_tangent=True)
     case = hertz_case(MPI.COMM_SELF, opts, contact_size=0.02)
-    if mu:
-        case.problem.motions["upper"] = RigidMotion(velocity_m_s=(1.0, 0.0, 0.0))
+    case.problem.motions["upper"] = TURN
     case.problem.solve("tangent check")
+    return mu, case, case.problem.u.x.array.copy()
+
+
+def test_the_assembled_tangent_is_the_derivative_of_the_assembled_residual(solved_hertz):
+    """On the solved Hertz pair, the interface's tangent with the geometric part is the central
+    finite difference of its residual in the contact dofs (the bodies' frames, the dofs the
+    boundary conditions fix left out); without it, it is off by the normal's and the foot's
+    variation (with friction, the sliding upper cylinder freezes its slip directions)."""
+    _, case, u0 = solved_hertz
     itf, motions = case.problem.interfaces[0], case.problem.motions
-    u0 = case.problem.u.x.array.copy()
     _, K = _assembled(itf, u0, motions, True)
     itf_frozen = dataclasses.replace(itf.options, geometric_tangent=False)
     itf.options, saved = itf_frozen, itf.options
@@ -264,22 +276,16 @@ def _dense(n: int, dofs: np.ndarray, vals: np.ndarray) -> np.ndarray:
     return out
 
 
-@pytest.mark.parametrize("mu", [0.0, 0.3])
-def test_the_assembled_torque_border_is_the_derivative_in_the_rotation(mu):
-    """The upper Hertz cylinder turned by ψ about its own axis (as the gear cycle holds the wheel):
+def test_the_assembled_torque_border_is_the_derivative_in_the_rotation(solved_hertz):
+    """The solved Hertz pair's upper cylinder turned by ψ about its own axis:
     ``rotation_terms``' ∂R_u/∂ψ, ∂(−M)/∂u and ∂(−M)/∂ψ with the geometric parts are the central
     finite differences of the assembled residual and of the contact moment; without them they
     are not."""
-    opts = ContactOptions(search_distance_rel=2.0, friction_coefficient=mu, geometric_tangent=True)
-    case = hertz_case(MPI.COMM_SELF, opts, contact_size=0.02)
-    turn = RigidMotion(center=(0.0, 1.0, 0.0), axis=(0.0, 0.0, 1.0), angular_velocity_rad_s=1.0)
-    case.problem.motions["upper"] = turn
-    case.problem.solve("torque border check")
+    _, case, u0 = solved_hertz
     itf, motions = case.problem.interfaces[0], dict(case.problem.motions)
-    u0 = case.problem.u.x.array.copy()
     n = len(u0)
     psi0, d_psi = 2e-3, 1e-7
-    at = lambda psi: {**motions, "upper": turn.rotated(psi)}
+    at = lambda psi: {**motions, "upper": TURN.rotated(psi)}
 
     def terms(u, psi, geometric=True):
         saved = itf.options
