@@ -12,9 +12,10 @@ directory; the FFCx cache of ``~/.cache/fenics`` is kept, as on any machine afte
   spend, and the sign of a rank idling while the other works);
 * **a further torque** (4 N m: a new cycle, the compliances stored) and **a further speed**
   (2000 rpm at 8 N m: the cycle stored, the thermal and camera runs only);
-* **1 against 2 ranks**: the 4 N m cycle (``gearfem cycle``, compliances stored) and the thermal
-  stage of both gears (``gearfem run`` with the cycle stored) on 1 and on 2 ranks, and the
-  speed-up;
+* **1 against 2 ranks** (also alone: ``--ranks``): ``gearfem run`` of the 4 N m case on 1 and on 2
+  ranks with the compliances stored and the cycle not; the speed-up of each stage (the cycle, the
+  thermal runs of both gears: ``summary.json``'s wall times) and of the whole command (start-up,
+  outputs and the instruments, which rank 0 evaluates, included);
 * **bench diagnosis**: ``demos/bench_camera.py --verdict --skip-runs --no-doc`` (``gearfem
   diagnose --suggest`` of the bench against the built-in case, the whole library) with a cold
   surrogate cache (the case's cycles at the bench torques stored by the runs before; the cycles
@@ -27,13 +28,14 @@ directory; the FFCx cache of ``~/.cache/fenics`` is kept, as on any machine afte
 
 Prints the tables and, with ``--docs``, writes the jobs' into block ``loops`` of
 docs/performance.md and their one-line summary into block ``readme_timings`` of README.md, the
-tests' into blocks ``test_tiers`` and ``readme_test_timings``: each block says the commit it was
-measured at, so the tests can be measured again (20 min) without the jobs (an hour).
+rank comparison into block ``loops_ranks``, the tests' into blocks ``test_tiers`` and
+``readme_test_timings``: each block says the commit it was measured at, so the tests (20 min) or
+the ranks (15 min) can be measured again without the jobs (an hour).
 
 With ``--log-dir DIR`` each command's output is kept in ``DIR/NAME.log``, the jobs' logs at INFO
 level with a time on every line: where each job's time goes.
 
-    python benchmarks/performance/loops.py [--suite | --tests] [--docs] [--log-dir DIR]
+    python benchmarks/performance/loops.py [--suite | --tests | --ranks] [--docs] [--log-dir DIR]
 """
 
 from __future__ import annotations
@@ -56,21 +58,23 @@ ROOT = Path(__file__).resolve().parents[2]
 VENV = Path(sys.executable).parent
 
 
-#: Where each command's output goes (``--log-dir``; None: kept only in memory).
-LOG_DIR: Path | None = None
-
-
-def _run(cmd: list[str], env: dict, cwd: Path = ROOT, name: str | None = None) -> dict:
+def _run(
+    cmd: list[str],
+    env: dict,
+    cwd: Path = ROOT,
+    name: str | None = None,
+    log_dir: Path | None = None,
+) -> dict:
     """Run ``cmd``; its wall, user and system time (children) and whether it succeeded. With
-    ``name`` and a :data:`LOG_DIR`, its output goes to ``LOG_DIR/name.log`` as well."""
+    ``name`` and ``log_dir``, its output goes to ``log_dir/name.log`` as well."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True, check=False)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if LOG_DIR is not None and name is not None:
-        LOG_DIR.mkdir(parents=True, exist_ok=True)
-        (LOG_DIR / f"{name}.log").write_text(
+    if log_dir is not None and name is not None:
+        log_dir.mkdir(parents=True, exist_ok=True)
+        (log_dir / f"{name}.log").write_text(
             f"$ {' '.join(cmd)}\n{proc.stdout}\n{proc.stderr}wall {wall:.1f} s\n"
         )
     if proc.returncode != 0:
@@ -100,19 +104,72 @@ def _case(tmp: Path, name: str, **operating) -> Path:
     return path
 
 
-def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
-    """The jobs' rows and figures (main job, further torque and speed, 1 vs 2 ranks, diagnosis)."""
-    rows: list[tuple[str, str, str]] = []
-    facts: dict = {}
-    tmp = Path(tempfile.mkdtemp(prefix="gearfem-loops-"))
+def _job_env(tmp: Path, log_dir: Path | None) -> dict:
+    """The jobs' environment: caches in ``tmp`` (empty at first), no window; with ``log_dir`` the
+    logs at INFO, a time on every line (where each job's time goes)."""
     env = dict(os.environ, PYVISTA_OFF_SCREEN="true", MPLBACKEND="Agg")
     env["GEARFEM_CACHE"] = str(tmp / "cache")
     env["GEARFEM_MESH_CACHE"] = str(tmp / "meshes")
-    # with --log-dir the logs at INFO, a time on every line: where each job's time goes
-    env["GEARFEM_LOG_LEVEL"] = "INFO" if LOG_DIR is not None else "WARNING"
+    env["GEARFEM_LOG_LEVEL"] = "INFO" if log_dir is not None else "WARNING"
+    return env
+
+
+def measure_ranks(
+    env: dict, tmp: Path, case: Path, log_dir: Path | None
+) -> tuple[list[tuple[str, str, str]], dict]:
+    """1 against 2 ranks: ``gearfem run`` of ``case`` with its compliances stored (in
+    ``env["GEARFEM_CACHE"]``) and its cycle not, in a copy of that cache without cycles (the
+    cache itself keeps the cycles a later job is said to find stored). Rows for each stage of the
+    run (``summary.json``'s wall times: the cycle with its mesh and stored compliances, the
+    thermal runs of both gears) and for the whole command, which holds the start-up, the
+    outputs and the instruments (evaluated on rank 0) as well."""
+    cache = Path(env["GEARFEM_CACHE"])
+    ranks_cache = tmp / "cache_ranks"
+    shutil.copytree(cache, ranks_cache, ignore=shutil.ignore_patterns("cycles"))
+    renv = dict(env, GEARFEM_CACHE=str(ranks_cache))
+    walls, stages = {}, {}
+    for n in (1, 2):
+        shutil.rmtree(ranks_cache / "cycles", ignore_errors=True)
+        out = tmp / f"ranks{n}"
+        cmd = _gearfem(n, "run", str(case), "--out", str(out))
+        walls[n] = _run(cmd, renv, name=f"ranks{n}", log_dir=log_dir)["wall_s"]
+        stages[n] = json.loads((out / "summary.json").read_text())["wall_time_s"]
+    rows = []
+    for label, t1, t2, note in (
+        (
+            "cycle stage",
+            stages[1]["cycle_s"],
+            stages[2]["cycle_s"],
+            "mesh and compliances stored, 18 positions",
+        ),
+        ("thermal stage", stages[1]["thermal_s"], stages[2]["thermal_s"], "both gears"),
+        (
+            "the whole gearfem run",
+            walls[1],
+            walls[2],
+            f"with start-up, outputs and instruments (rank 0: {stages[2]['instruments_s']:.0f} s)",
+        ),
+    ):
+        rows.append(
+            (
+                f"{label}, 1 against 2 ranks",
+                f"{t1:.0f} s / {t2:.0f} s, speed-up {t1 / t2:.2f}",
+                note,
+            )
+        )
+    return rows, {"stages": stages, "walls": walls}
+
+
+def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict]:
+    """The jobs' rows and figures (main job, further torque and speed, diagnosis), and the rank
+    comparison's rows (:func:`measure_ranks`) in ``facts["ranks"]``."""
+    rows: list[tuple[str, str, str]] = []
+    facts: dict = {}
+    tmp = Path(tempfile.mkdtemp(prefix="gearfem-loops-"))
+    env = _job_env(tmp, log_dir)
     try:
         # the main job, empty caches
-        r = _run(_gearfem(2, "run", "--out", str(tmp / "main")), env, name="main")
+        r = _run(_gearfem(2, "run", "--out", str(tmp / "main")), env, name="main", log_dir=log_dir)
         s = json.loads((tmp / "main" / "summary.json").read_text())
         w, c = s["wall_time_s"], s["cycle"]
         its = c["newton_iterations"] / c["positions"]
@@ -134,38 +191,14 @@ def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
             ),
         ]
         t4 = _case(tmp, "torque4", torque_Nm=4.0)
-        r = _run(_gearfem(2, "run", str(t4), "--out", str(tmp / "t4")), env, name="torque4")
+        cmd = _gearfem(2, "run", str(t4), "--out", str(tmp / "t4"))
+        r = _run(cmd, env, name="torque4", log_dir=log_dir)
         rows.append(("a further torque (4 N m)", f"{r['wall_s']:.0f} s", "compliances stored"))
         s2 = _case(tmp, "speed2000", speed_rpm=2000.0)
-        r = _run(_gearfem(2, "run", str(s2), "--out", str(tmp / "s2")), env, name="speed2000")
+        cmd = _gearfem(2, "run", str(s2), "--out", str(tmp / "s2"))
+        r = _run(cmd, env, name="speed2000", log_dir=log_dir)
         rows.append(("a further speed (2000 rpm)", f"{r['wall_s']:.0f} s", "cycle stored"))
-        # 1 against 2 ranks: the 4 N m cycle (compliances stored), the thermal stage; in a copy
-        # of the cache without its cycles, so that the main cache keeps the cycles the diagnosis
-        # below is said to find stored
-        times = {}
-        ranks_cache = tmp / "cache_ranks"
-        shutil.copytree(tmp / "cache", ranks_cache, ignore=shutil.ignore_patterns("cycles"))
-        renv = dict(env, GEARFEM_CACHE=str(ranks_cache))
-        for n in (1, 2):
-            shutil.rmtree(ranks_cache / "cycles", ignore_errors=True)
-            times[("cycle", n)] = _run(
-                _gearfem(n, "cycle", str(t4), "--out", str(tmp / f"c{n}")), renv, name=f"cycle{n}"
-            )["wall_s"]
-        for n in (1, 2):
-            times[("thermal", n)] = _run(
-                _gearfem(n, "run", str(t4), "--out", str(tmp / f"th{n}")), renv, name=f"thermal{n}"
-            )["wall_s"]
-        for what in ("cycle", "thermal"):
-            a, b = times[(what, 1)], times[(what, 2)]
-            rows.append(
-                (
-                    f"{what} 1 against 2 ranks",
-                    f"{a:.0f} s / {b:.0f} s, speed-up {a / b:.2f}",
-                    "the 4 N m cycle, compliances stored"
-                    if what == "cycle"
-                    else "gearfem run with the cycle stored (both gears, camera)",
-                )
-            )
+        facts["ranks"], _ = measure_ranks(env, tmp, t4, log_dir)
         # the bench diagnosis, cold surrogate cache (cycles stored)
         shutil.rmtree(tmp / "cache" / "surrogate", ignore_errors=True)
         r = _run(
@@ -176,6 +209,7 @@ def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
             ],
             env,
             name="diagnosis",
+            log_dir=log_dir,
         )  # fmt: skip
         facts["diagnosis_s"] = r["wall_s"]
         rows.append(
@@ -189,6 +223,21 @@ def measure_jobs() -> tuple[list[tuple[str, str, str]], dict]:
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return rows, facts
+
+
+def measure_ranks_alone(log_dir: Path | None) -> list[tuple[str, str, str]]:
+    """:func:`measure_ranks` without the other jobs: empty caches, the compliances computed first
+    by ``gearfem cycle`` of the 4 N m case on 2 ranks (not timed)."""
+    tmp = Path(tempfile.mkdtemp(prefix="gearfem-ranks-"))
+    env = _job_env(tmp, log_dir)
+    try:
+        t4 = _case(tmp, "torque4", torque_Nm=4.0)
+        cmd = _gearfem(2, "cycle", str(t4), "--out", str(tmp / "compliances"))
+        _run(cmd, env, name="compliances", log_dir=log_dir)
+        rows, _ = measure_ranks(env, tmp, t4, log_dir)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return rows
 
 
 #: dev.sh's lines with the time of each tier (``[dev.sh] ... passed in N s``)
@@ -224,7 +273,7 @@ def module_times(stdout: str) -> list[tuple[str, str, str, str]]:
     return rows
 
 
-def measure_tests() -> tuple[list[tuple[str, str, str]], dict]:
+def measure_tests(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict]:
     """``./dev.sh test`` and ``./dev.sh test --quick``, each in a fresh clone of HEAD with an empty
     FFCx cache, as on a CI machine: set-up (the venv) and the forms' compilation included. The
     full suite runs with pytest's ``--durations=0``: ``facts["modules"]`` holds
@@ -242,7 +291,8 @@ def measure_tests() -> tuple[list[tuple[str, str, str]], dict]:
             subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
             senv["XDG_CACHE_HOME"] = str(tmp / f"xdg_{key}")
             report = ["--durations=0"] if key == "suite" else []
-            r = _run(["./dev.sh", "test", *args, *report], senv, cwd=clone, name=f"tests_{key}")
+            cmd = ["./dev.sh", "test", *args, *report]
+            r = _run(cmd, senv, cwd=clone, name=f"tests_{key}", log_dir=log_dir)
             tiers = {}
             for name, pattern in _TIER_LINES.items():
                 m = pattern.search(r["stderr"])
@@ -271,11 +321,13 @@ def main() -> None:
     what = ap.add_mutually_exclusive_group()
     what.add_argument("--suite", action="store_true", help="the jobs, then the tests")
     what.add_argument("--tests", action="store_true", help="only the tests (fresh clones)")
+    what.add_argument(
+        "--ranks", action="store_true", help="only the comparison of 1 and 2 ranks (empty caches)"
+    )
     ap.add_argument("--docs", action="store_true", help="write docs/performance.md and README.md")
     ap.add_argument("--log-dir", default=None, help="keep each command's output in DIR/NAME.log")
     a = ap.parse_args()
-    global LOG_DIR
-    LOG_DIR = Path(a.log_dir) if a.log_dir else None
+    log_dir = Path(a.log_dir) if a.log_dir else None
     sys.path.insert(0, str(ROOT))
     from gearfem.core.doctables import markdown_table, replace_block
 
@@ -292,18 +344,26 @@ def main() -> None:
             f"({machine}; load average {os.getloadavg()[0]:.1f} at the end)."
         )
 
-    def publish(head, rows, flag: str, block: str, readme_block: str, line: str, link: str):
-        """Print the table; with --docs, write it into block ``block`` of docs/performance.md
-        and ``line`` with the commit and date (and ``link``) into the README's ``readme_block``."""
+    def publish_block(head, rows, flag: str, block: str) -> None:
+        """Print the table; with --docs, write it into block ``block`` of docs/performance.md."""
         text = f"{markdown_table(head, rows)}\n\n{measured(flag)}"
         print(text)
         if a.docs:
             replace_block(ROOT / "docs" / "performance.md", block, text)
+
+    def publish(head, rows, flag: str, block: str, readme_block: str, line: str, link: str):
+        """:func:`publish_block`, and with --docs ``line`` with the commit and date (and
+        ``link``) into the README's ``readme_block``."""
+        publish_block(head, rows, flag, block)
+        if a.docs:
             stamp = f"Measured at {commit} on {today} by `benchmarks/performance/loops.py{flag}`"
             replace_block(ROOT / "README.md", readme_block, f"{line} {stamp}{link}.")
 
-    if not a.tests:
-        rows, facts = measure_jobs()
+    ranks_head = ("comparison", "time", "note")
+    if a.ranks:
+        publish_block(ranks_head, measure_ranks_alone(log_dir), " --ranks", "loops_ranks")
+    elif not a.tests:
+        rows, facts = measure_jobs(log_dir)
         publish(
             ("loop", "time", "note"), rows, "", "loops", "readme_timings",
             f"On this project's machine ({machine}): the main job takes "
@@ -311,8 +371,9 @@ def main() -> None:
             f"{facts['diagnosis_s'] / 60:.1f} min.",
             " ([docs/performance.md](docs/performance.md))",
         )  # fmt: skip
+        publish_block(ranks_head, facts["ranks"], "", "loops_ranks")
     if a.suite or a.tests:
-        rows, facts = measure_tests()
+        rows, facts = measure_tests(log_dir)
         publish(
             ("tests", "time", "of which"), rows, " --tests", "test_tiers", "readme_test_timings",
             f"The tests take {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
