@@ -20,6 +20,7 @@ import pytest
 import ufl
 from dolfinx import fem
 from mpi4py import MPI
+from scripts import load_script
 
 from gearfem import pipeline
 from gearfem.config import Case, load_case
@@ -290,6 +291,12 @@ def test_cycle_store_round_trip_and_heat_handed_to_the_thermal_model(loaded, tmp
         write_cycle_outputs(back, tmp_out / "report", plots=False)
         summary = json.loads((tmp_out / "report" / "cycle_summary.json").read_text())
         assert PeriodicityCheck.from_json(summary["periodicity"]) == loaded.periodicity
+        # benchmarks/performance/contact_options.py compares two such reports
+        script = load_script("benchmarks/performance/contact_options.py")
+        its, diff = script._differences(tmp_out / "report", tmp_out / "report")
+        assert (
+            its == summary["newton_iterations"] and "loads 0 N" in diff and "U_max 0.0e+00" in diff
+        )
     assert back.effective_contact_ratio() == loaded.effective_contact_ratio()
     # a second writer of a complete entry (another test worker, a concurrent study) keeps the
     # first one in place unless asked to replace it; no temporary directory is left behind
