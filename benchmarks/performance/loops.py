@@ -116,7 +116,7 @@ def _job_env(tmp: Path, log_dir: Path | None) -> dict:
 
 def measure_ranks(
     env: dict, tmp: Path, case: Path, log_dir: Path | None
-) -> tuple[list[tuple[str, str, str]], dict]:
+) -> list[tuple[str, str, str]]:
     """1 against 2 ranks: ``gearfem run`` of ``case`` with its compliances stored (in
     ``env["GEARFEM_CACHE"]``) and its cycle not, in a copy of that cache without cycles (the
     cache itself keeps the cycles a later job is said to find stored). Rows for each stage of the
@@ -133,14 +133,16 @@ def measure_ranks(
         out = tmp / f"ranks{n}"
         cmd = _gearfem(n, "run", str(case), "--out", str(out))
         walls[n] = _run(cmd, renv, name=f"ranks{n}", log_dir=log_dir)["wall_s"]
-        stages[n] = json.loads((out / "summary.json").read_text())["wall_time_s"]
+        summary = json.loads((out / "summary.json").read_text())
+        stages[n] = summary["wall_time_s"]
+    positions = summary["cycle"]["positions"]
     rows = []
     for label, t1, t2, note in (
         (
             "cycle stage",
             stages[1]["cycle_s"],
             stages[2]["cycle_s"],
-            "mesh and compliances stored, 18 positions",
+            f"mesh and compliances stored, {positions} positions",
         ),
         ("thermal stage", stages[1]["thermal_s"], stages[2]["thermal_s"], "both gears"),
         (
@@ -157,7 +159,7 @@ def measure_ranks(
                 note,
             )
         )
-    return rows, {"stages": stages, "walls": walls}
+    return rows
 
 
 def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict]:
@@ -198,7 +200,7 @@ def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict
         cmd = _gearfem(2, "run", str(s2), "--out", str(tmp / "s2"))
         r = _run(cmd, env, name="speed2000", log_dir=log_dir)
         rows.append(("a further speed (2000 rpm)", f"{r['wall_s']:.0f} s", "cycle stored"))
-        facts["ranks"], _ = measure_ranks(env, tmp, t4, log_dir)
+        facts["ranks"] = measure_ranks(env, tmp, t4, log_dir)
         # the bench diagnosis, cold surrogate cache (cycles stored)
         shutil.rmtree(tmp / "cache" / "surrogate", ignore_errors=True)
         r = _run(
@@ -234,7 +236,7 @@ def measure_ranks_alone(log_dir: Path | None) -> list[tuple[str, str, str]]:
         t4 = _case(tmp, "torque4", torque_Nm=4.0)
         cmd = _gearfem(2, "cycle", str(t4), "--out", str(tmp / "compliances"))
         _run(cmd, env, name="compliances", log_dir=log_dir)
-        rows, _ = measure_ranks(env, tmp, t4, log_dir)
+        rows = measure_ranks(env, tmp, t4, log_dir)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return rows
