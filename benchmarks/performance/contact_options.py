@@ -24,21 +24,24 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import datetime
 import json
 import os
 import platform
 import shutil
-import subprocess
-import sys
 import tempfile
-import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
+from loops import gearfem_command, run_command
+
+from gearfem.config import load_case, write_case
+from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.provenance import git_hash
 
 ROOT = Path(__file__).resolve().parents[2]
-VENV = Path(sys.executable).parent
 
 #: The variants measured by default: (name, {contact option: value}).
 VARIANTS: tuple[tuple[str, dict], ...] = (
@@ -54,8 +57,6 @@ VARIANTS: tuple[tuple[str, dict], ...] = (
 
 def _parse_variant(text: str) -> tuple[str, dict]:
     """``NAME=key:value[,key:value...]`` (values as TOML scalars: 1e-3, 4.0, true)."""
-    import tomllib
-
     name, _, body = text.partition("=")
     if not name or not body:
         raise SystemExit(f"--variant {text!r}: expected NAME=key:value[,key:value...]")
@@ -68,31 +69,11 @@ def _parse_variant(text: str) -> tuple[str, dict]:
 
 def _write_case(path: Path, torque_Nm: float, contact: dict) -> None:
     """The built-in case at ``torque_Nm`` with ``contact`` options changed, as a case file (the
-    case is validated on construction: a bad key or value stops here, naming it)."""
-    code = (
-        "import dataclasses, sys; from gearfem.config import load_case, write_case; "
-        f"c = load_case(None).with_operating(torque_Nm={torque_Nm!r}); "
-        f"c = dataclasses.replace(c, contact=dataclasses.replace(c.contact, **{contact!r})); "
-        "write_case(c, sys.argv[1])"
+    options are validated on construction: a bad key or value stops here, naming it)."""
+    case = load_case(None).with_operating(torque_Nm=torque_Nm)
+    write_case(
+        dataclasses.replace(case, contact=dataclasses.replace(case.contact, **contact)), path
     )
-    subprocess.run([sys.executable, "-c", code, str(path)], check=True)
-
-
-def _cycle(case: Path, out: Path, env: dict, log: Path | None) -> float:
-    """``mpirun -n 2 gearfem cycle``; its wall time in seconds."""
-    cmd = [str(VENV / "mpirun"), "-n", "2", str(VENV / "gearfem"), "cycle", str(case)]
-    t0 = time.perf_counter()
-    proc = subprocess.run(
-        [*cmd, "--out", str(out)], env=env, capture_output=True, text=True, check=False
-    )
-    wall = time.perf_counter() - t0
-    if log is not None:
-        log.parent.mkdir(parents=True, exist_ok=True)
-        log.write_text(f"$ {' '.join(cmd)}\n{proc.stdout}\n{proc.stderr}wall {wall:.1f} s\n")
-    if proc.returncode != 0:
-        sys.stderr.write(proc.stdout[-3000:] + proc.stderr[-3000:])
-        raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}")
-    return wall
 
 
 def _read(out: Path) -> tuple[dict, dict[str, np.ndarray]]:
@@ -134,18 +115,17 @@ def main() -> None:
     a = ap.parse_args()
     variants = [_parse_variant(v) for v in a.variant] if a.variant else list(VARIANTS)
     log_dir = Path(a.log_dir) if a.log_dir else None
-    sys.path.insert(0, str(ROOT))
-    from gearfem.core.doctables import markdown_table, replace_block
-
-    commit = subprocess.run(
-        ["git", "-C", str(ROOT), "describe", "--always", "--dirty"],
-        capture_output=True, text=True, check=False,
-    ).stdout.strip()  # fmt: skip
+    commit = git_hash(ROOT)
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-contact-options-"))
     env = dict(os.environ, PYVISTA_OFF_SCREEN="true", MPLBACKEND="Agg")
     env["GEARFEM_LOG_LEVEL"] = "INFO" if log_dir is not None else "WARNING"
     env["GEARFEM_CACHE"] = str(tmp / "cache")
-    logs = (lambda name: log_dir / f"{name}.log") if log_dir is not None else (lambda name: None)
+
+    def cycle(case: Path, out: Path, name: str) -> float:
+        """``mpirun -n 2 gearfem cycle``; its wall time in seconds."""
+        cmd = gearfem_command(2, "cycle", str(case), "--out", str(out))
+        return run_command(cmd, env, name=name, log_dir=log_dir)["wall_s"]
+
     try:
         stored = Path(os.environ.get("GEARFEM_CACHE", ROOT / "cache")) / "compliance"
         default = tmp / "default.toml"
@@ -153,7 +133,7 @@ def main() -> None:
         if stored.is_dir():
             shutil.copytree(stored, tmp / "cache" / "compliance", copy_function=os.link)
         else:  # the compliances by a first cycle of the default, not timed
-            _cycle(default, tmp / "warm_up", env, logs("warm_up"))
+            cycle(default, tmp / "warm_up", "warm_up")
         rows = []
         runs = [("default", {}), *variants, ("default, again", {})]
         for k, (name, contact) in enumerate(runs):
@@ -162,10 +142,11 @@ def main() -> None:
             if contact:
                 _write_case(case, a.torque_Nm, contact)
             out = tmp / f"run{k}"
-            wall = _cycle(case, out, env, logs(f"run{k}"))
+            wall = cycle(case, out, f"run{k}")
             its, diff = _differences(tmp / "run0", out)
             rows.append((name, f"{wall:.0f} s", str(its), "-" if k == 0 else diff))
             print(" | ".join(rows[-1]), flush=True)
+        positions = _read(tmp / "run0")[0]["positions"]
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     text = (
@@ -173,7 +154,8 @@ def main() -> None:
             ("[contact] options", "cycle, 2 ranks", "Newton iterations", "largest differences"),
             rows,
         )
-        + f"\n\nThe built-in case at {a.torque_Nm:g} N m, 18 positions, compliances stored. "
+        + f"\n\nThe built-in case at {a.torque_Nm:g} N m, {positions} positions, compliances "
+        "stored. "
         f"Measured by `python benchmarks/performance/contact_options.py` at {commit} on "
         f"{datetime.date.today().isoformat()} ({os.cpu_count()} cores, "
         f"{platform.processor() or platform.machine()}; load average "

@@ -54,11 +54,15 @@ import tempfile
 import time
 from pathlib import Path
 
+from gearfem.config import load_case, write_case
+from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.provenance import git_hash
+
 ROOT = Path(__file__).resolve().parents[2]
 VENV = Path(sys.executable).parent
 
 
-def _run(
+def run_command(
     cmd: list[str],
     env: dict,
     cwd: Path = ROOT,
@@ -89,18 +93,15 @@ def _run(
     }
 
 
-def _gearfem(np_: int, *args: str) -> list[str]:
+def gearfem_command(np_: int, *args: str) -> list[str]:
+    """``mpirun -n np_ gearfem args...`` with the virtual environment's mpirun and gearfem."""
     return [str(VENV / "mpirun"), "-n", str(np_), str(VENV / "gearfem"), *args]
 
 
 def _case(tmp: Path, name: str, **operating) -> Path:
     """The built-in case at another operating point, as a case file."""
-    code = (
-        "from gearfem.config import load_case, write_case; import sys; "
-        f"c = load_case(None).with_operating(**{operating!r}); write_case(c, sys.argv[1])"
-    )
     path = tmp / f"{name}.toml"
-    subprocess.run([sys.executable, "-c", code, str(path)], check=True)
+    write_case(load_case(None).with_operating(**operating), path)
     return path
 
 
@@ -131,8 +132,8 @@ def measure_ranks(
     for n in (1, 2):
         shutil.rmtree(ranks_cache / "cycles", ignore_errors=True)
         out = tmp / f"ranks{n}"
-        cmd = _gearfem(n, "run", str(case), "--out", str(out))
-        walls[n] = _run(cmd, renv, name=f"ranks{n}", log_dir=log_dir)["wall_s"]
+        cmd = gearfem_command(n, "run", str(case), "--out", str(out))
+        walls[n] = run_command(cmd, renv, name=f"ranks{n}", log_dir=log_dir)["wall_s"]
         summary = json.loads((out / "summary.json").read_text())
         stages[n] = summary["wall_time_s"]
     positions = summary["cycle"]["positions"]
@@ -171,7 +172,9 @@ def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict
     env = _job_env(tmp, log_dir)
     try:
         # the main job, empty caches
-        r = _run(_gearfem(2, "run", "--out", str(tmp / "main")), env, name="main", log_dir=log_dir)
+        r = run_command(
+            gearfem_command(2, "run", "--out", str(tmp / "main")), env, name="main", log_dir=log_dir
+        )
         s = json.loads((tmp / "main" / "summary.json").read_text())
         w, c = s["wall_time_s"], s["cycle"]
         its = c["newton_iterations"] / c["positions"]
@@ -193,17 +196,17 @@ def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict
             ),
         ]
         t4 = _case(tmp, "torque4", torque_Nm=4.0)
-        cmd = _gearfem(2, "run", str(t4), "--out", str(tmp / "t4"))
-        r = _run(cmd, env, name="torque4", log_dir=log_dir)
+        cmd = gearfem_command(2, "run", str(t4), "--out", str(tmp / "t4"))
+        r = run_command(cmd, env, name="torque4", log_dir=log_dir)
         rows.append(("a further torque (4 N m)", f"{r['wall_s']:.0f} s", "compliances stored"))
         s2 = _case(tmp, "speed2000", speed_rpm=2000.0)
-        cmd = _gearfem(2, "run", str(s2), "--out", str(tmp / "s2"))
-        r = _run(cmd, env, name="speed2000", log_dir=log_dir)
+        cmd = gearfem_command(2, "run", str(s2), "--out", str(tmp / "s2"))
+        r = run_command(cmd, env, name="speed2000", log_dir=log_dir)
         rows.append(("a further speed (2000 rpm)", f"{r['wall_s']:.0f} s", "cycle stored"))
         facts["ranks"] = measure_ranks(env, tmp, t4, log_dir)
         # the bench diagnosis, cold surrogate cache (cycles stored)
         shutil.rmtree(tmp / "cache" / "surrogate", ignore_errors=True)
-        r = _run(
+        r = run_command(
             [
                 str(VENV / "mpirun"), "-n", "2", sys.executable,
                 str(ROOT / "demos" / "bench_camera.py"), "--verdict", "--skip-runs", "--no-doc",
@@ -234,8 +237,8 @@ def measure_ranks_alone(log_dir: Path | None) -> list[tuple[str, str, str]]:
     env = _job_env(tmp, log_dir)
     try:
         t4 = _case(tmp, "torque4", torque_Nm=4.0)
-        cmd = _gearfem(2, "cycle", str(t4), "--out", str(tmp / "compliances"))
-        _run(cmd, env, name="compliances", log_dir=log_dir)
+        cmd = gearfem_command(2, "cycle", str(t4), "--out", str(tmp / "compliances"))
+        run_command(cmd, env, name="compliances", log_dir=log_dir)
         rows = measure_ranks(env, tmp, t4, log_dir)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -294,7 +297,7 @@ def measure_tests(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dic
             senv["XDG_CACHE_HOME"] = str(tmp / f"xdg_{key}")
             report = ["--durations=0"] if key == "suite" else []
             cmd = ["./dev.sh", "test", *args, *report]
-            r = _run(cmd, senv, cwd=clone, name=f"tests_{key}", log_dir=log_dir)
+            r = run_command(cmd, senv, cwd=clone, name=f"tests_{key}", log_dir=log_dir)
             tiers = {}
             for name, pattern in _TIER_LINES.items():
                 m = pattern.search(r["stderr"])
@@ -330,14 +333,8 @@ def main() -> None:
     ap.add_argument("--log-dir", default=None, help="keep each command's output in DIR/NAME.log")
     a = ap.parse_args()
     log_dir = Path(a.log_dir) if a.log_dir else None
-    sys.path.insert(0, str(ROOT))
-    from gearfem.core.doctables import markdown_table, replace_block
-
     today = datetime.date.today().isoformat()
-    commit = subprocess.run(
-        ["git", "-C", str(ROOT), "describe", "--always", "--dirty"],
-        capture_output=True, text=True, check=False,
-    ).stdout.strip()  # fmt: skip
+    commit = git_hash(ROOT)
     machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
 
     def measured(flag: str) -> str:
