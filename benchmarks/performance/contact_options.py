@@ -25,21 +25,18 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import datetime
 import json
 import os
-import platform
 import shutil
 import tempfile
 import tomllib
 from pathlib import Path
 
 import numpy as np
-from loops import gearfem_command, run_command
+from loops import gearfem_command, machine_reference_s, measured_by, run_command
 
 from gearfem.config import load_case, write_case
 from gearfem.core.doctables import markdown_table, replace_block
-from gearfem.core.provenance import git_hash
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -115,7 +112,7 @@ def main() -> None:
     a = ap.parse_args()
     variants = [_parse_variant(v) for v in a.variant] if a.variant else list(VARIANTS)
     log_dir = Path(a.log_dir) if a.log_dir else None
-    commit = git_hash(ROOT)
+    reference_start = machine_reference_s()
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-contact-options-"))
     env = dict(os.environ, PYVISTA_OFF_SCREEN="true", MPLBACKEND="Agg")
     env["GEARFEM_LOG_LEVEL"] = "INFO" if log_dir is not None else "WARNING"
@@ -155,11 +152,7 @@ def main() -> None:
             rows,
         )
         + f"\n\nThe built-in case at {a.torque_Nm:g} N m, {positions} positions, compliances "
-        "stored. "
-        f"Measured by `python benchmarks/performance/contact_options.py` at {commit} on "
-        f"{datetime.date.today().isoformat()} ({os.cpu_count()} cores, "
-        f"{platform.processor() or platform.machine()}; load average "
-        f"{os.getloadavg()[0]:.1f} at the end)."
+        "stored. " + measured_by("benchmarks/performance/contact_options.py", reference_start)
     )
     print(text)
     if a.docs:

@@ -54,12 +54,46 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+import scipy.linalg as sla
+from threadpoolctl import threadpool_limits
+
 from gearfem.config import load_case, write_case
 from gearfem.core.doctables import markdown_table, replace_block
 from gearfem.core.provenance import git_hash
 
 ROOT = Path(__file__).resolve().parents[2]
 VENV = Path(sys.executable).parent
+
+
+def machine_reference_s(repeats: int = 3) -> float:
+    """Seconds of a fixed single-core workload, the kind of work a contact position does (an LU
+    of a dense 3000 x 3000 matrix and a copy of 320 MB), the least of ``repeats``: how fast the
+    machine was when a table was measured. The project's machine runs the same job up to 1.8
+    times slower on some hours than on others; two tables compare by their figures over this."""
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((3000, 3000))
+    big = np.ones(40_000_000)
+    best = float("inf")
+    with threadpool_limits(1):
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            sla.lu_factor(a)
+            big.copy()
+            best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def measured_by(command: str, reference_start_s: float) -> str:
+    """The provenance sentence of a measured table: ``command``, the commit, the date, the
+    machine, its load at the end and :func:`machine_reference_s` at the start (given) and now."""
+    return (
+        f"Measured by `python {command}` at {git_hash(ROOT)} on "
+        f"{datetime.date.today().isoformat()} ({os.cpu_count()} cores, "
+        f"{platform.processor() or platform.machine()}; load average "
+        f"{os.getloadavg()[0]:.1f} at the end; machine reference {reference_start_s:.2f} s at "
+        f"the start, {machine_reference_s():.2f} s at the end)."
+    )
 
 
 def run_command(
@@ -336,12 +370,10 @@ def main() -> None:
     today = datetime.date.today().isoformat()
     commit = git_hash(ROOT)
     machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
+    reference_start = machine_reference_s()
 
     def measured(flag: str) -> str:
-        return (
-            f"Measured by `python benchmarks/performance/loops.py{flag}` at {commit} on {today} "
-            f"({machine}; load average {os.getloadavg()[0]:.1f} at the end)."
-        )
+        return measured_by(f"benchmarks/performance/loops.py{flag}", reference_start)
 
     def publish_block(head, rows, flag: str, block: str) -> None:
         """Print the table; with --docs, write it into block ``block`` of docs/performance.md."""
