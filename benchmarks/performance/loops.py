@@ -151,7 +151,7 @@ def _job_env(tmp: Path, log_dir: Path | None) -> dict:
 
 def measure_ranks(
     env: dict, tmp: Path, case: Path, log_dir: Path | None
-) -> list[tuple[str, str, str]]:
+) -> list[tuple[str, str, str, str]]:
     """1 against 2 ranks: ``gearfem run`` of ``case`` with its compliances stored (in
     ``env["GEARFEM_CACHE"]``) and its cycle not, in a copy of that cache without cycles (the
     cache itself keeps the cycles a later job is said to find stored). Rows for each stage of the
@@ -172,18 +172,26 @@ def measure_ranks(
         stages[n] = summary["wall_time_s"]
     positions = summary["cycle"]["positions"]
     rows = []
-    for label, t1, t2, note in (
+    for label, t1, t2, target, note in (
         (
             "cycle stage",
             stages[1]["cycle_s"],
             stages[2]["cycle_s"],
+            "speed-up 1.7",
             f"mesh and compliances stored, {positions} positions",
         ),
-        ("thermal stage", stages[1]["thermal_s"], stages[2]["thermal_s"], "both gears"),
+        (
+            "thermal stage",
+            stages[1]["thermal_s"],
+            stages[2]["thermal_s"],
+            "speed-up 1.7",
+            "both gears",
+        ),
         (
             "the whole gearfem run",
             walls[1],
             walls[2],
+            "-",
             f"with start-up, outputs and instruments (rank 0: {stages[2]['instruments_s']:.0f} s)",
         ),
     ):
@@ -191,16 +199,17 @@ def measure_ranks(
             (
                 f"{label}, 1 against 2 ranks",
                 f"{t1:.0f} s / {t2:.0f} s, speed-up {t1 / t2:.2f}",
+                target,
                 note,
             )
         )
     return rows
 
 
-def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict]:
+def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str, str]], dict]:
     """The jobs' rows and figures (main job, further torque and speed, diagnosis), and the rank
     comparison's rows (:func:`measure_ranks`) in ``facts["ranks"]``."""
-    rows: list[tuple[str, str, str]] = []
+    rows: list[tuple[str, str, str, str]] = []
     facts: dict = {}
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-loops-"))
     env = _job_env(tmp, log_dir)
@@ -214,29 +223,33 @@ def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict
         its = c["newton_iterations"] / c["positions"]
         facts["main_s"] = r["wall_s"]
         rows += [
-            ("main job, empty caches (2 ranks)", f"{r['wall_s']:.0f} s", "gearfem run"),
+            ("main job, empty caches (2 ranks)", f"{r['wall_s']:.0f} s", "2 min", "gearfem run"),
             (
                 "  of which cycle (mesh, compliances, positions)",
                 f"{w['cycle_s']:.0f} s",
+                "",
                 f"{c['positions']} positions, {its:.1f} Newton iterations per position; "
                 f"compliances {c['info'].get('condensation_s', 0):.0f} s",
             ),
-            ("  thermal (both gears)", f"{w['thermal_s']:.0f} s", ""),
-            ("  camera", f"{w.get('instruments_s', 0):.0f} s", ""),
+            ("  thermal (both gears)", f"{w['thermal_s']:.0f} s", "", ""),
+            ("  camera", f"{w.get('instruments_s', 0):.0f} s", "", ""),
             (
                 "  CPU time of the ranks",
                 f"user {r['user_s']:.0f} s, system {r['sys_s']:.0f} s",
+                "",
                 "system time: ranks waiting in MPI",
             ),
         ]
         t4 = _case(tmp, "torque4", torque_Nm=4.0)
         cmd = gearfem_command(2, "run", str(t4), "--out", str(tmp / "t4"))
         r = run_command(cmd, env, name="torque4", log_dir=log_dir)
-        rows.append(("a further torque (4 N m)", f"{r['wall_s']:.0f} s", "compliances stored"))
+        rows.append(
+            ("a further torque (4 N m)", f"{r['wall_s']:.0f} s", "30 s", "compliances stored")
+        )
         s2 = _case(tmp, "speed2000", speed_rpm=2000.0)
         cmd = gearfem_command(2, "run", str(s2), "--out", str(tmp / "s2"))
         r = run_command(cmd, env, name="speed2000", log_dir=log_dir)
-        rows.append(("a further speed (2000 rpm)", f"{r['wall_s']:.0f} s", "cycle stored"))
+        rows.append(("a further speed (2000 rpm)", f"{r['wall_s']:.0f} s", "15 s", "cycle stored"))
         facts["ranks"] = measure_ranks(env, tmp, t4, log_dir)
         # the bench diagnosis, cold surrogate cache (cycles stored)
         shutil.rmtree(tmp / "cache" / "surrogate", ignore_errors=True)
@@ -255,6 +268,7 @@ def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict
             (
                 "bench diagnosis with --suggest (2 ranks)",
                 f"{r['wall_s']:.0f} s",
+                "10 min",
                 "cold surrogate; the case's cycles at 4 and 8 N m stored, the tip-round "
                 "variants' (input uncertainty) computed",
             )
@@ -264,7 +278,7 @@ def measure_jobs(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict
     return rows, facts
 
 
-def measure_ranks_alone(log_dir: Path | None) -> list[tuple[str, str, str]]:
+def measure_ranks_alone(log_dir: Path | None) -> list[tuple[str, str, str, str]]:
     """:func:`measure_ranks` without the other jobs: empty caches, the compliances computed first
     by ``gearfem cycle`` of the 4 N m case on 2 ranks (not timed)."""
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-ranks-"))
@@ -312,19 +326,19 @@ def module_times(stdout: str) -> list[tuple[str, str, str, str]]:
     return rows
 
 
-def measure_tests(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dict]:
+def measure_tests(log_dir: Path | None) -> tuple[list[tuple[str, str, str, str]], dict]:
     """``./dev.sh test`` and ``./dev.sh test --quick``, each in a fresh clone of HEAD with an empty
     FFCx cache, as on a CI machine: set-up (the venv) and the forms' compilation included. The
     full suite runs with pytest's ``--durations=0``: ``facts["modules"]`` holds
     :func:`module_times`."""
-    rows: list[tuple[str, str, str]] = []
+    rows: list[tuple[str, str, str, str]] = []
     facts: dict = {}
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-tests-"))
     senv = {k: v for k, v in os.environ.items() if not k.startswith("GEARFEM_")}
     try:
-        for key, args, label in (
-            ("suite", [], "./dev.sh test"),
-            ("quick", ["--quick"], "./dev.sh test --quick"),
+        for key, args, label, target in (
+            ("suite", [], "./dev.sh test", "15 min"),
+            ("quick", ["--quick"], "./dev.sh test --quick", "3 min"),
         ):
             clone = tmp / f"clone_{key}"
             subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
@@ -346,6 +360,7 @@ def measure_tests(log_dir: Path | None) -> tuple[list[tuple[str, str, str]], dic
                 (
                     f"{label}, fresh clone",
                     f"{r['wall_s'] / 60:.1f} min",
+                    target,
                     f"set-up {setup:.0f} s, 1-rank tier {tiers['one_rank_s']:.0f} s, "
                     f"mpirun -n 2 tier {tiers['mpi_s']:.0f} s",
                 )
@@ -387,16 +402,19 @@ def main() -> None:
         ``link``) into the README's ``readme_block``."""
         publish_block(head, rows, flag, block)
         if a.docs:
-            stamp = f"Measured at {commit} on {today} by `benchmarks/performance/loops.py{flag}`"
+            stamp = (
+                f"Measured at {commit} on {today} (machine reference {reference_start:.2f} s: "
+                f"docs/performance.md) by `benchmarks/performance/loops.py{flag}`"
+            )
             replace_block(ROOT / "README.md", readme_block, f"{line} {stamp}{link}.")
 
-    ranks_head = ("comparison", "time", "note")
+    ranks_head = ("comparison", "time", "target", "note")
     if a.ranks:
         publish_block(ranks_head, measure_ranks_alone(log_dir), " --ranks", "loops_ranks")
     elif not a.tests:
         rows, facts = measure_jobs(log_dir)
         publish(
-            ("loop", "time", "note"), rows, "", "loops", "readme_timings",
+            ("loop", "time", "target", "note"), rows, "", "loops", "readme_timings",
             f"On this project's machine ({machine}): the main job takes "
             f"{facts['main_s'] / 60:.1f} min with empty caches, the bench diagnosis "
             f"{facts['diagnosis_s'] / 60:.1f} min.",
@@ -406,7 +424,8 @@ def main() -> None:
     if a.suite or a.tests:
         rows, facts = measure_tests(log_dir)
         publish(
-            ("tests", "time", "of which"), rows, " --tests", "test_tiers", "readme_test_timings",
+            ("tests", "time", "target", "of which"), rows, " --tests", "test_tiers",
+            "readme_test_timings",
             f"The tests take {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
             f"{facts['quick_s'] / 60:.1f} min), set-up included.",
             "",
