@@ -37,6 +37,7 @@ from loops import gearfem_command, machine_reference_s, measured_by, run_command
 
 from gearfem.config import load_case, write_case
 from gearfem.core.doctables import markdown_table, replace_block
+from gearfem.core.provenance import git_hash
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -112,7 +113,7 @@ def main() -> None:
     a = ap.parse_args()
     variants = [_parse_variant(v) for v in a.variant] if a.variant else list(VARIANTS)
     log_dir = Path(a.log_dir) if a.log_dir else None
-    reference_start = machine_reference_s()
+    commit, reference_start = git_hash(ROOT), machine_reference_s()
     tmp = Path(tempfile.mkdtemp(prefix="gearfem-contact-options-"))
     env = dict(os.environ, PYVISTA_OFF_SCREEN="true", MPLBACKEND="Agg")
     env["GEARFEM_LOG_LEVEL"] = "INFO" if log_dir is not None else "WARNING"
@@ -152,7 +153,8 @@ def main() -> None:
             rows,
         )
         + f"\n\nThe built-in case at {a.torque_Nm:g} N m, {positions} positions, compliances "
-        "stored. " + measured_by("benchmarks/performance/contact_options.py", reference_start)
+        "stored. "
+        + measured_by("benchmarks/performance/contact_options.py", commit, reference_start)
     )
     print(text)
     if a.docs:

@@ -84,11 +84,13 @@ def machine_reference_s(repeats: int = 3) -> float:
     return best
 
 
-def measured_by(command: str, reference_start_s: float) -> str:
-    """The provenance sentence of a measured table: ``command``, the commit, the date, the
-    machine, its load at the end and :func:`machine_reference_s` at the start (given) and now."""
+def measured_by(command: str, commit: str, reference_start_s: float) -> str:
+    """The provenance sentence of a measured table: ``command``, the ``commit`` measured (taken
+    before the script writes its first table into the repository, which leaves it dirty), the
+    date, the machine, its load at the end and :func:`machine_reference_s` at the start (given)
+    and now."""
     return (
-        f"Measured by `python {command}` at {git_hash(ROOT)} on "
+        f"Measured by `python {command}` at {commit} on "
         f"{datetime.date.today().isoformat()} ({os.cpu_count()} cores, "
         f"{platform.processor() or platform.machine()}; load average "
         f"{os.getloadavg()[0]:.1f} at the end; machine reference {reference_start_s:.2f} s at "
@@ -388,7 +390,7 @@ def main() -> None:
     reference_start = machine_reference_s()
 
     def measured(flag: str) -> str:
-        return measured_by(f"benchmarks/performance/loops.py{flag}", reference_start)
+        return measured_by(f"benchmarks/performance/loops.py{flag}", commit, reference_start)
 
     def publish_block(head, rows, flag: str, block: str) -> None:
         """Print the table; with --docs, write it into block ``block`` of docs/performance.md."""
