@@ -154,7 +154,11 @@ def main() -> None:
         )
         + f"\n\nThe built-in case at {a.torque_Nm:g} N m, {positions} positions, compliances "
         "stored. "
-        + measured_by("benchmarks/performance/contact_options.py", commit, reference_start)
+        + measured_by(
+            "benchmarks/performance/contact_options.py",
+            commit,
+            (reference_start, machine_reference_s()),
+        )
     )
     print(text)
     if a.docs:

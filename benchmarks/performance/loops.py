@@ -84,17 +84,21 @@ def machine_reference_s(repeats: int = 3) -> float:
     return best
 
 
-def measured_by(command: str, commit: str, reference_start_s: float) -> str:
+def machine_name() -> str:
+    """The machine a table was measured on: its cores and processor."""
+    return f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
+
+
+def measured_by(command: str, commit: str, reference_s: tuple[float, float]) -> str:
     """The provenance sentence of a measured table: ``command``, the ``commit`` measured (taken
     before the script writes its first table into the repository, which leaves it dirty), the
-    date, the machine, its load at the end and :func:`machine_reference_s` at the start (given)
-    and now."""
+    date, the machine, its load now and :func:`machine_reference_s` at the start and the end of
+    the measurement (``reference_s``)."""
+    start, end = reference_s
     return (
-        f"Measured by `python {command}` at {commit} on "
-        f"{datetime.date.today().isoformat()} ({os.cpu_count()} cores, "
-        f"{platform.processor() or platform.machine()}; load average "
-        f"{os.getloadavg()[0]:.1f} at the end; machine reference {reference_start_s:.2f} s at "
-        f"the start, {machine_reference_s():.2f} s at the end)."
+        f"Measured by `python {command}` at {commit} on {datetime.date.today().isoformat()} "
+        f"({machine_name()}; load average {os.getloadavg()[0]:.1f} at the end; machine "
+        f"reference {start:.2f} s at the start, {end:.2f} s at the end)."
     )
 
 
@@ -386,23 +390,24 @@ def main() -> None:
     log_dir = Path(a.log_dir) if a.log_dir else None
     today = datetime.date.today().isoformat()
     commit = git_hash(ROOT)
-    machine = f"{os.cpu_count()} cores, {platform.processor() or platform.machine()}"
     reference_start = machine_reference_s()
 
-    def measured(flag: str) -> str:
-        return measured_by(f"benchmarks/performance/loops.py{flag}", commit, reference_start)
+    def measured(flag: str, reference_end: float) -> str:
+        return measured_by(
+            f"benchmarks/performance/loops.py{flag}", commit, (reference_start, reference_end)
+        )
 
-    def publish_block(head, rows, flag: str, block: str) -> None:
+    def publish_block(head, rows, flag: str, block: str, reference_end: float) -> None:
         """Print the table; with --docs, write it into block ``block`` of docs/performance.md."""
-        text = f"{markdown_table(head, rows)}\n\n{measured(flag)}"
+        text = f"{markdown_table(head, rows)}\n\n{measured(flag, reference_end)}"
         print(text)
         if a.docs:
             replace_block(ROOT / "docs" / "performance.md", block, text)
 
-    def publish(head, rows, flag: str, block: str, readme_block: str, line: str, link: str):
+    def publish(head, rows, flag, block, reference_end, readme_block: str, line: str, link: str):
         """:func:`publish_block`, and with --docs ``line`` with the commit and date (and
         ``link``) into the README's ``readme_block``."""
-        publish_block(head, rows, flag, block)
+        publish_block(head, rows, flag, block, reference_end)
         if a.docs:
             stamp = (
                 f"Measured at {commit} on {today} (machine reference {reference_start:.2f} s: "
@@ -412,22 +417,25 @@ def main() -> None:
 
     ranks_head = ("comparison", "time", "target", "note")
     if a.ranks:
-        publish_block(ranks_head, measure_ranks_alone(log_dir), " --ranks", "loops_ranks")
+        rows = measure_ranks_alone(log_dir)
+        publish_block(ranks_head, rows, " --ranks", "loops_ranks", machine_reference_s())
     elif not a.tests:
         rows, facts = measure_jobs(log_dir)
+        reference_end = machine_reference_s()
         publish(
-            ("loop", "time", "target", "note"), rows, "", "loops", "readme_timings",
-            f"On this project's machine ({machine}): the main job takes "
+            ("loop", "time", "target", "note"), rows, "", "loops", reference_end, "readme_timings",
+            f"On this project's machine ({machine_name()}): the main job takes "
             f"{facts['main_s'] / 60:.1f} min with empty caches, the bench diagnosis "
             f"{facts['diagnosis_s'] / 60:.1f} min.",
             " ([docs/performance.md](docs/performance.md))",
         )  # fmt: skip
-        publish_block(ranks_head, facts["ranks"], "", "loops_ranks")
+        publish_block(ranks_head, facts["ranks"], "", "loops_ranks", reference_end)
     if a.suite or a.tests:
         rows, facts = measure_tests(log_dir)
+        reference_end = machine_reference_s()
         publish(
             ("tests", "time", "target", "of which"), rows, " --tests", "test_tiers",
-            "readme_test_timings",
+            reference_end, "readme_test_timings",
             f"The tests take {facts['suite_s'] / 60:.1f} min from a fresh clone (quick tier "
             f"{facts['quick_s'] / 60:.1f} min), set-up included.",
             "",
@@ -438,7 +446,7 @@ def main() -> None:
                 facts["modules"],
             )
             + "\n\nThe full suite's run above, from pytest's `--durations=0`: setup, call and "
-            "teardown of every item, summed per module. " + measured(" --tests")
+            "teardown of every item, summed per module. " + measured(" --tests", reference_end)
         )
         print(text)
         if a.docs:
